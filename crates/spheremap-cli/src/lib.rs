@@ -1,0 +1,75 @@
+//! The `spheremap` command line: argument parsing (clap) and translation to the core, nothing
+//! else.  Used by the `spheremap` binary and by the Python package's console script, so both
+//! run one CLI definition.
+//!
+//! Exit codes: 0 success, 2 bad input or failure (one line on stderr naming the file or
+//! argument and the cause), clap's own codes for usage errors (2) and `--help` (0).
+
+mod cmd_conventions;
+mod cmd_demo;
+mod cmd_texgen;
+
+use clap::{Parser, Subcommand};
+use std::ffi::OsString;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "spheremap",
+    version = spheremap::VERSION,
+    about = "Exact, documented and fast sphere maps: GL_SPHERE_MAP texgen, mirror balls, MatCaps",
+    long_about = None
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// GL_SPHERE_MAP texture coordinates for a mesh, exactly as OpenGL computes them.
+    Texgen(cmd_texgen::Args),
+    /// Run the built-in demo (no input files needed).
+    Demo(cmd_demo::Args),
+    /// Print the conventions and the named presets, with where each puts ±X, ±Y, ±Z.
+    Conventions(cmd_conventions::Args),
+}
+
+/// Prints to stdout; a closed pipe (`spheremap conventions | head`) is not an error.
+pub(crate) fn out(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+}
+
+/// Runs the CLI on `args` (the first item is the program name) and returns the exit code.
+pub fn main_with_args<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return e.exit_code();
+        }
+    };
+    // A panic is a bug: report it in one line (the hook), never as a backtrace.
+    let previous_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("spheremap: internal error (a bug; please report it with the command line): {info}");
+    }));
+    let result = std::panic::catch_unwind(|| match cli.command {
+        Command::Texgen(a) => cmd_texgen::run(a),
+        Command::Demo(a) => cmd_demo::run(a),
+        Command::Conventions(a) => cmd_conventions::run(a),
+    });
+    std::panic::set_hook(previous_hook);
+    match result {
+        Ok(Ok(())) => 0,
+        Ok(Err(e)) => {
+            eprintln!("spheremap: {e:#}");
+            2
+        }
+        Err(_) => 2,
+    }
+}

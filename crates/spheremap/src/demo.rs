@@ -1,0 +1,62 @@
+//! `spheremap demo`: the main job on embedded data, no user files needed.
+//!
+//! Writes into a directory: the direction chart as a sphere map (PNG and EXR), and the bundled
+//! Utah teapot with GL_SPHERE_MAP texgen applied (OBJ with `vt` + MTL pointing at the chart, and
+//! the raw (s,t) as CSV), for a viewer at (0, 12, 40) looking at the teapot's centre.
+
+use crate::chart::direction_chart;
+use crate::error::{Error, Result};
+use crate::io;
+use crate::mesh::{parse_obj, Mesh};
+use crate::parse::look_at;
+use crate::texgen::{sphere_texgen, ModelviewState, TexgenOptions};
+use std::path::{Path, PathBuf};
+
+/// The Utah teapot (public domain; npm package `teapot` 1.0.0), 792 vertices, no normals.
+pub const TEAPOT_OBJ: &str = include_str!("../data/teapot.obj");
+
+/// Camera of the demo, as `gluLookAt` arguments.
+pub const DEMO_EYE: [f64; 3] = [0.0, 12.0, 40.0];
+pub const DEMO_TARGET: [f64; 3] = [0.0, 0.0, 0.0];
+pub const DEMO_UP: [f64; 3] = [0.0, 1.0, 0.0];
+
+/// The bundled teapot.
+pub fn teapot() -> Result<Mesh> {
+    parse_obj("teapot.obj (bundled)", TEAPOT_OBJ)
+}
+
+/// What the demo wrote.
+#[derive(Debug)]
+pub struct DemoReport {
+    pub files: Vec<PathBuf>,
+    pub vertices: usize,
+    pub nan_texcoords: usize,
+}
+
+pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
+    std::fs::create_dir_all(outdir).map_err(|e| Error::io(outdir, e))?;
+    let mut files = Vec::new();
+    let chart = direction_chart(chart_size);
+    for name in ["direction_chart.png", "direction_chart.exr"] {
+        let p = outdir.join(name);
+        io::write_image(&p, &chart)?;
+        files.push(p);
+    }
+    let mesh = teapot()?;
+    let mv = ModelviewState::new(look_at(DEMO_EYE, DEMO_TARGET, DEMO_UP, "demo camera")?)?;
+    let pos: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
+    let nrm: Vec<f32> = mesh.normals.iter().flatten().copied().collect();
+    let mut st = vec![0.0f32; 2 * mesh.positions.len()];
+    sphere_texgen(&pos, 3, &nrm, &mv, TexgenOptions::default(), &mut st)?;
+    let mtl = outdir.join("teapot_spheremap.mtl");
+    io::write_text(&mtl, "# spheremap demo: the direction chart as the teapot's texture\nnewmtl chart\nKd 1 1 1\nmap_Kd direction_chart.png\n")?;
+    files.push(mtl);
+    let obj = outdir.join("teapot_spheremap.obj");
+    io::write_obj_with_uv(&obj, &mesh, &st, Some(("teapot_spheremap.mtl", "chart")))?;
+    files.push(obj);
+    let csv = outdir.join("teapot_texgen.csv");
+    io::write_csv(&csv, &["s", "t"], &st)?;
+    files.push(csv);
+    let nan_texcoords = st.chunks_exact(2).filter(|p| p[0].is_nan() || p[1].is_nan()).count();
+    Ok(DemoReport { files, vertices: mesh.positions.len(), nan_texcoords })
+}

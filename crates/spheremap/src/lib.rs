@@ -1,0 +1,33 @@
+//! # spheremap
+//!
+//! Exact, documented and fast sphere-map environment mapping: OpenGL `GL_SPHERE_MAP` texgen,
+//! mirror-ball images and MatCaps.
+//!
+//! * [`conventions`] — **read first**: eye space, the disc, image rows vs t, texel centres,
+//!   presets for other tools.
+//! * [`sphere`] — direction ↔ (s,t), reflection, exact texel solid angles.
+//! * [`texgen`] — mesh texgen exactly as OpenGL computes it (f32 fast path, f64 reference).
+//! * [`matcap`] — MatCap lookups (classic, three.js, perspective-correct).
+//! * [`mesh`], [`io`], [`parse`] — meshes in, files out, small textual inputs.
+//! * [`chart`], [`demo`] — the labelled direction chart and the built-in demo.
+
+pub mod chart;
+pub mod conventions;
+pub mod demo;
+pub mod error;
+pub mod io;
+pub mod matcap;
+pub mod mesh;
+pub mod parse;
+pub mod real;
+pub mod sphere;
+pub mod texgen;
+
+pub use conventions::{RowOrder, Singular, SpherePreset, PRESETS};
+pub use error::{Error, Result};
+pub use matcap::{matcap_uv, MatcapVariant};
+pub use sphere::{dir_to_st, reflect, st_to_dir, texel_solid_angle};
+pub use texgen::{sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions};
+
+/// The crate version.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,440 @@
+//! `GL_SPHERE_MAP` texture-coordinate generation for meshes, exactly as OpenGL computes it.
+//!
+//! What a real OpenGL does (Mesa's fixed-function vertex program, `ffvertex_prog.c`, checked
+//! against Mesa 22.3 llvmpipe; DESIGN §1.2), per vertex with object position `p` and normal `n`:
+//!
+//! ```text
+//! e  = M p                                  (p = (x,y,z,1) or (x,y,z,w); M the modelview)
+//! û  = e.xyz · rsq(e.xyz · e.xyz)           (e.w is ignored, even when negative)
+//! n' = N n,   N = transpose(upper-left 3×3 of M⁻¹)   (the inverse of the full 4×4!)
+//!      GL_NORMALIZE:      n' = n' · rsq(n'·n')
+//!      GL_RESCALE_NORMAL: n' = n' / |row 2 of M⁻¹ (xyz)|   (skipped when Mesa classifies M as
+//!                          length preserving; NORMALIZE wins when both are on)
+//!      neither:           n' used as is — NOT normalized
+//! r  = û − 2 (n'·û) n'
+//! k  = rsq(r_x² + r_y² + (r_z + 1)²) · ½     (= 1/m)
+//! s  = r_x k + ½,   t = r_y k + ½
+//! ```
+//!
+//! `rsq(0) = ∞` and `0·∞ = NaN`: an eye position at the origin, a zero normal with
+//! GL_NORMALIZE, and `r = (0,0,−1)` give NaN ([`Singular::Nan`]).  [`Singular::Center`] follows
+//! legacy Mesa (`t_vb_texgen.c`): a zero-length vector normalizes to zero and `m = 0` gives
+//! (½,½).  A singular modelview (no inverse) uses the identity as its inverse, as Mesa does.
+//! Non-finite input propagates to NaN output.
+//!
+//! Two paths: [`sphere_texgen`] (f32, what GL computes, vectorised and multi-threaded) and
+//! [`sphere_texgen_f64`] (f64 reference, same operations in the same order).
+
+use crate::conventions::Singular;
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+
+/// GL's normal-vector state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum NormalMode {
+    /// `glEnable(GL_NORMALIZE)`: normals normalized after the transform.  The default: what a
+    /// user of sphere maps wants.
+    #[default]
+    On,
+    /// Neither GL_NORMALIZE nor GL_RESCALE_NORMAL: the transformed normal is used as is.
+    Off,
+    /// `glEnable(GL_RESCALE_NORMAL)` only.
+    Rescale,
+}
+
+impl NormalMode {
+    pub const NAMES: [&'static str; 3] = ["on", "off", "rescale"];
+    pub fn parse(name: &str, param: &str) -> Result<Self> {
+        match name {
+            "on" => Ok(Self::On),
+            "off" => Ok(Self::Off),
+            "rescale" => Ok(Self::Rescale),
+            other => Err(Error::param(param, format!("unknown value {other:?}; expected one of: on, off, rescale"))),
+        }
+    }
+}
+
+/// What GL derives from the modelview once per draw: the normal matrix and the rescale factor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelviewState {
+    /// The modelview, row-major, math convention (`e = M p`).
+    pub m: [[f64; 4]; 4],
+    /// `transpose(upper-left 3×3 of M⁻¹)`, row-major: `n' = normal_matrix · n`.
+    pub normal_matrix: [[f64; 3]; 3],
+    /// GL_RESCALE_NORMAL factor (1 where Mesa skips the rescale).
+    pub rescale: f64,
+    /// M had no inverse; the identity was used (as Mesa does).
+    pub singular: bool,
+}
+
+impl ModelviewState {
+    /// Analyses `m` as Mesa does on `glLoadMatrix`.  Non-finite entries are an error.
+    pub fn new(m: [[f64; 4]; 4]) -> Result<Self> {
+        if m.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(Error::param("modelview", "contains a non-finite value"));
+        }
+        let (inv, singular) = match invert4(&m) {
+            Some(inv) => (inv, false),
+            None => (IDENTITY4, true),
+        };
+        let mut normal_matrix = [[0.0; 3]; 3];
+        for (i, row) in normal_matrix.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = inv[j][i];
+            }
+        }
+        // Mesa update_modelview_scale(): f = |row 2 of M⁻¹ (xyz)|², guarded, unless M is
+        // classified length preserving.
+        let rescale = if mesa_length_preserving(&m) {
+            1.0
+        } else {
+            let f = (inv[2][0] * inv[2][0] + inv[2][1] * inv[2][1] + inv[2][2] * inv[2][2]) as f32;
+            let f = if f < 1e-12 { 1.0 } else { f };
+            (1.0 / f.sqrt()) as f64
+        };
+        Ok(ModelviewState { m, normal_matrix, rescale, singular })
+    }
+}
+
+const IDENTITY4: [[f64; 4]; 4] =
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+
+/// 4×4 inverse by Gaussian elimination with partial pivoting (as Mesa's
+/// `invert_matrix_general`/`util_invert_mat4x4`), in f64.  `None` when a pivot is exactly zero
+/// or the result is not finite.
+pub fn invert4(m: &[[f64; 4]; 4]) -> Option<[[f64; 4]; 4]> {
+    let mut a = [[0.0f64; 8]; 4];
+    for i in 0..4 {
+        a[i][..4].copy_from_slice(&m[i]);
+        a[i][4 + i] = 1.0;
+    }
+    for col in 0..4 {
+        let piv = (col..4).max_by(|&x, &y| a[x][col].abs().partial_cmp(&a[y][col].abs()).unwrap())?;
+        if a[piv][col] == 0.0 {
+            return None;
+        }
+        a.swap(col, piv);
+        let p = a[col][col];
+        for v in a[col].iter_mut() {
+            *v /= p;
+        }
+        for r in 0..4 {
+            if r != col {
+                let f = a[r][col];
+                if f != 0.0 {
+                    for c in 0..8 {
+                        a[r][c] -= f * a[col][c];
+                    }
+                }
+            }
+        }
+    }
+    let mut inv = [[0.0; 4]; 4];
+    for i in 0..4 {
+        inv[i].copy_from_slice(&a[i][4..]);
+    }
+    inv.iter().flatten().all(|v| v.is_finite()).then_some(inv)
+}
+
+/// Mesa's `_math_matrix_is_length_preserving` after `analyse_from_scratch` (`m_matrix.c`), on the
+/// f32 matrix GL stores.  Length preserving = only the ROTATION and TRANSLATION flags are set.
+/// Mesa indexes column-major (`m[col*4 + row]`); the tolerances are Mesa's.
+fn mesa_length_preserving(mm: &[[f64; 4]; 4]) -> bool {
+    let m = |i: usize| mm[i % 4][i / 4] as f32;
+    let zero = |i: usize| m(i) == 0.0;
+    let sq = |x: f32| x * x;
+    let tol = sq(1e-6);
+    // Bottom row must be (0,0,0,1), else MATRIX_GENERAL / PERSPECTIVE.
+    if !(zero(3) && zero(7) && zero(11) && m(15) == 1.0) {
+        return false;
+    }
+    let identity_like = (0..16).all(|i| {
+        let diag = i % 5 == 0;
+        if diag { m(i) == 1.0 } else { zero(i) }
+    });
+    if identity_like {
+        return true;
+    }
+    let no_z = zero(2) && zero(6) && zero(8) && zero(9) && m(10) == 1.0 && zero(14);
+    if no_z && zero(1) && zero(4) {
+        // MATRIX_2D_NO_ROT: scaled unless m0 == m5 == 1.
+        return m(0) == 1.0 && m(5) == 1.0;
+    }
+    if no_z {
+        // MATRIX_2D
+        let mm0 = m(0) * m(0) + m(1) * m(1);
+        let m4m4 = m(4) * m(4) + m(5) * m(5);
+        let mm4 = m(0) * m(4) + m(1) * m(5);
+        let scaled = sq(mm0 - 1.0) > tol || sq(m4m4 - 1.0) > tol;
+        let general = sq(mm4) > tol;
+        return !scaled && !general;
+    }
+    if zero(1) && zero(2) && zero(4) && zero(6) && zero(8) && zero(9) {
+        // MATRIX_3D_NO_ROT: length preserving only with no scale at all.
+        let uniform = sq(m(0) - m(5)) < tol && sq(m(0) - m(10)) < tol;
+        return uniform && !(sq(m(0) - 1.0) > tol);
+    }
+    // MATRIX_3D
+    let col = |c: usize| [m(4 * c), m(4 * c + 1), m(4 * c + 2)];
+    let (a, b, c) = (col(0), col(1), col(2));
+    let dot = |u: [f32; 3], v: [f32; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let (c1, c2, c3, d1) = (dot(a, a), dot(b, b), dot(c, c), dot(a, b));
+    let uniform = sq(c1 - c2) < tol && sq(c1 - c3) < tol;
+    let scaled = !uniform || sq(c1 - 1.0) > tol;
+    if scaled || !(sq(d1) < tol) {
+        return false;
+    }
+    let cp = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let e = [cp[0] - c[0], cp[1] - c[1], cp[2] - c[2]];
+    dot(e, e) < tol
+}
+
+/// Vertex attribute storage accepted by the texgen kernels: f32 or f64, read as f32 (as GL
+/// converts `glVertex3d` input).
+pub trait Elem: Copy + Send + Sync + 'static {
+    fn f32(self) -> f32;
+    fn f64(self) -> f64;
+}
+impl Elem for f32 {
+    #[inline(always)]
+    fn f32(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn f64(self) -> f64 {
+        self as f64
+    }
+}
+impl Elem for f64 {
+    #[inline(always)]
+    fn f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn f64(self) -> f64 {
+        self
+    }
+}
+
+/// Options of one texgen call.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TexgenOptions {
+    pub normalize: NormalMode,
+    pub singular: Singular,
+}
+
+fn check_lengths(positions_len: usize, pw: usize, normals_len: usize, out_len: usize) -> Result<usize> {
+    if pw != 3 && pw != 4 {
+        return Err(Error::param("positions", format!("must have 3 or 4 components per vertex, not {pw}")));
+    }
+    if positions_len % pw != 0 {
+        return Err(Error::param("positions", format!("length {positions_len} is not a multiple of {pw}")));
+    }
+    let n = positions_len / pw;
+    if normals_len != 3 * n {
+        return Err(Error::param("normals", format!("must hold {n} normals (3 values each), got {normals_len} values")));
+    }
+    if out_len != 2 * n {
+        return Err(Error::param("out", format!("must hold {} values, got {out_len}", 2 * n)));
+    }
+    Ok(n)
+}
+
+/// Vertices per block: the kernel gathers a block into structure-of-arrays form, then runs the
+/// arithmetic as straight-line loops that the compiler vectorises.
+const BLOCK: usize = 64;
+/// Vertices per parallel task.
+const TASK: usize = 16 * 1024;
+
+/// GL_SPHERE_MAP texgen, float32 (what GL computes).
+///
+/// `positions`: `pw` (3 or 4) values per vertex, interleaved; `normals`: 3 per vertex;
+/// `out`: 2 per vertex, (s,t).  Runs in parallel for large inputs.
+pub fn sphere_texgen<P: Elem, N: Elem>(
+    positions: &[P],
+    pw: usize,
+    normals: &[N],
+    mv: &ModelviewState,
+    opts: TexgenOptions,
+    out: &mut [f32],
+) -> Result<()> {
+    let n = check_lengths(positions.len(), pw, normals.len(), out.len())?;
+    let k = Kernel::new(mv, opts);
+    let run = |first: usize, out: &mut [f32]| {
+        let count = out.len() / 2;
+        let pos = &positions[first * pw..(first + count) * pw];
+        let nrm = &normals[first * 3..(first + count) * 3];
+        if pw == 3 {
+            k.dispatch::<P, N, 3>(pos, nrm, out)
+        } else {
+            k.dispatch::<P, N, 4>(pos, nrm, out)
+        }
+    };
+    if n < 2 * TASK {
+        run(0, out);
+    } else {
+        out.par_chunks_mut(2 * TASK).enumerate().for_each(|(i, o)| run(i * TASK, o));
+    }
+    Ok(())
+}
+
+/// The per-call constants of the f32 kernel.
+#[derive(Clone, Copy)]
+struct Kernel {
+    m: [[f32; 4]; 3],
+    nm: [[f32; 3]; 3],
+    normalize: bool,
+    scale: f32,
+    center: bool,
+}
+
+impl Kernel {
+    fn new(mv: &ModelviewState, opts: TexgenOptions) -> Self {
+        let mut m = [[0.0f32; 4]; 3];
+        for i in 0..3 {
+            for j in 0..4 {
+                m[i][j] = mv.m[i][j] as f32;
+            }
+        }
+        let mut nm = [[0.0f32; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                nm[i][j] = mv.normal_matrix[i][j] as f32;
+            }
+        }
+        let (normalize, scale) = match opts.normalize {
+            NormalMode::On => (true, 1.0),
+            NormalMode::Off => (false, 1.0),
+            NormalMode::Rescale => (false, mv.rescale as f32),
+        };
+        Kernel { m, nm, normalize, scale, center: opts.singular == Singular::Center }
+    }
+
+    fn dispatch<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).  No FMA is used, so the
+                // results are bit-identical to the portable path.
+                unsafe { self.run_avx2::<P, N, PW>(pos, nrm, out) };
+                return;
+            }
+        }
+        self.run::<P, N, PW>(pos, nrm, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_avx2<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+        self.run::<P, N, PW>(pos, nrm, out)
+    }
+
+    #[inline(always)]
+    fn run<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+        let count = out.len() / 2;
+        let mut start = 0;
+        while start < count {
+            let len = BLOCK.min(count - start);
+            self.block::<P, N, PW>(
+                &pos[start * PW..(start + len) * PW],
+                &nrm[start * 3..(start + len) * 3],
+                &mut out[start * 2..(start + len) * 2],
+            );
+            start += len;
+        }
+    }
+
+    #[inline(always)]
+    fn block<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+        let len = out.len() / 2;
+        // Gather into structure-of-arrays (the tail of a short block is padded with a harmless
+        // vertex; its results are not stored).
+        let mut p = [[1.0f32; BLOCK]; 4];
+        let mut n = [[0.0f32; BLOCK]; 3];
+        for i in 0..len {
+            for c in 0..PW {
+                p[c][i] = pos[i * PW + c].f32();
+            }
+            for c in 0..3 {
+                n[c][i] = nrm[i * 3 + c].f32();
+            }
+        }
+        let (m, nm) = (&self.m, &self.nm);
+        let center = self.center;
+        // rsq as GL: 1/sqrt(x), infinite at 0; legacy Mesa ("center") returns 0 for 0.
+        let rsq = |x: f32| {
+            let r = 1.0 / x.sqrt();
+            if center && x == 0.0 { 0.0 } else { r }
+        };
+        let mut s = [0.0f32; BLOCK];
+        let mut t = [0.0f32; BLOCK];
+        for i in 0..BLOCK {
+            let (x, y, z, w) = (p[0][i], p[1][i], p[2][i], p[3][i]);
+            let ex = m[0][0] * x + m[0][1] * y + m[0][2] * z + m[0][3] * w;
+            let ey = m[1][0] * x + m[1][1] * y + m[1][2] * z + m[1][3] * w;
+            let ez = m[2][0] * x + m[2][1] * y + m[2][2] * z + m[2][3] * w;
+            let ku = rsq(ex * ex + ey * ey + ez * ez);
+            let (ux, uy, uz) = (ex * ku, ey * ku, ez * ku);
+            let (ox, oy, oz) = (n[0][i], n[1][i], n[2][i]);
+            let mut nx = nm[0][0] * ox + nm[0][1] * oy + nm[0][2] * oz;
+            let mut ny = nm[1][0] * ox + nm[1][1] * oy + nm[1][2] * oz;
+            let mut nz = nm[2][0] * ox + nm[2][1] * oy + nm[2][2] * oz;
+            let kn = if self.normalize { rsq(nx * nx + ny * ny + nz * nz) } else { self.scale };
+            nx *= kn;
+            ny *= kn;
+            nz *= kn;
+            let d = nx * ux + ny * uy + nz * uz;
+            let d2 = d + d;
+            let rx = ux - d2 * nx;
+            let ry = uy - d2 * ny;
+            let rz = uz - d2 * nz;
+            let az = rz + 1.0;
+            let k = rsq(rx * rx + ry * ry + az * az) * 0.5;
+            let (sv, tv) = (rx * k + 0.5, ry * k + 0.5);
+            // Legacy Mesa skips the division when m = 0: (½,½).
+            s[i] = sv;
+            t[i] = tv;
+        }
+        for i in 0..len {
+            out[2 * i] = s[i];
+            out[2 * i + 1] = t[i];
+        }
+    }
+}
+
+/// GL_SPHERE_MAP texgen, float64 reference: the operations of [`sphere_texgen`] in the same
+/// order, in double precision, on the input values as given.
+pub fn sphere_texgen_f64<P: Elem, N: Elem>(
+    positions: &[P],
+    pw: usize,
+    normals: &[N],
+    mv: &ModelviewState,
+    opts: TexgenOptions,
+    out: &mut [f64],
+) -> Result<()> {
+    let n = check_lengths(positions.len(), pw, normals.len(), out.len())?;
+    let center = opts.singular == Singular::Center;
+    let rsq = |x: f64| if center && x == 0.0 { 0.0 } else { 1.0 / x.sqrt() };
+    let (m, nm) = (&mv.m, &mv.normal_matrix);
+    for i in 0..n {
+        let pv = |c: usize| if c < pw { positions[i * pw + c].f64() } else { 1.0 };
+        let (x, y, z, w) = (pv(0), pv(1), pv(2), pv(3));
+        let e: [f64; 3] = std::array::from_fn(|r| m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3] * w);
+        let ku = rsq(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        let u = [e[0] * ku, e[1] * ku, e[2] * ku];
+        let o = [normals[3 * i].f64(), normals[3 * i + 1].f64(), normals[3 * i + 2].f64()];
+        let mut nv: [f64; 3] = std::array::from_fn(|r| nm[r][0] * o[0] + nm[r][1] * o[1] + nm[r][2] * o[2]);
+        let kn = match opts.normalize {
+            NormalMode::On => rsq(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]),
+            NormalMode::Off => 1.0,
+            NormalMode::Rescale => mv.rescale,
+        };
+        nv.iter_mut().for_each(|v| *v *= kn);
+        let r = crate::sphere::reflect(u, nv);
+        let az = r[2] + 1.0;
+        let k = rsq(r[0] * r[0] + r[1] * r[1] + az * az) * 0.5;
+        out[2 * i] = r[0] * k + 0.5;
+        out[2 * i + 1] = r[1] * k + 0.5;
+    }
+    Ok(())
+}
