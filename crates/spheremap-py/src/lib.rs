@@ -1,1 +1,299 @@
+//! PyO3 glue for `spheremap`: translate numpy arrays and strings to core calls, release the GIL
+//! while the core works, map core errors to Python exceptions.  No maths here.
+//!
+//! The public Python API (argument checking with argument names, docstrings) is
+//! `python/spheremap/__init__.py`; it always hands this module C-contiguous float32/float64
+//! arrays.
 
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use rayon::prelude::*;
+use spheremap::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
+use spheremap::{MatcapVariant, Singular, SpherePreset};
+
+pyo3::create_exception!(_spheremap, Error, PyValueError, "Base class of spheremap's own errors.");
+pyo3::create_exception!(_spheremap, DataError, Error, "A file or buffer holds data spheremap cannot use.");
+pyo3::create_exception!(_spheremap, UnsupportedError, Error, "Valid input that spheremap does not handle.");
+
+/// The one mapping from core errors to Python exceptions.
+fn to_py(e: spheremap::Error) -> PyErr {
+    use spheremap::Error as E;
+    let msg = e.to_string();
+    match e {
+        E::InvalidParameter { .. } => PyValueError::new_err(msg),
+        E::InvalidData { .. } => DataError::new_err(msg),
+        E::Unsupported { .. } => UnsupportedError::new_err(msg),
+        E::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
+        E::Io { .. } => PyOSError::new_err(msg),
+    }
+}
+
+/// A float32 or float64 C-contiguous array.
+enum FArr<'py> {
+    F32(PyReadonlyArrayDyn<'py, f32>),
+    F64(PyReadonlyArrayDyn<'py, f64>),
+}
+
+impl<'py> FArr<'py> {
+    fn extract(ob: &Bound<'py, PyAny>, name: &str) -> PyResult<Self> {
+        if let Ok(a) = ob.extract::<PyReadonlyArrayDyn<f32>>() {
+            return Ok(FArr::F32(a));
+        }
+        if let Ok(a) = ob.extract::<PyReadonlyArrayDyn<f64>>() {
+            return Ok(FArr::F64(a));
+        }
+        Err(PyValueError::new_err(format!("{name}: expected a float32 or float64 numpy array")))
+    }
+    fn shape(&self) -> Vec<usize> {
+        match self {
+            FArr::F32(a) => a.shape().to_vec(),
+            FArr::F64(a) => a.shape().to_vec(),
+        }
+    }
+}
+
+fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>, name: &str) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: array must be C-contiguous")))
+}
+
+/// `out` rows of `O` values from `input` rows of `I` values, in parallel for large inputs.
+fn map_rows<T: Copy + Send + Sync, U: Copy + Send + Sync, const I: usize, const O: usize>(
+    input: &[T],
+    out: &mut [U],
+    f: impl Fn([T; I]) -> [U; O] + Sync,
+) {
+    let run = |inp: &[T], o: &mut [U]| {
+        for (a, b) in inp.chunks_exact(I).zip(o.chunks_exact_mut(O)) {
+            b.copy_from_slice(&f(std::array::from_fn(|k| a[k])));
+        }
+    };
+    const ROWS: usize = 8192;
+    if input.len() / I < 2 * ROWS {
+        run(input, out);
+    } else {
+        input.par_chunks(I * ROWS).zip(out.par_chunks_mut(O * ROWS)).for_each(|(a, b)| run(a, b));
+    }
+}
+
+fn out_shape(shape: &[usize], last: usize) -> Vec<usize> {
+    let mut s = shape[..shape.len() - 1].to_vec();
+    s.push(last);
+    s
+}
+
+#[pyfunction]
+#[pyo3(signature = (positions, normals, modelview, normalize, singular, precision))]
+fn sphere_texgen<'py>(
+    py: Python<'py>,
+    positions: &Bound<'py, PyAny>,
+    normals: &Bound<'py, PyAny>,
+    modelview: PyReadonlyArray2<'py, f64>,
+    normalize: &str,
+    singular: &str,
+    precision: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let opts = TexgenOptions {
+        normalize: NormalMode::parse(normalize, "normalize").map_err(to_py)?,
+        singular: Singular::parse(singular, "singular").map_err(to_py)?,
+    };
+    let m = modelview.as_array();
+    if m.shape() != [4, 4] {
+        return Err(PyValueError::new_err("modelview: expected shape (4, 4)"));
+    }
+    let mv = ModelviewState::new(std::array::from_fn(|r| std::array::from_fn(|c| m[[r, c]]))).map_err(to_py)?;
+    let pos = FArr::extract(positions, "positions")?;
+    let nrm = FArr::extract(normals, "normals")?;
+    let (ps, ns) = (pos.shape(), nrm.shape());
+    let n = ps[0];
+    let pw = ps[1];
+    if ns != [n, 3] {
+        return Err(PyValueError::new_err(format!("normals: expected shape ({n}, 3), got {ns:?}")));
+    }
+    fn go<P: Elem + numpy::Element, N: Elem + numpy::Element>(
+        py: Python<'_>,
+        p: &PyReadonlyArrayDyn<'_, P>,
+        q: &PyReadonlyArrayDyn<'_, N>,
+        pw: usize,
+        mv: &ModelviewState,
+        opts: TexgenOptions,
+        f64_out: bool,
+    ) -> PyResult<Py<PyAny>> {
+        let (p, q) = (contiguous(p, "positions")?, contiguous(q, "normals")?);
+        let n = p.len() / pw;
+        if f64_out {
+            let out = PyArrayDyn::<f64>::zeros(py, vec![n, 2], false);
+            let mut w = out.readwrite();
+            let o = w.as_slice_mut().expect("fresh array is contiguous");
+            py.detach(|| spheremap::sphere_texgen_f64(p, pw, q, mv, opts, o)).map_err(to_py)?;
+            drop(w);
+            Ok(out.into_any().unbind())
+        } else {
+            // SAFETY: every element is written by sphere_texgen before the array is returned.
+            let out = unsafe { PyArrayDyn::<f32>::new(py, vec![n, 2], false) };
+            let mut w = out.readwrite();
+            let o = w.as_slice_mut().expect("fresh array is contiguous");
+            py.detach(|| spheremap::sphere_texgen(p, pw, q, mv, opts, o)).map_err(to_py)?;
+            drop(w);
+            Ok(out.into_any().unbind())
+        }
+    }
+    let f64_out = match precision {
+        "f32" => false,
+        "f64" => true,
+        other => return Err(PyValueError::new_err(format!("precision: unknown value {other:?}; expected f32 or f64"))),
+    };
+    let r = match (&pos, &nrm) {
+        (FArr::F32(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out),
+        (FArr::F32(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out),
+        (FArr::F64(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out),
+        (FArr::F64(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out),
+    }?;
+    Ok(r.into_bound(py))
+}
+
+/// Applies a row function to a float array, keeping its dtype (f32 → f32 path, f64 → f64).
+macro_rules! rowwise {
+    ($py:expr, $arr:expr, $name:expr, $i:literal -> $o:literal, |$row:ident: $t:ident| $body:expr) => {{
+        let arr = FArr::extract($arr, $name)?;
+        let shape = arr.shape();
+        if shape.last() != Some(&$i) {
+            return Err(PyValueError::new_err(format!("{}: last dimension must be {}, got shape {:?}", $name, $i, shape)));
+        }
+        match &arr {
+            FArr::F32(a) => {
+                type $t = f32;
+                let inp = contiguous(a, $name)?;
+                let out = PyArrayDyn::<f32>::zeros($py, out_shape(&shape, $o), false);
+                let mut w = out.readwrite();
+                let o = w.as_slice_mut().expect("fresh array is contiguous");
+                $py.detach(|| map_rows::<f32, f32, $i, $o>(inp, o, |$row| $body));
+                drop(w);
+                out.into_any()
+            }
+            FArr::F64(a) => {
+                type $t = f64;
+                let inp = contiguous(a, $name)?;
+                let out = PyArrayDyn::<f64>::zeros($py, out_shape(&shape, $o), false);
+                let mut w = out.readwrite();
+                let o = w.as_slice_mut().expect("fresh array is contiguous");
+                $py.detach(|| map_rows::<f64, f64, $i, $o>(inp, o, |$row| $body));
+                drop(w);
+                out.into_any()
+            }
+        }
+    }};
+}
+
+#[pyfunction]
+fn dir_to_sphere<'py>(py: Python<'py>, dirs: &Bound<'py, PyAny>, singular: &str) -> PyResult<Bound<'py, PyAny>> {
+    let sg = Singular::parse(singular, "singular").map_err(to_py)?;
+    Ok(rowwise!(py, dirs, "dirs", 3 -> 2, |r: T| spheremap::dir_to_st::<T>(r, sg)))
+}
+
+#[pyfunction]
+fn sphere_to_dir<'py>(py: Python<'py>, st: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    Ok(rowwise!(py, st, "st", 2 -> 3, |r: T| spheremap::st_to_dir::<T>(r).unwrap_or([T::NAN; 3])))
+}
+
+#[pyfunction]
+fn reflect<'py>(py: Python<'py>, un: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    // `un` holds (..., 6): incident (3) then normal (3), stacked by the Python wrapper.
+    Ok(rowwise!(py, un, "incident/normal", 6 -> 3, |r: T| spheremap::reflect::<T>([r[0], r[1], r[2]], [r[3], r[4], r[5]])))
+}
+
+#[pyfunction]
+fn matcap_uv<'py>(
+    py: Python<'py>,
+    normals_positions: &Bound<'py, PyAny>,
+    has_positions: bool,
+    variant: &str,
+    scale: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let v = MatcapVariant::parse(variant, "variant").map_err(to_py)?;
+    let sc = scale.unwrap_or(v.default_scale());
+    if !sc.is_finite() {
+        return Err(PyValueError::new_err("scale: must be finite"));
+    }
+    // (..., 6): normal then position (ignored unless has_positions).
+    Ok(rowwise!(py, normals_positions, "normals", 6 -> 2, |r: T| {
+        let p = if has_positions { Some([r[3], r[4], r[5]]) } else { None };
+        spheremap::matcap_uv::<T>([r[0], r[1], r[2]], p, v, <T as spheremap::real::Real>::from_f64(sc))
+    }))
+}
+
+#[pyfunction]
+fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
+    let v = py.detach(|| spheremap::sphere::solid_angle_map(size));
+    Ok(PyArray1::from_vec(py, v).reshape([size, size])?.into_any())
+}
+
+#[pyfunction]
+fn dir_to_pixel<'py>(py: Python<'py>, dirs: PyReadonlyArrayDyn<'py, f64>, size: usize, preset: &str, singular: &str) -> PyResult<Bound<'py, PyAny>> {
+    let p = SpherePreset::by_name(preset).map_err(to_py)?;
+    let sg = Singular::parse(singular, "singular").map_err(to_py)?;
+    let shape = dirs.shape().to_vec();
+    let inp = contiguous(&dirs, "dirs")?;
+    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 2), false);
+    let mut w = out.readwrite();
+    let o = w.as_slice_mut().expect("fresh array is contiguous");
+    py.detach(|| map_rows::<f64, f64, 3, 2>(inp, o, |d| {
+        let (x, y) = p.dir_to_pixel(d, size, sg);
+        [x, y]
+    }));
+    drop(w);
+    Ok(out.into_any())
+}
+
+#[pyfunction]
+fn pixel_to_dir<'py>(py: Python<'py>, xy: PyReadonlyArrayDyn<'py, f64>, size: usize, preset: &str) -> PyResult<Bound<'py, PyAny>> {
+    let p = SpherePreset::by_name(preset).map_err(to_py)?;
+    let shape = xy.shape().to_vec();
+    let inp = contiguous(&xy, "xy")?;
+    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 3), false);
+    let mut w = out.readwrite();
+    let o = w.as_slice_mut().expect("fresh array is contiguous");
+    py.detach(|| map_rows::<f64, f64, 2, 3>(inp, o, |q| p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])));
+    drop(w);
+    Ok(out.into_any())
+}
+
+/// (name, doc, frame (3x3 row-major), rows ("top-is-t1"/"top-is-t0"), v_down) for each preset.
+#[pyfunction]
+fn presets() -> Vec<(String, String, [[f64; 3]; 3], String, bool)> {
+    spheremap::PRESETS
+        .iter()
+        .map(|p| {
+            let rows = match p.rows {
+                spheremap::RowOrder::TopIsT1 => "top-is-t1",
+                spheremap::RowOrder::TopIsT0 => "top-is-t0",
+            };
+            (p.name.to_string(), p.doc.to_string(), p.frame, rows.to_string(), p.v_down)
+        })
+        .collect()
+}
+
+/// Runs the command line (one definition, in Rust) with `argv` (argv[0] = program name).
+#[pyfunction]
+fn _cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
+    py.detach(|| spheremap_cli::main_with_args(argv))
+}
+
+#[pymodule]
+fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", spheremap::VERSION)?;
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add("DataError", m.py().get_type::<DataError>())?;
+    m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
+    m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
+    m.add_function(wrap_pyfunction!(dir_to_sphere, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_to_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(reflect, m)?)?;
+    m.add_function(wrap_pyfunction!(matcap_uv, m)?)?;
+    m.add_function(wrap_pyfunction!(sphere_texel_solid_angle, m)?)?;
+    m.add_function(wrap_pyfunction!(dir_to_pixel, m)?)?;
+    m.add_function(wrap_pyfunction!(pixel_to_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(presets, m)?)?;
+    m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,215 @@
+"""spheremap — exact, documented and fast sphere maps.
+
+Conventions (see ``spheremap conventions`` and the README): eye space is right-handed, +Y up,
+the viewer looks down -Z. A sphere map's centre (s,t) = (1/2, 1/2) is the direction +Z (back at
+the viewer); its whole rim is -Z. Image arrays are (H, W, C) with row 0 at the top = t = 1.
+Texel i of n has its centre at (i + 1/2)/n.
+
+Every function takes float32 or float64 arrays (any memory order; Python sequences are read as
+float64) and raises ``ValueError`` naming the argument for a wrong shape or dtype.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from . import _spheremap as _ext
+from ._spheremap import DataError, Error, UnsupportedError, __version__
+
+__all__ = [
+    "__version__",
+    "Error",
+    "DataError",
+    "UnsupportedError",
+    "Preset",
+    "sphere_texgen",
+    "dir_to_sphere",
+    "sphere_to_dir",
+    "reflect",
+    "matcap_uv",
+    "sphere_texel_solid_angle",
+    "dir_to_pixel",
+    "pixel_to_dir",
+    "presets",
+    "NORMALIZE_MODES",
+    "SINGULAR_MODES",
+    "MATCAP_VARIANTS",
+]
+
+NORMALIZE_MODES = ("on", "off", "rescale")
+SINGULAR_MODES = ("nan", "center")
+MATCAP_VARIANTS = ("classic", "threejs", "perspective")
+
+
+def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
+    """float32/float64 C-contiguous view or copy of `x`; ValueError naming `name` otherwise."""
+    if isinstance(x, np.ndarray):
+        a = x
+    else:
+        try:
+            a = np.asarray(x, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{name}: cannot be read as an array of numbers ({e})") from None
+    if a.dtype not in (np.float32, np.float64):
+        raise ValueError(f"{name}: dtype {a.dtype} is not supported; pass float32 or float64")
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"{name}: expected a {ndim}-D array, got shape {a.shape}")
+    if a.ndim == 0:
+        raise ValueError(f"{name}: expected an array, got a scalar")
+    if last is not None and a.shape[-1] not in last:
+        want = " or ".join(str(v) for v in last)
+        raise ValueError(f"{name}: last dimension must be {want}, got shape {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def _choice(value, name: str, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
+        raise ValueError(f"{name}: {value!r} is not one of {', '.join(allowed)}")
+    return value
+
+
+def sphere_texgen(positions, normals, modelview, *, normalize: str = "on", singular: str = "nan",
+                  precision: str = "f32") -> np.ndarray:
+    """GL_SPHERE_MAP texture coordinates, exactly as OpenGL computes them.
+
+    positions: (N, 3) or (N, 4) object-space positions (w is used for the eye position, ignored
+        for the view direction, as GL does).
+    normals: (N, 3) object-space normals.
+    modelview: (4, 4) in numpy's math convention (eye = modelview @ p).
+    normalize: "on" (GL_NORMALIZE), "off" (normal used as transformed, NOT normalized — as GL),
+        "rescale" (GL_RESCALE_NORMAL).
+    singular: "nan" (current Mesa: NaN where r = (0,0,-1), for a zero normal with normalize="on",
+        and for a vertex at the eye) or "center" (legacy Mesa / Blender Cycles: (1/2, 1/2)).
+    precision: "f32" (what GL computes; float32 result) or "f64" (the float64 reference path;
+        float64 result).
+
+    Returns (N, 2) (s, t). float64 input is rounded to float32 on the f32 path, as GL does.
+    """
+    pos = _floats(positions, "positions", last=(3, 4), ndim=2)
+    nrm = _floats(normals, "normals", last=(3,), ndim=2)
+    if nrm.shape[0] != pos.shape[0]:
+        raise ValueError(f"normals: expected {pos.shape[0]} rows to match positions, got shape {nrm.shape}")
+    mv = _floats(modelview, "modelview", ndim=2)
+    if mv.shape != (4, 4):
+        raise ValueError(f"modelview: expected shape (4, 4), got {mv.shape}")
+    _choice(normalize, "normalize", NORMALIZE_MODES)
+    _choice(singular, "singular", SINGULAR_MODES)
+    _choice(precision, "precision", ("f32", "f64"))
+    return _ext.sphere_texgen(pos, nrm, mv.astype(np.float64, copy=False), normalize, singular, precision)
+
+
+def dir_to_sphere(dirs, *, singular: str = "nan") -> np.ndarray:
+    """Directions (..., 3) (any non-zero length, eye frame) -> sphere-map (s, t) (..., 2).
+
+    The dtype follows the input (float32 runs the float32 path). Zero or non-finite directions
+    give NaN; directions parallel to (0,0,-1) (the rim) give NaN or (1/2, 1/2) per `singular`.
+    Uses a cancellation-free form of GL's formula near the rim.
+    """
+    d = _floats(dirs, "dirs", last=(3,))
+    return _ext.dir_to_sphere(d, _choice(singular, "singular", SINGULAR_MODES))
+
+
+def sphere_to_dir(st) -> tuple[np.ndarray, np.ndarray]:
+    """Sphere-map (s, t) (..., 2) -> (unit directions (..., 3), valid (...) bool).
+
+    Outside the disc (and for non-finite input) the direction is NaN and valid is False.
+    """
+    a = _floats(st, "st", last=(2,))
+    dirs = _ext.sphere_to_dir(a)
+    return dirs, ~np.isnan(dirs[..., 0])
+
+
+def reflect(incident, normal) -> np.ndarray:
+    """Mirror reflection ``u - 2 (n.u) n`` of incident directions (..., 3) about normals (..., 3)
+    (broadcast against each other). Normals are used as given, as GL does."""
+    u = _floats(incident, "incident", last=(3,))
+    n = _floats(normal, "normal", last=(3,))
+    if u.dtype != n.dtype:
+        u, n = u.astype(np.float64), n.astype(np.float64)
+    try:
+        u, n = np.broadcast_arrays(u, n)
+    except ValueError:
+        raise ValueError(f"normal: shape {n.shape} does not broadcast with incident {u.shape}") from None
+    return _ext.reflect(np.concatenate([u, n], axis=-1))
+
+
+def matcap_uv(normals, positions=None, *, variant: str = "classic", scale: float | None = None) -> np.ndarray:
+    """MatCap texture coordinates (..., 2) (v up, like t) for eye-space normals (..., 3).
+
+    variant: "classic" (n.xy/2 + 1/2), "threejs" (MeshMatcapMaterial's view basis, scale 0.495),
+        "perspective" (the normal expressed in the frame of its own view ray: see the README).
+    positions: eye-space positions (..., 3) of the shaded points, used by "threejs" and
+        "perspective"; None means an orthographic view (view ray -Z everywhere).
+    scale: radius factor (default 0.5, or 0.495 for "threejs").
+    """
+    n = _floats(normals, "normals", last=(3,))
+    _choice(variant, "variant", MATCAP_VARIANTS)
+    if positions is None:
+        stacked = np.concatenate([n, np.zeros_like(n)], axis=-1)
+    else:
+        p = _floats(positions, "positions", last=(3,))
+        if p.dtype != n.dtype:
+            n, p = n.astype(np.float64), p.astype(np.float64)
+        try:
+            n, p = np.broadcast_arrays(n, p)
+        except ValueError:
+            raise ValueError(f"positions: shape {p.shape} does not broadcast with normals {n.shape}") from None
+        stacked = np.concatenate([n, p], axis=-1)
+    if scale is not None:
+        scale = float(scale)
+    return _ext.matcap_uv(stacked, positions is not None, variant, scale)
+
+
+def sphere_texel_solid_angle(size: int) -> np.ndarray:
+    """Exact solid angle (sr) of every texel of a size x size sphere map, (size, size) float64.
+
+    Texels wholly inside the disc subtend 16/size**2 sr (the map is equal-area); texels cut by
+    the rim get 16 x their area inside the disc; the total is 4 pi.
+    """
+    size = _size(size, "size")
+    return _ext.sphere_texel_solid_angle(size)
+
+
+def _size(size, name: str) -> int:
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)):
+        raise ValueError(f"{name}: expected an integer, got {type(size).__name__}")
+    if not 1 <= int(size) <= 1 << 16:
+        raise ValueError(f"{name}: must be between 1 and 65536, got {size}")
+    return int(size)
+
+
+class Preset(NamedTuple):
+    """A named sphere-map convention: `frame` maps the preset's directions to ours
+    (ours = frame @ d); `rows` is "top-is-t1" (file order) or "top-is-t0" (GL upload order);
+    `v_down` means the preset's texture coordinate v is 1 - t."""
+
+    name: str
+    doc: str
+    frame: np.ndarray
+    rows: str
+    v_down: bool
+
+
+def presets() -> dict[str, Preset]:
+    """The named conventions (``gl`` is ours), by name."""
+    return {p[0]: Preset(p[0], p[1], np.array(p[2]), p[3], p[4]) for p in _ext.presets()}
+
+
+def dir_to_pixel(dirs, size: int, *, preset: str = "gl", singular: str = "nan") -> np.ndarray:
+    """Directions (..., 3) in `preset`'s frame -> continuous pixel coordinates (x, y) (..., 2) in
+    that preset's size x size image: (0, 0) is the top-left corner of row 0, pixel centres are at
+    i + 1/2. NaN where a direction has no single pixel."""
+    d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
+    _choice(preset, "preset", tuple(presets()))
+    return _ext.dir_to_pixel(d, _size(size, "size"), preset, _choice(singular, "singular", SINGULAR_MODES))
+
+
+def pixel_to_dir(xy, size: int, *, preset: str = "gl") -> tuple[np.ndarray, np.ndarray]:
+    """Continuous pixel coordinates (..., 2) in `preset`'s size x size image -> (unit directions
+    in the preset's frame (..., 3), valid (...) bool)."""
+    a = _floats(xy, "xy", last=(2,)).astype(np.float64, copy=False)
+    _choice(preset, "preset", tuple(presets()))
+    dirs = _ext.pixel_to_dir(a, _size(size, "size"), preset)
+    return dirs, ~np.isnan(dirs[..., 0])

@@ -1,0 +1,51 @@
+from typing import Literal, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class Error(ValueError): ...
+class DataError(Error): ...
+class UnsupportedError(Error): ...
+
+NORMALIZE_MODES: tuple[str, ...]
+SINGULAR_MODES: tuple[str, ...]
+MATCAP_VARIANTS: tuple[str, ...]
+
+_Float = np.float32 | np.float64
+_ArrayLike = npt.ArrayLike
+
+def sphere_texgen(
+    positions: _ArrayLike,
+    normals: _ArrayLike,
+    modelview: _ArrayLike,
+    *,
+    normalize: Literal["on", "off", "rescale"] = "on",
+    singular: Literal["nan", "center"] = "nan",
+    precision: Literal["f32", "f64"] = "f32",
+) -> npt.NDArray[_Float]: ...
+def dir_to_sphere(dirs: _ArrayLike, *, singular: Literal["nan", "center"] = "nan") -> npt.NDArray[_Float]: ...
+def sphere_to_dir(st: _ArrayLike) -> tuple[npt.NDArray[_Float], npt.NDArray[np.bool_]]: ...
+def reflect(incident: _ArrayLike, normal: _ArrayLike) -> npt.NDArray[_Float]: ...
+def matcap_uv(
+    normals: _ArrayLike,
+    positions: _ArrayLike | None = None,
+    *,
+    variant: Literal["classic", "threejs", "perspective"] = "classic",
+    scale: float | None = None,
+) -> npt.NDArray[_Float]: ...
+def sphere_texel_solid_angle(size: int) -> npt.NDArray[np.float64]: ...
+
+class Preset(NamedTuple):
+    name: str
+    doc: str
+    frame: npt.NDArray[np.float64]
+    rows: str
+    v_down: bool
+
+def presets() -> dict[str, Preset]: ...
+def dir_to_pixel(
+    dirs: _ArrayLike, size: int, *, preset: str = "gl", singular: Literal["nan", "center"] = "nan"
+) -> npt.NDArray[np.float64]: ...
+def pixel_to_dir(xy: _ArrayLike, size: int, *, preset: str = "gl") -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
