@@ -278,6 +278,15 @@ pub fn sphere_texgen<P: Elem, N: Elem>(
     Ok(())
 }
 
+/// GL's `RSQ` in float32: `1/√x`, correctly rounded square root then division (llvmpipe
+/// computes the same).  `x = 0` → ∞, so `0·rsq(0)` is NaN as in Mesa; legacy `CENTER` mode
+/// (t_vb_texgen.c) gives 0 instead, which also turns m = 0 into (½,½).
+#[inline(always)]
+pub fn rsq_f32<const CENTER: bool>(x: f32) -> f32 {
+    let r = 1.0 / x.sqrt();
+    if CENTER && x == 0.0 { 0.0 } else { r }
+}
+
 /// The per-call constants of the f32 kernel.
 #[derive(Clone, Copy)]
 struct Kernel {
@@ -311,63 +320,90 @@ impl Kernel {
     }
 
     fn dispatch<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+        // The two flags become constants of the inner loop (no per-vertex test).
+        match (self.normalize, self.center) {
+            (false, false) => self.dispatch_isa::<P, N, PW, false, false>(pos, nrm, out),
+            (false, true) => self.dispatch_isa::<P, N, PW, false, true>(pos, nrm, out),
+            (true, false) => self.dispatch_isa::<P, N, PW, true, false>(pos, nrm, out),
+            (true, true) => self.dispatch_isa::<P, N, PW, true, true>(pos, nrm, out),
+        }
+    }
+
+    fn dispatch_isa<P: Elem, N: Elem, const PW: usize, const NORM: bool, const CENTER: bool>(
+        &self,
+        pos: &[P],
+        nrm: &[N],
+        out: &mut [f32],
+    ) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked just above).  No FMA is used, so the
                 // results are bit-identical to the portable path.
-                unsafe { self.run_avx2::<P, N, PW>(pos, nrm, out) };
+                unsafe { self.run_avx2::<P, N, PW, NORM, CENTER>(pos, nrm, out) };
                 return;
             }
         }
-        self.run::<P, N, PW>(pos, nrm, out)
+        self.run::<P, N, PW, NORM, CENTER>(pos, nrm, out)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn run_avx2<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
-        self.run::<P, N, PW>(pos, nrm, out)
+    unsafe fn run_avx2<P: Elem, N: Elem, const PW: usize, const NORM: bool, const CENTER: bool>(
+        &self,
+        pos: &[P],
+        nrm: &[N],
+        out: &mut [f32],
+    ) {
+        self.run::<P, N, PW, NORM, CENTER>(pos, nrm, out)
     }
 
     #[inline(always)]
-    fn run<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
+    fn run<P: Elem, N: Elem, const PW: usize, const NORM: bool, const CENTER: bool>(
+        &self,
+        pos: &[P],
+        nrm: &[N],
+        out: &mut [f32],
+    ) {
         let count = out.len() / 2;
+        // Scratch in structure-of-arrays form, initialised once per call: w stays 1 when the
+        // positions have 3 components; lanes past the end of a short last block hold stale but
+        // finite-or-not values whose results are never stored.
+        let mut p = [[1.0f32; BLOCK]; 4];
+        let mut n = [[0.0f32; BLOCK]; 3];
+        let mut st = [[0.0f32; BLOCK]; 2];
         let mut start = 0;
         while start < count {
             let len = BLOCK.min(count - start);
-            self.block::<P, N, PW>(
-                &pos[start * PW..(start + len) * PW],
-                &nrm[start * 3..(start + len) * 3],
-                &mut out[start * 2..(start + len) * 2],
-            );
+            let (pos, nrm) = (&pos[start * PW..(start + len) * PW], &nrm[start * 3..(start + len) * 3]);
+            for i in 0..len {
+                for c in 0..PW {
+                    p[c][i] = pos[i * PW + c].f32();
+                }
+                for c in 0..3 {
+                    n[c][i] = nrm[i * 3 + c].f32();
+                }
+            }
+            self.block::<NORM, CENTER>(&p, &n, &mut st);
+            let out = &mut out[start * 2..(start + len) * 2];
+            for i in 0..len {
+                out[2 * i] = st[0][i];
+                out[2 * i + 1] = st[1][i];
+            }
             start += len;
         }
     }
 
+    /// The arithmetic of one block, in GL's order of operations.
     #[inline(always)]
-    fn block<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
-        let len = out.len() / 2;
-        // Gather into structure-of-arrays (the tail of a short block is padded with a harmless
-        // vertex; its results are not stored).
-        let mut p = [[1.0f32; BLOCK]; 4];
-        let mut n = [[0.0f32; BLOCK]; 3];
-        for i in 0..len {
-            for c in 0..PW {
-                p[c][i] = pos[i * PW + c].f32();
-            }
-            for c in 0..3 {
-                n[c][i] = nrm[i * 3 + c].f32();
-            }
-        }
+    fn block<const NORM: bool, const CENTER: bool>(
+        &self,
+        p: &[[f32; BLOCK]; 4],
+        n: &[[f32; BLOCK]; 3],
+        st: &mut [[f32; BLOCK]; 2],
+    ) {
         let (m, nm) = (&self.m, &self.nm);
-        let center = self.center;
-        // rsq as GL: 1/sqrt(x), infinite at 0; legacy Mesa ("center") returns 0 for 0.
-        let rsq = |x: f32| {
-            let r = 1.0 / x.sqrt();
-            if center && x == 0.0 { 0.0 } else { r }
-        };
-        let mut s = [0.0f32; BLOCK];
-        let mut t = [0.0f32; BLOCK];
+        let rsq = |x: f32| rsq_f32::<CENTER>(x);
         for i in 0..BLOCK {
             let (x, y, z, w) = (p[0][i], p[1][i], p[2][i], p[3][i]);
             let ex = m[0][0] * x + m[0][1] * y + m[0][2] * z + m[0][3] * w;
@@ -379,7 +415,7 @@ impl Kernel {
             let mut nx = nm[0][0] * ox + nm[0][1] * oy + nm[0][2] * oz;
             let mut ny = nm[1][0] * ox + nm[1][1] * oy + nm[1][2] * oz;
             let mut nz = nm[2][0] * ox + nm[2][1] * oy + nm[2][2] * oz;
-            let kn = if self.normalize { rsq(nx * nx + ny * ny + nz * nz) } else { self.scale };
+            let kn = if NORM { rsq(nx * nx + ny * ny + nz * nz) } else { self.scale };
             nx *= kn;
             ny *= kn;
             nz *= kn;
@@ -390,14 +426,8 @@ impl Kernel {
             let rz = uz - d2 * nz;
             let az = rz + 1.0;
             let k = rsq(rx * rx + ry * ry + az * az) * 0.5;
-            let (sv, tv) = (rx * k + 0.5, ry * k + 0.5);
-            // Legacy Mesa skips the division when m = 0: (½,½).
-            s[i] = sv;
-            t[i] = tv;
-        }
-        for i in 0..len {
-            out[2 * i] = s[i];
-            out[2 * i + 1] = t[i];
+            st[0][i] = rx * k + 0.5;
+            st[1][i] = ry * k + 0.5;
         }
     }
 }
@@ -437,4 +467,55 @@ pub fn sphere_texgen_f64<P: Elem, N: Elem>(
         out[2 * i + 1] = r[1] * k + 0.5;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rsq_special_values() {
+        assert_eq!(rsq_f32::<false>(0.0), f32::INFINITY);
+        assert_eq!(rsq_f32::<true>(0.0), 0.0);
+        assert_eq!(rsq_f32::<false>(4.0), 0.5);
+        assert!(rsq_f32::<false>(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn mesa_length_preserving_classification() {
+        let rot = |a: f64| [[a.cos(), -a.sin(), 0.0, 1.0], [a.sin(), a.cos(), 0.0, 2.0], [0.0, 0.0, 1.0, 3.0], [0.0, 0.0, 0.0, 1.0]];
+        assert!(mesa_length_preserving(&IDENTITY4));
+        assert!(mesa_length_preserving(&rot(0.3)));
+        let mut s = rot(0.3);
+        s[0][0] *= 2.0;
+        assert!(!mesa_length_preserving(&s));
+        // Uniform scale is not length preserving; a projective bottom row is "general".
+        let mut u = IDENTITY4;
+        (0..3).for_each(|i| u[i][i] = 2.0);
+        assert!(!mesa_length_preserving(&u));
+        let mut g = IDENTITY4;
+        g[3][2] = -1.0;
+        assert!(!mesa_length_preserving(&g));
+        // A 3D rotation about an oblique axis.
+        let (c, s_) = (0.6f64, 0.8f64);
+        let r3 = [[c, 0.0, s_, 0.0], [0.0, 1.0, 0.0, 0.0], [-s_, 0.0, c, 0.0], [0.0, 0.0, 0.0, 1.0]];
+        assert!(mesa_length_preserving(&r3));
+        // A mirror is not (Mesa's rotation test checks col0 × col1 = col2).
+        let mut mirror = IDENTITY4;
+        mirror[0][0] = -1.0;
+        mirror[1][1] = 0.5;
+        assert!(!mesa_length_preserving(&mirror));
+    }
+
+    #[test]
+    fn singular_modelview_uses_identity() {
+        let mut m = IDENTITY4;
+        m[1][1] = 0.0;
+        let st = ModelviewState::new(m).unwrap();
+        assert!(st.singular);
+        assert_eq!(st.normal_matrix, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+        let mut bad = IDENTITY4;
+        bad[0][1] = f64::NAN;
+        assert!(ModelviewState::new(bad).unwrap_err().to_string().starts_with("modelview:"));
+    }
 }

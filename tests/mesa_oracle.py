@@ -1,0 +1,109 @@
+"""Mesa (OSMesa, llvmpipe/softpipe) as an oracle for GL_SPHERE_MAP texgen.
+
+Renders points in GL_FEEDBACK mode and reads back the texture coordinates Mesa generated
+(DESIGN §1.2): a texture enabled on unit 0 (or Mesa skips texgen), texture matrix identity,
+projection diag(0,0,0,±1) so that no vertex is clipped (the sign follows each vertex's eye w),
+glFeedbackBuffer(GL_4D_COLOR_TEXTURE). PyOpenGL's glRenderMode wrapper crashes, so the raw
+function is used.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+import ctypes
+
+import numpy as np
+
+
+class MesaUnavailable(RuntimeError):
+    pass
+
+
+_ctx = None
+
+
+def _context():
+    global _ctx
+    if _ctx is not None:
+        return _ctx
+    try:
+        from OpenGL import GL, osmesa
+        from OpenGL import arrays  # noqa: F401
+    except Exception as e:  # ImportError, or libOSMesa missing
+        raise MesaUnavailable(f"PyOpenGL/OSMesa not available: {e}") from e
+    ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, 24, 0, 0, None)
+    if not ctx:
+        raise MesaUnavailable("OSMesaCreateContextExt failed")
+    buf = (ctypes.c_ubyte * (4 * 4 * 4))()
+    if not osmesa.OSMesaMakeCurrent(ctx, buf, GL.GL_UNSIGNED_BYTE, 4, 4):
+        raise MesaUnavailable("OSMesaMakeCurrent failed")
+    tex = GL.glGenTextures(1)
+    GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA, 1, 1, 0, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, b"\xff\xff\xff\xff")
+    GL.glEnable(GL.GL_TEXTURE_2D)
+    for coord, gen in ((GL.GL_S, GL.GL_TEXTURE_GEN_S), (GL.GL_T, GL.GL_TEXTURE_GEN_T)):
+        GL.glTexGeni(coord, GL.GL_TEXTURE_GEN_MODE, GL.GL_SPHERE_MAP)
+        GL.glEnable(gen)
+    GL.glMatrixMode(GL.GL_TEXTURE)
+    GL.glLoadIdentity()
+    _ctx = (ctx, buf, GL)
+    return _ctx
+
+
+def renderer() -> str:
+    _, _, GL = _context()
+    return f"{GL.glGetString(GL.GL_RENDERER).decode()} / {GL.glGetString(GL.GL_VERSION).decode()}"
+
+
+def mesa_sphere_texgen(positions: np.ndarray, normals: np.ndarray, modelview: np.ndarray, normalize: str) -> np.ndarray:
+    """(N,4) positions, (N,3) normals, (4,4) math-convention modelview -> (N,2) float32 (s,t)."""
+    from OpenGL.raw.GL.VERSION.GL_1_0 import glRenderMode as raw_render_mode
+
+    _, _, GL = _context()
+    positions = np.asarray(positions, np.float32)
+    normals = np.asarray(normals, np.float32)
+    n = len(positions)
+    mv = np.asarray(modelview, np.float32)
+    if normalize == "on":
+        GL.glEnable(GL.GL_NORMALIZE)
+        GL.glDisable(GL.GL_RESCALE_NORMAL)
+    elif normalize == "rescale":
+        GL.glDisable(GL.GL_NORMALIZE)
+        GL.glEnable(GL.GL_RESCALE_NORMAL)
+    else:
+        GL.glDisable(GL.GL_NORMALIZE)
+        GL.glDisable(GL.GL_RESCALE_NORMAL)
+    GL.glMatrixMode(GL.GL_MODELVIEW)
+    GL.glLoadMatrixf(np.ascontiguousarray(mv.T).ravel())  # GL wants column-major
+    eye_w = positions.astype(np.float64) @ mv.astype(np.float64)[3]
+    out = np.full((n, 2), np.nan, np.float32)
+    per = 13  # token + 4 coords + 4 colour + 4 texcoords
+    for sign in (1.0, -1.0):
+        idx = np.nonzero(np.sign(eye_w) == sign)[0]
+        if len(idx) == 0:
+            continue
+        GL.glMatrixMode(GL.GL_PROJECTION)
+        GL.glLoadMatrixf(np.diag([0.0, 0.0, 0.0, sign]).astype(np.float32).T.ravel())
+        chunk = 4096
+        for start in range(0, len(idx), chunk):
+            sel = idx[start:start + chunk]
+            fb = (GL.GLfloat * (per * len(sel) + 16))()
+            GL.glFeedbackBuffer(len(fb), GL.GL_4D_COLOR_TEXTURE, fb)
+            raw_render_mode(GL.GL_FEEDBACK)
+            GL.glBegin(GL.GL_POINTS)
+            for i in sel:
+                GL.glNormal3f(*normals[i])
+                GL.glVertex4f(*positions[i])
+            GL.glEnd()
+            count = raw_render_mode(GL.GL_RENDER)
+            vals = np.frombuffer(fb, np.float32, count)
+            if count != per * len(sel):
+                raise RuntimeError(f"feedback returned {count} values for {len(sel)} points")
+            rec = vals.reshape(len(sel), per)
+            if not np.all(rec[:, 0] == GL.GL_POINT_TOKEN):
+                raise RuntimeError("unexpected feedback token")
+            out[sel] = rec[:, 9:11]
+    return out
