@@ -259,7 +259,10 @@ pub fn sphere_texgen<P: Elem, N: Elem>(
     out: &mut [f32],
 ) -> Result<()> {
     let n = check_lengths(positions.len(), pw, normals.len(), out.len())?;
-    let k = Kernel::new(mv, opts);
+    // GL stores the modelview in float32 and derives the normal matrix and the rescale factor
+    // from that: do the same, so a float64 matrix and its float32 rounding give the same result.
+    let gl_mv = ModelviewState::new(mv.m.map(|r| r.map(|v| v as f32 as f64)))?;
+    let k = Kernel::new(&gl_mv, opts);
     let run = |first: usize, out: &mut [f32]| {
         let count = out.len() / 2;
         let pos = &positions[first * pw..(first + count) * pw];
