@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The README's test command: installs what the tests need, builds, and runs every test
+# (Rust unit/property/integration tests, then the Python suite, the Mesa oracle included).
+# Usage: bash scripts/test.sh          (from the repository root)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# Mesa's off-screen OpenGL, the texgen oracle (Debian: libosmesa6).
+if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
+  if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+    echo "== installing libosmesa6 (Mesa oracle)"
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 >/dev/null
+  else
+    echo "!! libOSMesa not found and cannot apt-get install it: the Mesa oracle tests will be skipped" >&2
+  fi
+fi
+
+echo "== Python test dependencies"
+python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" skylibs
+
+echo "== cargo test"
+cargo test --workspace --exclude spheremap-py -q
+
+echo "== building and installing the Python package (pip install .)"
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" python3 -m pip install -q --disable-pip-version-check .
+
+echo "== pytest"
+python3 -m pytest -q -p no:cacheprovider tests

@@ -1,0 +1,105 @@
+"""The CLI (the Rust binary behind the `spheremap` console script)."""
+
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import spheremap as sm
+
+TEAPOT = "crates/spheremap/data/teapot.obj"
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True, cwd=cwd)
+
+
+@pytest.fixture
+def repo(request):
+    return request.config.rootpath
+
+
+def test_demo_writes_chart_and_teapot(tmp_path):
+    r = cli("demo", tmp_path / "d", "--size", 128)
+    assert r.returncode == 0, r.stderr
+    for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv"]:
+        assert (tmp_path / "d" / f).stat().st_size > 0
+    st = np.loadtxt(tmp_path / "d" / "teapot_texgen.csv", delimiter=",", skiprows=1)
+    assert st.shape == (792, 2) and np.isfinite(st).all()
+    assert not list((tmp_path / "d").glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("ext", ["csv", "npy", "obj"])
+def test_texgen_outputs_agree_with_python(tmp_path, repo, ext):
+    mesh = repo / TEAPOT
+    out = tmp_path / f"t.{ext}"
+    r = cli("texgen", mesh, "--modelview", "lookat:0,12,40,0,0,0,0,1,0", "-o", out)
+    assert r.returncode == 0, r.stderr
+    if ext == "npy":
+        st = np.load(out)
+    elif ext == "csv":
+        st = np.loadtxt(out, delimiter=",", skiprows=1, dtype=np.float32)
+    else:
+        st = np.array([l.split()[1:] for l in out.read_text().splitlines() if l.startswith("vt ")], np.float32)
+        v = np.array([l.split()[1:] for l in out.read_text().splitlines() if l.startswith("v ")], np.float32)
+        vn = np.array([l.split()[1:] for l in out.read_text().splitlines() if l.startswith("vn ")], np.float32)
+        eye, up = np.array([0, 12, 40.0]), np.array([0, 1.0, 0])
+        f = -eye / np.linalg.norm(eye)
+        s = np.cross(f, up)
+        s /= np.linalg.norm(s)
+        u = np.cross(s, f)
+        mv = np.eye(4)
+        mv[0, :3], mv[1, :3], mv[2, :3] = s, u, -f
+        mv[:3, 3] = -mv[:3, :3] @ eye
+        np.testing.assert_allclose(sm.sphere_texgen(v, vn, mv), st, atol=2e-6)
+    assert st.shape == (792, 2) and np.isfinite(st).all()
+
+
+def test_texgen_modelview_forms(tmp_path, repo):
+    mesh = repo / TEAPOT
+    rows = "1 0 0 0  0 1 0 0  0 0 1 -40  0 0 0 1"
+    cols = "1 0 0 0  0 1 0 0  0 0 1 0  0 0 -40 1"
+    (tmp_path / "mv.txt").write_text(rows)
+    outs = []
+    for k, args in enumerate([["--modelview", rows], ["--modelview", cols, "--column-major"],
+                              ["--modelview", tmp_path / "mv.txt"], ["--modelview", "lookat:0,0,40,0,0,0,0,1,0"]]):
+        o = tmp_path / f"o{k}.npy"
+        r = cli("texgen", mesh, *args, "-o", o)
+        assert r.returncode == 0, r.stderr
+        outs.append(np.load(o))
+    for o in outs[1:]:
+        np.testing.assert_array_equal(o, outs[0])
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["texgen", "MESH", "--modelview", "1 2 3", "-o", "OUT.csv"], "--modelview: expected 16 numbers"),
+        (["texgen", "MESH", "--modelview", "identity", "-o", "OUT.png"], "unknown output extension"),
+        (["texgen", "MISSING.obj", "--modelview", "identity", "-o", "OUT.csv"], "MISSING.obj"),
+        (["texgen", "GARBAGE.glb", "--modelview", "identity", "-o", "OUT.csv"], "GARBAGE.glb"),
+        (["texgen", "MESH", "--modelview", "identity", "-o", "MESH"], "overwrite the input"),
+    ],
+)
+def test_bad_input_one_line_exit_2_no_output(tmp_path, repo, args, needle):
+    mesh = tmp_path / "m.obj"
+    shutil.copy(repo / TEAPOT, mesh)
+    (tmp_path / "GARBAGE.glb").write_bytes(b"glTF\x02\x00\x00\x00garbage")
+    before = mesh.read_bytes()
+    args = [str(mesh) if a == "MESH" else str(tmp_path / a) if a.isupper() or "." in a and a.split(".")[0].isupper() else a for a in args]
+    r = cli(*args)
+    assert r.returncode == 2, r.stderr
+    assert needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert "panicked" not in r.stderr
+    assert not (tmp_path / "OUT.csv").exists() and not (tmp_path / "OUT.png").exists()
+    assert mesh.read_bytes() == before
+
+
+def test_conventions_command_lists_presets():
+    r = cli("conventions", "--size", 64)
+    assert r.returncode == 0
+    for name in sm.presets():
+        assert f"\n{name}:" in r.stdout
+    assert "+X -> pixel (54.627, 32.000)" in r.stdout
