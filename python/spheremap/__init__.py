@@ -64,6 +64,19 @@ def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | No
     return np.ascontiguousarray(a)
 
 
+def _stack3(a, a_name: str, b, b_name: str) -> np.ndarray:
+    """Two (..., 3) arrays broadcast together and stacked to (..., 6), one common dtype."""
+    x = _floats(a, a_name, last=(3,))
+    y = _floats(b, b_name, last=(3,))
+    if x.dtype != y.dtype:
+        x, y = x.astype(np.float64), y.astype(np.float64)
+    try:
+        x, y = np.broadcast_arrays(x, y)
+    except ValueError:
+        raise ValueError(f"{b_name}: shape {y.shape} does not broadcast with {a_name} {x.shape}") from None
+    return np.concatenate([x, y], axis=-1)
+
+
 def _choice(value, name: str, allowed: tuple[str, ...]) -> str:
     if value not in allowed:
         raise ValueError(f"{name}: {value!r} is not one of {', '.join(allowed)}")
@@ -124,15 +137,7 @@ def sphere_to_dir(st) -> tuple[np.ndarray, np.ndarray]:
 def reflect(incident, normal) -> np.ndarray:
     """Mirror reflection ``u - 2 (n.u) n`` of incident directions (..., 3) about normals (..., 3)
     (broadcast against each other). Normals are used as given, as GL does."""
-    u = _floats(incident, "incident", last=(3,))
-    n = _floats(normal, "normal", last=(3,))
-    if u.dtype != n.dtype:
-        u, n = u.astype(np.float64), n.astype(np.float64)
-    try:
-        u, n = np.broadcast_arrays(u, n)
-    except ValueError:
-        raise ValueError(f"normal: shape {n.shape} does not broadcast with incident {u.shape}") from None
-    return _ext.reflect(np.concatenate([u, n], axis=-1))
+    return _ext.reflect(_stack3(incident, "incident", normal, "normal"))
 
 
 def matcap_uv(normals, positions=None, *, variant: str = "classic", scale: float | None = None) -> np.ndarray:
@@ -149,14 +154,7 @@ def matcap_uv(normals, positions=None, *, variant: str = "classic", scale: float
     if positions is None:
         stacked = np.concatenate([n, np.zeros_like(n)], axis=-1)
     else:
-        p = _floats(positions, "positions", last=(3,))
-        if p.dtype != n.dtype:
-            n, p = n.astype(np.float64), p.astype(np.float64)
-        try:
-            n, p = np.broadcast_arrays(n, p)
-        except ValueError:
-            raise ValueError(f"positions: shape {p.shape} does not broadcast with normals {n.shape}") from None
-        stacked = np.concatenate([n, p], axis=-1)
+        stacked = _stack3(n, "normals", positions, "positions")
     if scale is not None:
         scale = float(scale)
     return _ext.matcap_uv(stacked, positions is not None, variant, scale)
