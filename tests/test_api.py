@@ -204,3 +204,23 @@ def test_cli_console_script_is_the_rust_cli(tmp_path):
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "none.obj" in bad.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_texgen_out_buffer():
+    rng = np.random.default_rng(8)
+    p = rng.normal(size=(1000, 3)).astype(np.float32)
+    n = rng.normal(size=(1000, 3)).astype(np.float32)
+    mv = np.eye(4)
+    mv[2, 3] = -4
+    buf = np.empty((1000, 2), np.float32)
+    got = sm.sphere_texgen(p, n, mv, out=buf)
+    assert got is buf
+    np.testing.assert_array_equal(buf, sm.sphere_texgen(p, n, mv))
+    for bad in (np.empty((999, 2), np.float32), np.empty((1000, 2), np.float64), np.empty((2, 1000), np.float32).T,
+                np.empty((1000, 2), np.float32)[::1, ::-1], [[0, 0]] * 1000):
+        with pytest.raises(ValueError, match="^out"):
+            sm.sphere_texgen(p, n, mv, out=bad)
+    ro = np.empty((1000, 2), np.float32)
+    ro.flags.writeable = False
+    with pytest.raises(ValueError, match="^out"):
+        sm.sphere_texgen(p, n, mv, out=ro)

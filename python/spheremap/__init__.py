@@ -84,7 +84,7 @@ def _choice(value, name: str, allowed: tuple[str, ...]) -> str:
 
 
 def sphere_texgen(positions, normals, modelview, *, normalize: str = "on", singular: str = "nan",
-                  precision: str = "f32") -> np.ndarray:
+                  precision: str = "f32", out: np.ndarray | None = None) -> np.ndarray:
     """GL_SPHERE_MAP texture coordinates, exactly as OpenGL computes them.
 
     positions: (N, 3) or (N, 4) object-space positions (w is used for the eye position, ignored
@@ -98,6 +98,9 @@ def sphere_texgen(positions, normals, modelview, *, normalize: str = "on", singu
     precision: "f32" (what GL computes; float32 result) or "f64" (the float64 reference path;
         float64 result).
 
+    out: optional writable C-contiguous (N, 2) array of the result's dtype to write into and
+        return (saves allocating, and first-touching, a fresh result for every call).
+
     Returns (N, 2) (s, t). float64 input is rounded to float32 on the f32 path, as GL does.
     """
     pos = _floats(positions, "positions", last=(3, 4), ndim=2)
@@ -110,7 +113,9 @@ def sphere_texgen(positions, normals, modelview, *, normalize: str = "on", singu
     _choice(normalize, "normalize", NORMALIZE_MODES)
     _choice(singular, "singular", SINGULAR_MODES)
     _choice(precision, "precision", ("f32", "f64"))
-    return _ext.sphere_texgen(pos, nrm, mv.astype(np.float64, copy=False), normalize, singular, precision)
+    if out is not None and not isinstance(out, np.ndarray):
+        raise ValueError("out: expected a numpy array")
+    return _ext.sphere_texgen(pos, nrm, mv.astype(np.float64, copy=False), normalize, singular, precision, out)
 
 
 def dir_to_sphere(dirs, *, singular: str = "nan") -> np.ndarray:

@@ -19,12 +19,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let _ = writeln!(o, "Eye space: right-handed, +X right, +Y up, looking down -Z. Disc centre = +Z (back at the viewer), rim = -Z.");
     let _ = writeln!(o, "Pixel coordinates: (0,0) = top-left corner of row 0; pixel centres at i + 0.5; texel centres (i + 0.5)/N.");
-    for p in PRESETS.iter().filter(|p| a.preset.as_deref().is_none_or(|n| n == p.name)) {
+    for p in PRESETS
+        .iter()
+        .filter(|p| a.preset.as_deref().is_none_or(|n| n == p.name))
+    {
         let rows = match p.rows {
             RowOrder::TopIsT1 => "row 0 = t = 1 (file order)",
             RowOrder::TopIsT0 => "row 0 = t = 0 (GL upload order)",
         };
-        let _ = writeln!(o, "\n{}: {}\n  {}{}", p.name, p.doc, rows, if p.v_down { ", texcoord v = 1 - t" } else { "" });
+        let _ = writeln!(
+            o,
+            "\n{}: {}\n  {}{}",
+            p.name,
+            p.doc,
+            rows,
+            if p.v_down { ", texcoord v = 1 - t" } else { "" }
+        );
         for (d, name) in [
             ([1.0, 0.0, 0.0], "+X"),
             ([-1.0, 0.0, 0.0], "-X"),

@@ -14,8 +14,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     use std::fmt::Write;
     let mut o = String::new();
     let report = spheremap::demo::run(&a.outdir, a.size as usize)?;
-    let _ = writeln!(o, "spheremap demo: GL_SPHERE_MAP direction chart and texgen of the bundled teapot");
-    let _ = writeln!(o, "  teapot: {} vertices, {} singular (NaN) texcoords", report.vertices, report.nan_texcoords);
+    let _ = writeln!(
+        o,
+        "spheremap demo: GL_SPHERE_MAP direction chart and texgen of the bundled teapot"
+    );
+    let _ = writeln!(
+        o,
+        "  teapot: {} vertices, {} singular (NaN) texcoords",
+        report.vertices, report.nan_texcoords
+    );
     for f in &report.files {
         let _ = writeln!(o, "  wrote {}", f.display());
     }

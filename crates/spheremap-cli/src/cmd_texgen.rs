@@ -30,12 +30,23 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let ext = a.output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     if !matches!(ext.as_str(), "csv" | "npy" | "obj") {
-        bail!("{}: unknown output extension; use .csv, .npy or .obj", a.output.display());
+        bail!(
+            "{}: unknown output extension; use .csv, .npy or .obj",
+            a.output.display()
+        );
     }
     if !a.force && same_file(&a.mesh, &a.output) {
-        bail!("{}: the output would overwrite the input mesh (use --force to allow)", a.output.display());
+        bail!(
+            "{}: the output would overwrite the input mesh (use --force to allow)",
+            a.output.display()
+        );
     }
     let spec = modelview_spec(&a.modelview)?;
     let m = parse::parse_matrix4(&spec, a.column_major, "--modelview")?;
@@ -54,14 +65,29 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "npy" => io::write_npy_f32(&a.output, &[mesh.positions.len(), 2], &st)?,
         _ => io::write_obj_with_uv(&a.output, &mesh, &st, None)?,
     }
-    let nan = st.chunks_exact(2).filter(|p| p[0].is_nan() || p[1].is_nan()).count();
+    let nan = st
+        .chunks_exact(2)
+        .filter(|p| p[0].is_nan() || p[1].is_nan())
+        .count();
     eprintln!(
         "spheremap texgen: {} vertices ({} normals), {} singular (NaN{}), modelview {}-> {}",
         mesh.positions.len(),
-        if mesh.normals_from_file { "file" } else { "computed, angle-weighted" },
+        if mesh.normals_from_file {
+            "file"
+        } else {
+            "computed, angle-weighted"
+        },
         nan,
-        if ext == "obj" && nan > 0 { "; written as 0.5 0.5 in the OBJ" } else { "" },
-        if mv.singular { "singular (identity inverse used, as GL) " } else { "" },
+        if ext == "obj" && nan > 0 {
+            "; written as 0.5 0.5 in the OBJ"
+        } else {
+            ""
+        },
+        if mv.singular {
+            "singular (identity inverse used, as GL) "
+        } else {
+            ""
+        },
         a.output.display()
     );
     Ok(())
@@ -71,7 +97,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 fn modelview_spec(arg: &str) -> anyhow::Result<String> {
     let p = Path::new(arg);
     if !arg.starts_with("lookat:") && p.is_file() {
-        return std::fs::read_to_string(p).with_context(|| format!("{}: cannot read the modelview file", p.display()));
+        return std::fs::read_to_string(p)
+            .with_context(|| format!("{}: cannot read the modelview file", p.display()));
     }
     Ok(arg.to_string())
 }

@@ -56,7 +56,9 @@ where
     // A panic is a bug: report it in one line (the hook), never as a backtrace.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|info| {
-        eprintln!("spheremap: internal error (a bug; please report it with the command line): {info}");
+        eprintln!(
+            "spheremap: internal error (a bug; please report it with the command line): {info}"
+        );
     }));
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Texgen(a) => cmd_texgen::run(a),

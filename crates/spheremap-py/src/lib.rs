@@ -5,16 +5,34 @@
 //! `python/spheremap/__init__.py`; it always hands this module C-contiguous float32/float64
 //! arrays.
 
-use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use spheremap::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
-pyo3::create_exception!(_spheremap, Error, PyValueError, "Base class of spheremap's own errors.");
-pyo3::create_exception!(_spheremap, DataError, Error, "A file or buffer holds data spheremap cannot use.");
-pyo3::create_exception!(_spheremap, UnsupportedError, Error, "Valid input that spheremap does not handle.");
+pyo3::create_exception!(
+    _spheremap,
+    Error,
+    PyValueError,
+    "Base class of spheremap's own errors."
+);
+pyo3::create_exception!(
+    _spheremap,
+    DataError,
+    Error,
+    "A file or buffer holds data spheremap cannot use."
+);
+pyo3::create_exception!(
+    _spheremap,
+    UnsupportedError,
+    Error,
+    "Valid input that spheremap does not handle."
+);
 
 /// The one mapping from core errors to Python exceptions.
 fn to_py(e: spheremap::Error) -> PyErr {
@@ -24,7 +42,9 @@ fn to_py(e: spheremap::Error) -> PyErr {
         E::InvalidParameter { .. } => PyValueError::new_err(msg),
         E::InvalidData { .. } => DataError::new_err(msg),
         E::Unsupported { .. } => UnsupportedError::new_err(msg),
-        E::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
+        E::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            PyFileNotFoundError::new_err(msg)
+        }
         E::Io { .. } => PyOSError::new_err(msg),
     }
 }
@@ -43,7 +63,9 @@ impl<'py> FArr<'py> {
         if let Ok(a) = ob.extract::<PyReadonlyArrayDyn<f64>>() {
             return Ok(FArr::F64(a));
         }
-        Err(PyValueError::new_err(format!("{name}: expected a float32 or float64 numpy array")))
+        Err(PyValueError::new_err(format!(
+            "{name}: expected a float32 or float64 numpy array"
+        )))
     }
     fn shape(&self) -> Vec<usize> {
         match self {
@@ -53,8 +75,12 @@ impl<'py> FArr<'py> {
     }
 }
 
-fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>, name: &str) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| PyValueError::new_err(format!("{name}: array must be C-contiguous")))
+fn contiguous<'a, T: numpy::Element>(
+    a: &'a PyReadonlyArrayDyn<'_, T>,
+    name: &str,
+) -> PyResult<&'a [T]> {
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name}: array must be C-contiguous")))
 }
 
 /// `out` rows of `O` values from `input` rows of `I` values, in parallel for large inputs.
@@ -72,7 +98,10 @@ fn map_rows<T: Copy + Send + Sync, U: Copy + Send + Sync, const I: usize, const 
     if input.len() / I < 2 * ROWS {
         run(input, out);
     } else {
-        input.par_chunks(I * ROWS).zip(out.par_chunks_mut(O * ROWS)).for_each(|(a, b)| run(a, b));
+        input
+            .par_chunks(I * ROWS)
+            .zip(out.par_chunks_mut(O * ROWS))
+            .for_each(|(a, b)| run(a, b));
     }
 }
 
@@ -83,7 +112,8 @@ fn out_shape(shape: &[usize], last: usize) -> Vec<usize> {
 }
 
 #[pyfunction]
-#[pyo3(signature = (positions, normals, modelview, normalize, singular, precision))]
+#[pyo3(signature = (positions, normals, modelview, normalize, singular, precision, out=None))]
+#[allow(clippy::too_many_arguments)]
 fn sphere_texgen<'py>(
     py: Python<'py>,
     positions: &Bound<'py, PyAny>,
@@ -92,6 +122,7 @@ fn sphere_texgen<'py>(
     normalize: &str,
     singular: &str,
     precision: &str,
+    out: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = TexgenOptions {
         normalize: NormalMode::parse(normalize, "normalize").map_err(to_py)?,
@@ -101,39 +132,67 @@ fn sphere_texgen<'py>(
     if m.shape() != [4, 4] {
         return Err(PyValueError::new_err("modelview: expected shape (4, 4)"));
     }
-    let mv = ModelviewState::new(std::array::from_fn(|r| std::array::from_fn(|c| m[[r, c]]))).map_err(to_py)?;
+    let mv = ModelviewState::new(std::array::from_fn(|r| std::array::from_fn(|c| m[[r, c]])))
+        .map_err(to_py)?;
     let pos = FArr::extract(positions, "positions")?;
     let nrm = FArr::extract(normals, "normals")?;
     let (ps, ns) = (pos.shape(), nrm.shape());
     let n = ps[0];
     let pw = ps[1];
     if ns != [n, 3] {
-        return Err(PyValueError::new_err(format!("normals: expected shape ({n}, 3), got {ns:?}")));
+        return Err(PyValueError::new_err(format!(
+            "normals: expected shape ({n}, 3), got {ns:?}"
+        )));
     }
-    fn go<P: Elem + numpy::Element, N: Elem + numpy::Element>(
-        py: Python<'_>,
+    #[allow(clippy::too_many_arguments)]
+    fn go<'py, P: Elem + numpy::Element, N: Elem + numpy::Element>(
+        py: Python<'py>,
         p: &PyReadonlyArrayDyn<'_, P>,
         q: &PyReadonlyArrayDyn<'_, N>,
         pw: usize,
         mv: &ModelviewState,
         opts: TexgenOptions,
         f64_out: bool,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
         let (p, q) = (contiguous(p, "positions")?, contiguous(q, "normals")?);
         let n = p.len() / pw;
+        let shape_err = || {
+            PyValueError::new_err(format!(
+                "out: expected a writable C-contiguous ({n}, 2) array"
+            ))
+        };
         if f64_out {
-            let out = PyArrayDyn::<f64>::zeros(py, vec![n, 2], false);
-            let mut w = out.readwrite();
-            let o = w.as_slice_mut().expect("fresh array is contiguous");
-            py.detach(|| spheremap::sphere_texgen_f64(p, pw, q, mv, opts, o)).map_err(to_py)?;
+            let out = match out {
+                Some(o) => o.cast_into::<PyArrayDyn<f64>>().map_err(|_| {
+                    PyValueError::new_err("out: expected a float64 array with precision='f64'")
+                })?,
+                None => PyArrayDyn::<f64>::zeros(py, vec![n, 2], false),
+            };
+            if out.shape() != [n, 2] || !out.is_c_contiguous() {
+                return Err(shape_err());
+            }
+            let mut w = out.try_readwrite().map_err(|_| shape_err())?;
+            let o = w.as_slice_mut().map_err(|_| shape_err())?;
+            py.detach(|| spheremap::sphere_texgen_f64(p, pw, q, mv, opts, o))
+                .map_err(to_py)?;
             drop(w);
             Ok(out.into_any().unbind())
         } else {
-            // SAFETY: every element is written by sphere_texgen before the array is returned.
-            let out = unsafe { PyArrayDyn::<f32>::new(py, vec![n, 2], false) };
-            let mut w = out.readwrite();
-            let o = w.as_slice_mut().expect("fresh array is contiguous");
-            py.detach(|| spheremap::sphere_texgen(p, pw, q, mv, opts, o)).map_err(to_py)?;
+            let out = match out {
+                Some(o) => o
+                    .cast_into::<PyArrayDyn<f32>>()
+                    .map_err(|_| PyValueError::new_err("out: expected a float32 array"))?,
+                // SAFETY: every element is written by sphere_texgen before the array is returned.
+                None => unsafe { PyArrayDyn::<f32>::new(py, vec![n, 2], false) },
+            };
+            if out.shape() != [n, 2] || !out.is_c_contiguous() {
+                return Err(shape_err());
+            }
+            let mut w = out.try_readwrite().map_err(|_| shape_err())?;
+            let o = w.as_slice_mut().map_err(|_| shape_err())?;
+            py.detach(|| spheremap::sphere_texgen(p, pw, q, mv, opts, o))
+                .map_err(to_py)?;
             drop(w);
             Ok(out.into_any().unbind())
         }
@@ -141,13 +200,17 @@ fn sphere_texgen<'py>(
     let f64_out = match precision {
         "f32" => false,
         "f64" => true,
-        other => return Err(PyValueError::new_err(format!("precision: unknown value {other:?}; expected f32 or f64"))),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "precision: unknown value {other:?}; expected f32 or f64"
+            )))
+        }
     };
     let r = match (&pos, &nrm) {
-        (FArr::F32(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out),
-        (FArr::F32(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out),
-        (FArr::F64(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out),
-        (FArr::F64(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out),
+        (FArr::F32(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
+        (FArr::F32(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
+        (FArr::F64(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
+        (FArr::F64(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
     }?;
     Ok(r.into_bound(py))
 }
@@ -158,7 +221,10 @@ macro_rules! rowwise {
         let arr = FArr::extract($arr, $name)?;
         let shape = arr.shape();
         if shape.last() != Some(&$i) {
-            return Err(PyValueError::new_err(format!("{}: last dimension must be {}, got shape {:?}", $name, $i, shape)));
+            return Err(PyValueError::new_err(format!(
+                "{}: last dimension must be {}, got shape {:?}",
+                $name, $i, shape
+            )));
         }
         match &arr {
             FArr::F32(a) => {
@@ -186,7 +252,11 @@ macro_rules! rowwise {
 }
 
 #[pyfunction]
-fn dir_to_sphere<'py>(py: Python<'py>, dirs: &Bound<'py, PyAny>, singular: &str) -> PyResult<Bound<'py, PyAny>> {
+fn dir_to_sphere<'py>(
+    py: Python<'py>,
+    dirs: &Bound<'py, PyAny>,
+    singular: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let sg = Singular::parse(singular, "singular").map_err(to_py)?;
     Ok(rowwise!(py, dirs, "dirs", 3 -> 2, |r: T| spheremap::dir_to_st::<T>(r, sg)))
 }
@@ -199,7 +269,9 @@ fn sphere_to_dir<'py>(py: Python<'py>, st: &Bound<'py, PyAny>) -> PyResult<Bound
 #[pyfunction]
 fn reflect<'py>(py: Python<'py>, un: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     // `un` holds (..., 6): incident (3) then normal (3), stacked by the Python wrapper.
-    Ok(rowwise!(py, un, "incident/normal", 6 -> 3, |r: T| spheremap::reflect::<T>([r[0], r[1], r[2]], [r[3], r[4], r[5]])))
+    Ok(
+        rowwise!(py, un, "incident/normal", 6 -> 3, |r: T| spheremap::reflect::<T>([r[0], r[1], r[2]], [r[3], r[4], r[5]])),
+    )
 }
 
 #[pyfunction]
@@ -229,7 +301,13 @@ fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound
 }
 
 #[pyfunction]
-fn dir_to_pixel<'py>(py: Python<'py>, dirs: PyReadonlyArrayDyn<'py, f64>, size: usize, preset: &str, singular: &str) -> PyResult<Bound<'py, PyAny>> {
+fn dir_to_pixel<'py>(
+    py: Python<'py>,
+    dirs: PyReadonlyArrayDyn<'py, f64>,
+    size: usize,
+    preset: &str,
+    singular: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     let sg = Singular::parse(singular, "singular").map_err(to_py)?;
     let shape = dirs.shape().to_vec();
@@ -237,23 +315,34 @@ fn dir_to_pixel<'py>(py: Python<'py>, dirs: PyReadonlyArrayDyn<'py, f64>, size: 
     let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 2), false);
     let mut w = out.readwrite();
     let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| map_rows::<f64, f64, 3, 2>(inp, o, |d| {
-        let (x, y) = p.dir_to_pixel(d, size, sg);
-        [x, y]
-    }));
+    py.detach(|| {
+        map_rows::<f64, f64, 3, 2>(inp, o, |d| {
+            let (x, y) = p.dir_to_pixel(d, size, sg);
+            [x, y]
+        })
+    });
     drop(w);
     Ok(out.into_any())
 }
 
 #[pyfunction]
-fn pixel_to_dir<'py>(py: Python<'py>, xy: PyReadonlyArrayDyn<'py, f64>, size: usize, preset: &str) -> PyResult<Bound<'py, PyAny>> {
+fn pixel_to_dir<'py>(
+    py: Python<'py>,
+    xy: PyReadonlyArrayDyn<'py, f64>,
+    size: usize,
+    preset: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     let shape = xy.shape().to_vec();
     let inp = contiguous(&xy, "xy")?;
     let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 3), false);
     let mut w = out.readwrite();
     let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| map_rows::<f64, f64, 2, 3>(inp, o, |q| p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])));
+    py.detach(|| {
+        map_rows::<f64, f64, 2, 3>(inp, o, |q| {
+            p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])
+        })
+    });
     drop(w);
     Ok(out.into_any())
 }
@@ -268,7 +357,13 @@ fn presets() -> Vec<(String, String, [[f64; 3]; 3], String, bool)> {
                 spheremap::RowOrder::TopIsT1 => "top-is-t1",
                 spheremap::RowOrder::TopIsT0 => "top-is-t0",
             };
-            (p.name.to_string(), p.doc.to_string(), p.frame, rows.to_string(), p.v_down)
+            (
+                p.name.to_string(),
+                p.doc.to_string(),
+                p.frame,
+                rows.to_string(),
+                p.v_down,
+            )
         })
         .collect()
 }

@@ -15,15 +15,24 @@ pub fn direction_chart(size: usize) -> Image {
     let mut img = Image::new(size, size, 3);
     let lat_lon = |s: f64, t: f64| -> Option<(f64, f64)> {
         let d = sphere::st_to_dir([s, t])?;
-        Some((d[1].clamp(-1.0, 1.0).asin().to_degrees(), d[0].atan2(d[2]).to_degrees()))
+        Some((
+            d[1].clamp(-1.0, 1.0).asin().to_degrees(),
+            d[0].atan2(d[2]).to_degrees(),
+        ))
     };
     let step = 15.0;
     for row in 0..size {
         let t = 1.0 - texel_center(row, size);
         for col in 0..size {
             let s = texel_center(col, size);
-            let Some(d) = sphere::st_to_dir([s, t]) else { continue };
-            let mut c = [0.15 + 0.35 * (d[0] + 1.0), 0.15 + 0.35 * (d[1] + 1.0), 0.15 + 0.35 * (d[2] + 1.0)];
+            let Some(d) = sphere::st_to_dir([s, t]) else {
+                continue;
+            };
+            let mut c = [
+                0.15 + 0.35 * (d[0] + 1.0),
+                0.15 + 0.35 * (d[1] + 1.0),
+                0.15 + 0.35 * (d[2] + 1.0),
+            ];
             // Grid line where the cell index changes between this texel and its right/down
             // neighbour: one texel wide everywhere, whatever the map's local stretch.
             let (lat, lon) = lat_lon(s, t).unwrap();
@@ -51,7 +60,8 @@ pub fn direction_chart(size: usize) -> Image {
             if (x * x + y * y).sqrt() > 1.0 - 2.0 / size as f64 {
                 c = [1.0, 0.45, 0.05];
             }
-            img.pixel_mut(col, row).copy_from_slice(&c.map(|v| v as f32));
+            img.pixel_mut(col, row)
+                .copy_from_slice(&c.map(|v| v as f32));
         }
     }
     let scale = (size / 160).max(1);
@@ -68,16 +78,36 @@ pub fn direction_chart(size: usize) -> Image {
         let r = 2.5 * scale as f64;
         fill_disc(&mut img, cx, cy, r, [1.0, 1.0, 1.0]);
         let (tx, ty) = (cx + r + scale as f64, cy - 3.5 * scale as f64);
-        draw_text(&mut img, label, tx + scale as f64, ty + scale as f64, scale, [0.0, 0.0, 0.0]);
+        draw_text(
+            &mut img,
+            label,
+            tx + scale as f64,
+            ty + scale as f64,
+            scale,
+            [0.0, 0.0, 0.0],
+        );
         draw_text(&mut img, label, tx, ty, scale, [1.0, 1.0, 1.0]);
     }
-    draw_text(&mut img, "-Z=rim", 2.0 * scale as f64, 2.0 * scale as f64, scale, [1.0, 0.45, 0.05]);
+    draw_text(
+        &mut img,
+        "-Z=rim",
+        2.0 * scale as f64,
+        2.0 * scale as f64,
+        scale,
+        [1.0, 0.45, 0.05],
+    );
     img
 }
 
 fn fill_disc(img: &mut Image, cx: f64, cy: f64, r: f64, c: [f32; 3]) {
-    let (x0, x1) = ((cx - r).floor().max(0.0) as usize, ((cx + r).ceil() as usize).min(img.width));
-    let (y0, y1) = ((cy - r).floor().max(0.0) as usize, ((cy + r).ceil() as usize).min(img.height));
+    let (x0, x1) = (
+        (cx - r).floor().max(0.0) as usize,
+        ((cx + r).ceil() as usize).min(img.width),
+    );
+    let (y0, y1) = (
+        (cy - r).floor().max(0.0) as usize,
+        ((cy + r).ceil() as usize).min(img.height),
+    );
     for y in y0..y1 {
         for x in x0..x1 {
             let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
@@ -117,7 +147,11 @@ fn draw_text(img: &mut Image, text: &str, x: f64, y: f64, scale: usize, c: [f32;
                     for sx in 0..scale {
                         let px = x0 + ((k * 6 + gx) * scale + sx) as i64;
                         let py = y0 + (gy * scale + sy) as i64;
-                        if px >= 0 && py >= 0 && (px as usize) < img.width && (py as usize) < img.height {
+                        if px >= 0
+                            && py >= 0
+                            && (px as usize) < img.width
+                            && (py as usize) < img.height
+                        {
                             img.pixel_mut(px as usize, py as usize).copy_from_slice(&c);
                         }
                     }

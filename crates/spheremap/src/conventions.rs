@@ -83,7 +83,10 @@ impl Singular {
         match name {
             "nan" => Ok(Singular::Nan),
             "center" | "centre" => Ok(Singular::Center),
-            other => Err(Error::param(param, format!("unknown value {other:?}; expected one of: nan, center"))),
+            other => Err(Error::param(
+                param,
+                format!("unknown value {other:?}; expected one of: nan, center"),
+            )),
         }
     }
     pub fn name(self) -> &'static str {
@@ -221,7 +224,13 @@ impl SpherePreset {
     pub fn by_name(name: &str) -> Result<&'static SpherePreset> {
         PRESETS.iter().find(|p| p.name == name).ok_or_else(|| {
             let names: Vec<_> = PRESETS.iter().map(|p| p.name).collect();
-            Error::param("preset", format!("unknown preset {name:?}; expected one of: {}", names.join(", ")))
+            Error::param(
+                "preset",
+                format!(
+                    "unknown preset {name:?}; expected one of: {}",
+                    names.join(", ")
+                ),
+            )
         })
     }
 
@@ -256,7 +265,11 @@ impl SpherePreset {
 
     /// The preset's own texture coordinates for our (s,t).
     pub fn st_to_uv(&self, s: f64, t: f64) -> (f64, f64) {
-        if self.v_down { (s, 1.0 - t) } else { (s, t) }
+        if self.v_down {
+            (s, 1.0 - t)
+        } else {
+            (s, t)
+        }
     }
 }
 

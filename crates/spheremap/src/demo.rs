@@ -57,6 +57,13 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     let csv = outdir.join("teapot_texgen.csv");
     io::write_csv(&csv, &["s", "t"], &st)?;
     files.push(csv);
-    let nan_texcoords = st.chunks_exact(2).filter(|p| p[0].is_nan() || p[1].is_nan()).count();
-    Ok(DemoReport { files, vertices: mesh.positions.len(), nan_texcoords })
+    let nan_texcoords = st
+        .chunks_exact(2)
+        .filter(|p| p[0].is_nan() || p[1].is_nan())
+        .count();
+    Ok(DemoReport {
+        files,
+        vertices: mesh.positions.len(),
+        nan_texcoords,
+    })
 }

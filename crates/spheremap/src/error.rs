@@ -13,27 +13,46 @@ pub enum Error {
     InvalidParameter { name: String, reason: String },
     /// A file or buffer holds data we cannot use (corrupt, inconsistent, out of range).
     #[error("{}: {reason}", source_name.display())]
-    InvalidData { source_name: PathBuf, reason: String },
+    InvalidData {
+        source_name: PathBuf,
+        reason: String,
+    },
     /// Valid input that this version does not handle (say, an unknown file format).
     #[error("{what} is not supported: {reason}")]
     Unsupported { what: String, reason: String },
     /// Reading or writing a file failed.
     #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, #[source] source: std::io::Error },
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 impl Error {
     pub fn param(name: impl Into<String>, reason: impl Into<String>) -> Self {
-        Error::InvalidParameter { name: name.into(), reason: reason.into() }
+        Error::InvalidParameter {
+            name: name.into(),
+            reason: reason.into(),
+        }
     }
     pub fn data(source_name: impl Into<PathBuf>, reason: impl Into<String>) -> Self {
-        Error::InvalidData { source_name: source_name.into(), reason: reason.into() }
+        Error::InvalidData {
+            source_name: source_name.into(),
+            reason: reason.into(),
+        }
     }
     pub fn unsupported(what: impl Into<String>, reason: impl Into<String>) -> Self {
-        Error::Unsupported { what: what.into(), reason: reason.into() }
+        Error::Unsupported {
+            what: what.into(),
+            reason: reason.into(),
+        }
     }
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }
 

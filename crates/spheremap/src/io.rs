@@ -20,7 +20,12 @@ pub struct Image {
 
 impl Image {
     pub fn new(width: usize, height: usize, channels: usize) -> Self {
-        Image { width, height, channels, data: vec![0.0; width * height * channels] }
+        Image {
+            width,
+            height,
+            channels,
+            data: vec![0.0; width * height * channels],
+        }
     }
     #[inline]
     pub fn pixel_mut(&mut self, x: usize, y: usize) -> &mut [f32] {
@@ -36,13 +41,22 @@ impl Image {
 
 /// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which
 /// is renamed to `path` only when `fill` succeeded.
-pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<()>) -> Result<()> {
+pub fn atomic_write(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> Result<()>,
+) -> Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().ok_or_else(|| Error::param("output", format!("{} is not a file path", path.display())))?;
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::param("output", format!("{} is not a file path", path.display())))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
         fill(&mut f)?;
@@ -64,15 +78,26 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
 #[inline]
 pub fn linear_to_srgb(v: f32) -> f32 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+    if v <= 0.0031308 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Writes an image; the format follows the extension: `.png` (8-bit sRGB) or `.exr` (32-bit
 /// float, linear).
 pub fn write_image(path: &Path, img: &Image) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     if !(img.channels == 3 || img.channels == 4) {
-        return Err(Error::unsupported(format!("{}-channel image", img.channels), "only RGB and RGBA are written"));
+        return Err(Error::unsupported(
+            format!("{}-channel image", img.channels),
+            "only RGB and RGBA are written",
+        ));
     }
     match ext.as_str() {
         "png" => {
@@ -81,36 +106,71 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
                 .chunks_exact(img.channels)
                 .flat_map(|px| {
                     px.iter().enumerate().map(|(c, &v)| {
-                        let e = if c == 3 { v.clamp(0.0, 1.0) } else { linear_to_srgb(v) };
+                        let e = if c == 3 {
+                            v.clamp(0.0, 1.0)
+                        } else {
+                            linear_to_srgb(v)
+                        };
                         (e * 255.0 + 0.5) as u8
                     })
                 })
                 .collect();
-            let color = if img.channels == 3 { image::ExtendedColorType::Rgb8 } else { image::ExtendedColorType::Rgba8 };
+            let color = if img.channels == 3 {
+                image::ExtendedColorType::Rgb8
+            } else {
+                image::ExtendedColorType::Rgba8
+            };
             atomic_write(path, |f| {
                 let enc = image::codecs::png::PngEncoder::new(std::io::BufWriter::new(f));
-                image::ImageEncoder::write_image(enc, &bytes, img.width as u32, img.height as u32, color)
-                    .map_err(|e| Error::data(path, format!("cannot encode PNG: {e}")))
+                image::ImageEncoder::write_image(
+                    enc,
+                    &bytes,
+                    img.width as u32,
+                    img.height as u32,
+                    color,
+                )
+                .map_err(|e| Error::data(path, format!("cannot encode PNG: {e}")))
             })
         }
         "exr" => {
-            let color = if img.channels == 3 { image::ExtendedColorType::Rgb32F } else { image::ExtendedColorType::Rgba32F };
+            let color = if img.channels == 3 {
+                image::ExtendedColorType::Rgb32F
+            } else {
+                image::ExtendedColorType::Rgba32F
+            };
             let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_le_bytes()).collect();
             atomic_write(path, |f| {
                 let enc = image::codecs::openexr::OpenExrEncoder::new(std::io::BufWriter::new(f));
-                image::ImageEncoder::write_image(enc, &bytes, img.width as u32, img.height as u32, color)
-                    .map_err(|e| Error::data(path, format!("cannot encode EXR: {e}")))
+                image::ImageEncoder::write_image(
+                    enc,
+                    &bytes,
+                    img.width as u32,
+                    img.height as u32,
+                    color,
+                )
+                .map_err(|e| Error::data(path, format!("cannot encode EXR: {e}")))
             })
         }
-        other => Err(Error::unsupported(format!("image extension {other:?}"), "write .png or .exr")),
+        other => Err(Error::unsupported(
+            format!("image extension {other:?}"),
+            "write .png or .exr",
+        )),
     }
 }
 
 /// Writes a float32 `.npy` array (NumPy format 1.0, little-endian, C order).
 pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
-    assert_eq!(shape.iter().product::<usize>(), data.len(), "shape does not match data");
+    assert_eq!(
+        shape.iter().product::<usize>(),
+        data.len(),
+        "shape does not match data"
+    );
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
-    let shape_txt = if dims.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
+    let shape_txt = if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
     let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape_txt}, }}");
     // Magic (6) + version (2) + header length (2) + header + '\n' is a multiple of 64.
     let total = 10 + header.len() + 1;
@@ -120,7 +180,8 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
         let mut w = std::io::BufWriter::new(f);
         let e = io_err(path);
         w.write_all(b"\x93NUMPY\x01\x00").map_err(&e)?;
-        w.write_all(&(header.len() as u16).to_le_bytes()).map_err(&e)?;
+        w.write_all(&(header.len() as u16).to_le_bytes())
+            .map_err(&e)?;
         w.write_all(header.as_bytes()).map_err(&e)?;
         for v in data {
             w.write_all(&v.to_le_bytes()).map_err(&e)?;
@@ -138,7 +199,16 @@ pub fn write_csv(path: &Path, header: &[&str], data: &[f32]) -> Result<()> {
         let e = io_err(path);
         writeln!(w, "{}", header.join(",")).map_err(&e)?;
         for row in data.chunks_exact(cols) {
-            let line: Vec<String> = row.iter().map(|v| if v.is_nan() { "nan".into() } else { format!("{v:?}") }).collect();
+            let line: Vec<String> = row
+                .iter()
+                .map(|v| {
+                    if v.is_nan() {
+                        "nan".into()
+                    } else {
+                        format!("{v:?}")
+                    }
+                })
+                .collect();
             writeln!(w, "{}", line.join(",")).map_err(&e)?;
         }
         w.flush().map_err(&e)
@@ -147,12 +217,22 @@ pub fn write_csv(path: &Path, header: &[&str], data: &[f32]) -> Result<()> {
 
 /// Writes a mesh as OBJ with one `vt` per vertex (the texgen result) and `vn` normals.
 /// `mtl`: optional (material library file name, material name) to reference.
-pub fn write_obj_with_uv(path: &Path, mesh: &Mesh, uv: &[f32], mtl: Option<(&str, &str)>) -> Result<()> {
+pub fn write_obj_with_uv(
+    path: &Path,
+    mesh: &Mesh,
+    uv: &[f32],
+    mtl: Option<(&str, &str)>,
+) -> Result<()> {
     assert_eq!(uv.len(), 2 * mesh.positions.len());
     atomic_write(path, |f| {
         let mut w = std::io::BufWriter::new(f);
         let e = io_err(path);
-        writeln!(w, "# written by spheremap {}: vt = GL_SPHERE_MAP texgen (s,t)", env!("CARGO_PKG_VERSION")).map_err(&e)?;
+        writeln!(
+            w,
+            "# written by spheremap {}: vt = GL_SPHERE_MAP texgen (s,t)",
+            env!("CARGO_PKG_VERSION")
+        )
+        .map_err(&e)?;
         if let Some((lib, _)) = mtl {
             writeln!(w, "mtllib {lib}").map_err(&e)?;
         }
@@ -161,7 +241,11 @@ pub fn write_obj_with_uv(path: &Path, mesh: &Mesh, uv: &[f32], mtl: Option<(&str
         }
         for st in uv.chunks_exact(2) {
             // NaN (singular) texcoords would break OBJ readers: write the centre and say so.
-            let (s, t) = if st[0].is_finite() && st[1].is_finite() { (st[0], st[1]) } else { (0.5, 0.5) };
+            let (s, t) = if st[0].is_finite() && st[1].is_finite() {
+                (st[0], st[1])
+            } else {
+                (0.5, 0.5)
+            };
             writeln!(w, "vt {s:?} {t:?}").map_err(&e)?;
         }
         for n in &mesh.normals {
@@ -180,5 +264,7 @@ pub fn write_obj_with_uv(path: &Path, mesh: &Mesh, uv: &[f32], mtl: Option<(&str
 
 /// Writes a small text file atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    atomic_write(path, |f| f.write_all(text.as_bytes()).map_err(|e| Error::io(path, e)))
+    atomic_write(path, |f| {
+        f.write_all(text.as_bytes()).map_err(|e| Error::io(path, e))
+    })
 }

@@ -71,7 +71,12 @@ fn normalize<T: Real>(v: [T; 3]) -> [T; 3] {
 
 /// MatCap texture coordinates (u, v) (v up, like t) for eye-space normal `n` at eye-space
 /// position `p` (`None`: an orthographic view, view ray (0,0,−1) everywhere).
-pub fn matcap_uv<T: Real>(n: [T; 3], p: Option<[T; 3]>, variant: MatcapVariant, scale: T) -> [T; 2] {
+pub fn matcap_uv<T: Real>(
+    n: [T; 3],
+    p: Option<[T; 3]>,
+    variant: MatcapVariant,
+    scale: T,
+) -> [T; 2] {
     let n = normalize(n);
     let (a, b) = match variant {
         MatcapVariant::Classic => (n[0], n[1]),
@@ -81,7 +86,11 @@ pub fn matcap_uv<T: Real>(n: [T; 3], p: Option<[T; 3]>, variant: MatcapVariant, 
                 None => [T::ZERO, T::ZERO, T::ONE],
             };
             let x = normalize([v[2], T::ZERO, -v[0]]);
-            let y = [v[1] * x[2] - v[2] * x[1], v[2] * x[0] - v[0] * x[2], v[0] * x[1] - v[1] * x[0]];
+            let y = [
+                v[1] * x[2] - v[2] * x[1],
+                v[2] * x[0] - v[0] * x[2],
+                v[0] * x[1] - v[1] * x[0],
+            ];
             (dot3(x, n), dot3(y, n))
         }
         MatcapVariant::Perspective => match p {
@@ -94,7 +103,11 @@ pub fn matcap_uv<T: Real>(n: [T; 3], p: Option<[T; 3]>, variant: MatcapVariant, 
                     return [T::NAN, T::NAN];
                 }
                 let k = [-d[1], d[0], T::ZERO];
-                let kxn = [k[1] * n[2] - k[2] * n[1], k[2] * n[0] - k[0] * n[2], k[0] * n[1] - k[1] * n[0]];
+                let kxn = [
+                    k[1] * n[2] - k[2] * n[1],
+                    k[2] * n[0] - k[0] * n[2],
+                    k[0] * n[1] - k[1] * n[0],
+                ];
                 let kn = dot3(k, n) / onepc;
                 (c * n[0] + kxn[0] + k[0] * kn, c * n[1] + kxn[1] + k[1] * kn)
             }

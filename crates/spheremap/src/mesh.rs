@@ -24,7 +24,11 @@ pub struct Mesh {
 /// its extension.
 pub fn load_mesh(path: &Path) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     let mesh = if bytes.starts_with(b"glTF") || ext == "gltf" || ext == "glb" {
         load_gltf(path)?
     } else if ext == "obj" || looks_like_obj(&bytes) {
@@ -42,8 +46,10 @@ pub fn load_mesh(path: &Path) -> Result<Mesh> {
 /// Parses OBJ text (no MTL) from memory; `name` is used in messages.
 pub fn parse_obj(name: &str, text: &str) -> Result<Mesh> {
     let mut reader = std::io::Cursor::new(text.as_bytes());
-    let (models, _) = tobj::load_obj_buf(&mut reader, &obj_options(), |_| Err(tobj::LoadError::OpenFileFailed))
-        .map_err(|e| Error::data(name, format!("cannot parse OBJ: {e}")))?;
+    let (models, _) = tobj::load_obj_buf(&mut reader, &obj_options(), |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| Error::data(name, format!("cannot parse OBJ: {e}")))?;
     let mesh = from_obj_models(name, models)?;
     validate(Path::new(name), &mesh)?;
     Ok(mesh)
@@ -51,16 +57,26 @@ pub fn parse_obj(name: &str, text: &str) -> Result<Mesh> {
 
 fn looks_like_obj(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
-    std::str::from_utf8(head).map(|s| s.lines().any(|l| l.starts_with("v ") || l.starts_with("f "))).unwrap_or(false)
+    std::str::from_utf8(head)
+        .map(|s| {
+            s.lines()
+                .any(|l| l.starts_with("v ") || l.starts_with("f "))
+        })
+        .unwrap_or(false)
 }
 
 fn obj_options() -> tobj::LoadOptions {
-    tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true }
+    tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    }
 }
 
 fn load_obj(path: &Path) -> Result<Mesh> {
-    let (models, _materials) =
-        tobj::load_obj(path, &obj_options()).map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
+    let (models, _materials) = tobj::load_obj(path, &obj_options())
+        .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
     from_obj_models(&path.display().to_string(), models)
 }
 
@@ -74,15 +90,21 @@ fn from_obj_models(name: &str, models: Vec<tobj::Model>) -> Result<Mesh> {
             all_have_normals = false;
         }
         let base = mesh.positions.len() as u32;
-        mesh.positions.extend(m.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        mesh.positions
+            .extend(m.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         if m.normals.len() == m.positions.len() {
-            mesh.normals.extend(m.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+            mesh.normals
+                .extend(m.normals.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         }
         for tri in m.indices.chunks_exact(3) {
             if tri.iter().any(|&i| i as usize >= nv) {
-                return Err(Error::data(name, format!("face index out of range in object {:?}", model.name)));
+                return Err(Error::data(
+                    name,
+                    format!("face index out of range in object {:?}", model.name),
+                ));
             }
-            mesh.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
+            mesh.triangles
+                .push([base + tri[0], base + tri[1], base + tri[2]]);
         }
     }
     if all_have_normals && !mesh.positions.is_empty() {
@@ -102,7 +124,10 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
         Some(scene) => scene.nodes().collect(),
         None => doc.nodes().collect(),
     };
-    let mut stack: Vec<(gltf::Node, glam::Mat4)> = roots.into_iter().map(|n| (n, glam::Mat4::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, glam::Mat4)> = roots
+        .into_iter()
+        .map(|n| (n, glam::Mat4::IDENTITY))
+        .collect();
     while let Some((node, parent)) = stack.pop() {
         let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
         for child in node.children() {
@@ -115,14 +140,20 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
                 continue;
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let Some(pos) = reader.read_positions() else { continue };
+            let Some(pos) = reader.read_positions() else {
+                continue;
+            };
             let base = mesh.positions.len() as u32;
-            let pos: Vec<[f32; 3]> = pos.map(|p| world.transform_point3(p.into()).into()).collect();
+            let pos: Vec<[f32; 3]> = pos
+                .map(|p| world.transform_point3(p.into()).into())
+                .collect();
             let nv = pos.len();
             match reader.read_normals() {
-                Some(ns) => mesh
-                    .normals
-                    .extend(ns.map(|n| <[f32; 3]>::from((nmat * glam::Vec3::from(n)).normalize_or_zero()))),
+                Some(ns) => {
+                    mesh.normals.extend(ns.map(|n| {
+                        <[f32; 3]>::from((nmat * glam::Vec3::from(n)).normalize_or_zero())
+                    }))
+                }
                 None => all_have_normals = false,
             }
             mesh.positions.extend(pos);
@@ -134,11 +165,13 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
                 if tri.iter().any(|&i| i as usize >= nv) {
                     return Err(Error::data(path, "glTF index out of range"));
                 }
-                mesh.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
+                mesh.triangles
+                    .push([base + tri[0], base + tri[1], base + tri[2]]);
             }
         }
     }
-    if all_have_normals && mesh.normals.len() == mesh.positions.len() && !mesh.positions.is_empty() {
+    if all_have_normals && mesh.normals.len() == mesh.positions.len() && !mesh.positions.is_empty()
+    {
         mesh.normals_from_file = true;
     } else {
         mesh.normals = vertex_normals(&mesh.positions, &mesh.triangles);
@@ -150,8 +183,15 @@ fn validate(path: &Path, mesh: &Mesh) -> Result<()> {
     if mesh.positions.is_empty() {
         return Err(Error::data(path, "the mesh has no vertices"));
     }
-    if let Some(i) = mesh.positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
-        return Err(Error::data(path, format!("vertex {i} has a non-finite coordinate")));
+    if let Some(i) = mesh
+        .positions
+        .iter()
+        .position(|p| p.iter().any(|v| !v.is_finite()))
+    {
+        return Err(Error::data(
+            path,
+            format!("vertex {i} has a non-finite coordinate"),
+        ));
     }
     Ok(())
 }
@@ -175,13 +215,21 @@ pub fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f3
     let p = |i: u32| DVec3::from(positions[i as usize].map(|v| v as f64));
     for tri in triangles {
         let v = [p(tri[0]), p(tri[1]), p(tri[2])];
-        let Some(fnrm) = (v[1] - v[0]).cross(v[2] - v[0]).try_normalize() else { continue };
+        let Some(fnrm) = (v[1] - v[0]).cross(v[2] - v[0]).try_normalize() else {
+            continue;
+        };
         for k in 0..3 {
-            let (a, b) = ((v[(k + 1) % 3] - v[k]).try_normalize(), (v[(k + 2) % 3] - v[k]).try_normalize());
+            let (a, b) = (
+                (v[(k + 1) % 3] - v[k]).try_normalize(),
+                (v[(k + 2) % 3] - v[k]).try_normalize(),
+            );
             if let (Some(a), Some(b)) = (a, b) {
                 acc[groups[tri[k] as usize]] += fnrm * a.dot(b).clamp(-1.0, 1.0).acos();
             }
         }
     }
-    groups.iter().map(|&g| acc[g].normalize_or_zero().as_vec3().to_array()).collect()
+    groups
+        .iter()
+        .map(|&g| acc[g].normalize_or_zero().as_vec3().to_array())
+        .collect()
 }

@@ -6,7 +6,12 @@ use crate::error::{Error, Result};
 /// A 4×4 matrix, row-major, math convention (`eye = M · p`).
 pub type Mat4 = [[f64; 4]; 4];
 
-pub const IDENTITY: Mat4 = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+pub const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
 
 /// Parses a modelview spec (`param` names the argument in errors):
 ///
@@ -23,20 +28,35 @@ pub fn parse_matrix4(spec: &str, column_major: bool, param: &str) -> Result<Mat4
     if let Some(rest) = spec.strip_prefix("lookat:") {
         let v = parse_numbers(rest, param)?;
         if v.len() != 9 {
-            return Err(Error::param(param, format!("lookat: needs 9 numbers (eye, target, up), got {}", v.len())));
+            return Err(Error::param(
+                param,
+                format!("lookat: needs 9 numbers (eye, target, up), got {}", v.len()),
+            ));
         }
-        return look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]], param);
+        return look_at(
+            [v[0], v[1], v[2]],
+            [v[3], v[4], v[5]],
+            [v[6], v[7], v[8]],
+            param,
+        );
     }
     let v = parse_numbers(spec, param)?;
     if v.len() != 16 {
         return Err(Error::param(
             param,
-            format!("expected 16 numbers (a 4x4 matrix), 'identity' or 'lookat:...', got {} numbers", v.len()),
+            format!(
+                "expected 16 numbers (a 4x4 matrix), 'identity' or 'lookat:...', got {} numbers",
+                v.len()
+            ),
         ));
     }
     let mut m = [[0.0; 4]; 4];
     for (k, x) in v.into_iter().enumerate() {
-        let (r, c) = if column_major { (k % 4, k / 4) } else { (k / 4, k % 4) };
+        let (r, c) = if column_major {
+            (k % 4, k / 4)
+        } else {
+            (k / 4, k % 4)
+        };
         m[r][c] = x;
     }
     Ok(m)
@@ -58,8 +78,13 @@ pub fn parse_numbers(text: &str, param: &str) -> Result<Vec<f64>> {
 pub fn look_at(eye: [f64; 3], target: [f64; 3], up: [f64; 3], param: &str) -> Result<Mat4> {
     use glam::DVec3;
     let (e, t, u) = (DVec3::from(eye), DVec3::from(target), DVec3::from(up));
-    let f = (t - e).try_normalize().ok_or_else(|| Error::param(param, "eye and target coincide"))?;
-    let s = f.cross(u).try_normalize().ok_or_else(|| Error::param(param, "up is zero or parallel to the view direction"))?;
+    let f = (t - e)
+        .try_normalize()
+        .ok_or_else(|| Error::param(param, "eye and target coincide"))?;
+    let s = f
+        .cross(u)
+        .try_normalize()
+        .ok_or_else(|| Error::param(param, "up is zero or parallel to the view direction"))?;
     let u = s.cross(f);
     Ok([
         [s.x, s.y, s.z, -s.dot(e)],
@@ -79,13 +104,24 @@ mod tests {
         assert_eq!(r[0], [1.0, 2.0, 3.0, 4.0]);
         let c = parse_matrix4(s, true, "m").unwrap();
         assert_eq!(c[0], [1.0, 5.0, 9.0, 13.0]);
-        assert!(parse_matrix4("1 2 3", false, "m").unwrap_err().to_string().starts_with("m: expected 16"));
+        assert!(parse_matrix4("1 2 3", false, "m")
+            .unwrap_err()
+            .to_string()
+            .starts_with("m: expected 16"));
         assert!(parse_matrix4("lookat:0,0,0,0,0,0,0,1,0", false, "m").is_err());
         assert!(parse_matrix4(&"nan ".repeat(16), false, "m").is_err());
     }
     #[test]
     fn look_at_is_glu() {
         let m = look_at([0.0, 0.0, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], "m").unwrap();
-        assert_eq!(m, [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, -5.0], [0.0, 0.0, 0.0, 1.0]]);
+        assert_eq!(
+            m,
+            [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, -5.0],
+                [0.0, 0.0, 0.0, 1.0]
+            ]
+        );
     }
 }

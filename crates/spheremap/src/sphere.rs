@@ -55,7 +55,11 @@ pub fn dir_to_st<T: Real>(r: [T; 3], singular: Singular) -> [T; 2] {
     let (x, y, z) = (r[0] * inv, r[1] * inv, r[2] * inv);
     let q = x * x + y * y;
     // 1 + z without cancellation (exact identity for unit vectors).
-    let zp1 = if z >= T::ZERO { T::ONE + z } else { q / (T::ONE - z) };
+    let zp1 = if z >= T::ZERO {
+        T::ONE + z
+    } else {
+        q / (T::ONE - z)
+    };
     let h2 = q + zp1 * zp1;
     if h2 == T::ZERO {
         return match singular {

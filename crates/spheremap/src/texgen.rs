@@ -22,8 +22,9 @@
 //! (½,½).  A singular modelview (no inverse) uses the identity as its inverse, as Mesa does.
 //! Non-finite input propagates to NaN output.
 //!
-//! Two paths: [`sphere_texgen`] (f32, what GL computes, vectorised and multi-threaded) and
-//! [`sphere_texgen_f64`] (f64 reference, same operations in the same order).
+//! Two paths: [`sphere_texgen`] (f32, what GL computes — rearranged exactly to save two square
+//! roots, see `Kernel::block` — vectorised and multi-threaded) and [`sphere_texgen_f64`] (f64
+//! reference, GL's operations in GL's order).
 
 use crate::conventions::Singular;
 use crate::error::{Error, Result};
@@ -49,7 +50,10 @@ impl NormalMode {
             "on" => Ok(Self::On),
             "off" => Ok(Self::Off),
             "rescale" => Ok(Self::Rescale),
-            other => Err(Error::param(param, format!("unknown value {other:?}; expected one of: on, off, rescale"))),
+            other => Err(Error::param(
+                param,
+                format!("unknown value {other:?}; expected one of: on, off, rescale"),
+            )),
         }
     }
 }
@@ -92,12 +96,21 @@ impl ModelviewState {
             let f = if f < 1e-12 { 1.0 } else { f };
             (1.0 / f.sqrt()) as f64
         };
-        Ok(ModelviewState { m, normal_matrix, rescale, singular })
+        Ok(ModelviewState {
+            m,
+            normal_matrix,
+            rescale,
+            singular,
+        })
     }
 }
 
-const IDENTITY4: [[f64; 4]; 4] =
-    [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+const IDENTITY4: [[f64; 4]; 4] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
 
 /// 4×4 inverse by Gaussian elimination with partial pivoting (as Mesa's
 /// `invert_matrix_general`/`util_invert_mat4x4`), in f64.  `None` when a pivot is exactly zero
@@ -109,7 +122,8 @@ pub fn invert4(m: &[[f64; 4]; 4]) -> Option<[[f64; 4]; 4]> {
         a[i][4 + i] = 1.0;
     }
     for col in 0..4 {
-        let piv = (col..4).max_by(|&x, &y| a[x][col].abs().partial_cmp(&a[y][col].abs()).unwrap())?;
+        let piv =
+            (col..4).max_by(|&x, &y| a[x][col].abs().partial_cmp(&a[y][col].abs()).unwrap())?;
         if a[piv][col] == 0.0 {
             return None;
         }
@@ -150,7 +164,11 @@ fn mesa_length_preserving(mm: &[[f64; 4]; 4]) -> bool {
     }
     let identity_like = (0..16).all(|i| {
         let diag = i % 5 == 0;
-        if diag { m(i) == 1.0 } else { zero(i) }
+        if diag {
+            m(i) == 1.0
+        } else {
+            zero(i)
+        }
     });
     if identity_like {
         return true;
@@ -184,7 +202,11 @@ fn mesa_length_preserving(mm: &[[f64; 4]; 4]) -> bool {
     if scaled || !(sq(d1) < tol) {
         return false;
     }
-    let cp = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cp = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
     let e = [cp[0] - c[0], cp[1] - c[1], cp[2] - c[2]];
     dot(e, e) < tol
 }
@@ -223,19 +245,36 @@ pub struct TexgenOptions {
     pub singular: Singular,
 }
 
-fn check_lengths(positions_len: usize, pw: usize, normals_len: usize, out_len: usize) -> Result<usize> {
+fn check_lengths(
+    positions_len: usize,
+    pw: usize,
+    normals_len: usize,
+    out_len: usize,
+) -> Result<usize> {
     if pw != 3 && pw != 4 {
-        return Err(Error::param("positions", format!("must have 3 or 4 components per vertex, not {pw}")));
+        return Err(Error::param(
+            "positions",
+            format!("must have 3 or 4 components per vertex, not {pw}"),
+        ));
     }
     if positions_len % pw != 0 {
-        return Err(Error::param("positions", format!("length {positions_len} is not a multiple of {pw}")));
+        return Err(Error::param(
+            "positions",
+            format!("length {positions_len} is not a multiple of {pw}"),
+        ));
     }
     let n = positions_len / pw;
     if normals_len != 3 * n {
-        return Err(Error::param("normals", format!("must hold {n} normals (3 values each), got {normals_len} values")));
+        return Err(Error::param(
+            "normals",
+            format!("must hold {n} normals (3 values each), got {normals_len} values"),
+        ));
     }
     if out_len != 2 * n {
-        return Err(Error::param("out", format!("must hold {} values, got {out_len}", 2 * n)));
+        return Err(Error::param(
+            "out",
+            format!("must hold {} values, got {out_len}", 2 * n),
+        ));
     }
     Ok(n)
 }
@@ -244,7 +283,7 @@ fn check_lengths(positions_len: usize, pw: usize, normals_len: usize, out_len: u
 /// arithmetic as straight-line loops that the compiler vectorises.
 const BLOCK: usize = 64;
 /// Vertices per parallel task.
-const TASK: usize = 16 * 1024;
+const TASK: usize = 64 * 1024;
 
 /// GL_SPHERE_MAP texgen, float32 (what GL computes).
 ///
@@ -276,9 +315,51 @@ pub fn sphere_texgen<P: Elem, N: Elem>(
     if n < 2 * TASK {
         run(0, out);
     } else {
-        out.par_chunks_mut(2 * TASK).enumerate().for_each(|(i, o)| run(i * TASK, o));
+        out.par_chunks_mut(2 * TASK)
+            .enumerate()
+            .for_each(|(i, o)| run(i * TASK, o));
     }
     Ok(())
+}
+
+/// The interleaved (s,t) of one block, aligned for streaming stores.
+#[repr(align(16))]
+struct Aligned16([f32; 2 * BLOCK]);
+
+/// The output is written with non-temporal (streaming) stores where it is 16-byte aligned: the
+/// result is not read back here, and streaming skips the read-for-ownership of every output
+/// line (8 of the 40 MB a 1M-vertex call moves).
+#[inline(always)]
+fn stream_store_ok(out: &[f32]) -> bool {
+    cfg!(target_arch = "x86_64") && (out.as_ptr() as usize) % 16 == 0
+}
+
+#[inline(always)]
+fn stream_store(src: &[f32; 2 * BLOCK], out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert!(out.len() == 2 * BLOCK);
+        for j in (0..2 * BLOCK).step_by(4) {
+            // SAFETY: `out` holds 2·BLOCK floats and is 16-byte aligned (stream_store_ok), `src`
+            // is 16-byte aligned (Aligned16); SSE is part of x86-64.
+            unsafe {
+                let v = core::arch::x86_64::_mm_load_ps(src.as_ptr().add(j));
+                core::arch::x86_64::_mm_stream_ps(out.as_mut_ptr().add(j), v);
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    out.copy_from_slice(src);
+}
+
+/// Orders the streaming stores before anything that follows (the thread's return).
+#[inline(always)]
+fn stream_fence() {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a store fence has no preconditions.
+    unsafe {
+        core::arch::x86_64::_mm_sfence()
+    };
 }
 
 /// GL's `RSQ` in float32: `1/√x`, correctly rounded square root then division (llvmpipe
@@ -287,7 +368,11 @@ pub fn sphere_texgen<P: Elem, N: Elem>(
 #[inline(always)]
 pub fn rsq_f32<const CENTER: bool>(x: f32) -> f32 {
     let r = 1.0 / x.sqrt();
-    if CENTER && x == 0.0 { 0.0 } else { r }
+    if CENTER && x == 0.0 {
+        0.0
+    } else {
+        r
+    }
 }
 
 /// The per-call constants of the f32 kernel.
@@ -319,7 +404,13 @@ impl Kernel {
             NormalMode::Off => (false, 1.0),
             NormalMode::Rescale => (false, mv.rescale as f32),
         };
-        Kernel { m, nm, normalize, scale, center: opts.singular == Singular::Center }
+        Kernel {
+            m,
+            nm,
+            normalize,
+            scale,
+            center: opts.singular == Singular::Center,
+        }
     }
 
     fn dispatch<P: Elem, N: Elem, const PW: usize>(&self, pos: &[P], nrm: &[N], out: &mut [f32]) {
@@ -340,9 +431,14 @@ impl Kernel {
     ) {
         #[cfg(target_arch = "x86_64")]
         {
+            if std::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU supports AVX-512F (checked just above).
+                unsafe { self.run_avx512::<P, N, PW, NORM, CENTER>(pos, nrm, out) };
+                return;
+            }
             if std::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2 (checked just above).  No FMA is used, so the
-                // results are bit-identical to the portable path.
+                // SAFETY: the CPU supports AVX2 (checked just above).  No FMA is used (Rust never
+                // contracts a*b+c on its own), so every path gives bit-identical results.
                 unsafe { self.run_avx2::<P, N, PW, NORM, CENTER>(pos, nrm, out) };
                 return;
             }
@@ -353,6 +449,23 @@ impl Kernel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn run_avx2<P: Elem, N: Elem, const PW: usize, const NORM: bool, const CENTER: bool>(
+        &self,
+        pos: &[P],
+        nrm: &[N],
+        out: &mut [f32],
+    ) {
+        self.run::<P, N, PW, NORM, CENTER>(pos, nrm, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn run_avx512<
+        P: Elem,
+        N: Elem,
+        const PW: usize,
+        const NORM: bool,
+        const CENTER: bool,
+    >(
         &self,
         pos: &[P],
         nrm: &[N],
@@ -375,10 +488,14 @@ impl Kernel {
         let mut p = [[1.0f32; BLOCK]; 4];
         let mut n = [[0.0f32; BLOCK]; 3];
         let mut st = [[0.0f32; BLOCK]; 2];
+        let mut inter = Aligned16([0.0f32; 2 * BLOCK]);
         let mut start = 0;
         while start < count {
             let len = BLOCK.min(count - start);
-            let (pos, nrm) = (&pos[start * PW..(start + len) * PW], &nrm[start * 3..(start + len) * 3]);
+            let (pos, nrm) = (
+                &pos[start * PW..(start + len) * PW],
+                &nrm[start * 3..(start + len) * 3],
+            );
             for i in 0..len {
                 for c in 0..PW {
                     p[c][i] = pos[i * PW + c].f32();
@@ -387,56 +504,89 @@ impl Kernel {
                     n[c][i] = nrm[i * 3 + c].f32();
                 }
             }
-            self.block::<NORM, CENTER>(&p, &n, &mut st);
+            self.block::<NORM, CENTER, PW>(&p, &n, &mut st);
             let out = &mut out[start * 2..(start + len) * 2];
-            for i in 0..len {
-                out[2 * i] = st[0][i];
-                out[2 * i + 1] = st[1][i];
+            if len == BLOCK && stream_store_ok(out) {
+                for i in 0..BLOCK {
+                    inter.0[2 * i] = st[0][i];
+                    inter.0[2 * i + 1] = st[1][i];
+                }
+                stream_store(&inter.0, out);
+            } else {
+                for i in 0..len {
+                    out[2 * i] = st[0][i];
+                    out[2 * i + 1] = st[1][i];
+                }
             }
             start += len;
         }
+        stream_fence();
     }
 
-    /// The arithmetic of one block, in GL's order of operations.
+    /// The arithmetic of one block: GL's formula, rearranged to need two square roots instead of
+    /// three (they and the divisions are most of the cost).
+    ///
+    /// With `u = e/√a` (`a = e·e`) and `n = n'·κ` (κ = rsq(n'·n') for GL_NORMALIZE, the rescale
+    /// factor, or 1), `r = u − 2(n·u)n = R/√a` with `R = e − 2κ²(n'·e) n'`.  Then
+    /// `m = 2|r + ẑ| = 2√(R_x² + R_y² + (R_z + √a)²)/√a`, and the √a cancels in `r_x/m`:
+    ///
+    /// ```text
+    /// s = ½ R_x / √Q + ½,   t = ½ R_y / √Q + ½,   Q = R_x² + R_y² + (R_z + √a)²
+    /// ```
+    ///
+    /// For GL_NORMALIZE (κ² = 1/b, b = n'·n') the same holds for `b·R = b e − 2(n'·e) n'` with
+    /// `√a` replaced by `b√a`: b cancels as √a did, so no division is needed for it.  Per vertex:
+    /// two square roots and one division, instead of three of each.
+    ///
+    /// Special values fall out as in GL: a vertex at the eye gives R = 0, Q = 0, `0·∞` = NaN; a
+    /// zero normal with GL_NORMALIZE gives b = 0, bR = 0, Q = 0, NaN (Mesa: `0·rsq(0)` = NaN);
+    /// r = (0,0,−1) gives Q = 0 exactly.  Legacy ("center") mode turns a zero normal into
+    /// R = e (r = u) and Q = 0 into (½,½), as legacy Mesa.  Against GL's own order of operations
+    /// the result differs by rounding only (the Mesa oracle test bounds it).
     #[inline(always)]
-    fn block<const NORM: bool, const CENTER: bool>(
+    fn block<const NORM: bool, const CENTER: bool, const PW: usize>(
         &self,
         p: &[[f32; BLOCK]; 4],
         n: &[[f32; BLOCK]; 3],
         st: &mut [[f32; BLOCK]; 2],
     ) {
         let (m, nm) = (&self.m, &self.nm);
-        let rsq = |x: f32| rsq_f32::<CENTER>(x);
+        let scale2 = self.scale * self.scale;
         for i in 0..BLOCK {
-            let (x, y, z, w) = (p[0][i], p[1][i], p[2][i], p[3][i]);
-            let ex = m[0][0] * x + m[0][1] * y + m[0][2] * z + m[0][3] * w;
-            let ey = m[1][0] * x + m[1][1] * y + m[1][2] * z + m[1][3] * w;
-            let ez = m[2][0] * x + m[2][1] * y + m[2][2] * z + m[2][3] * w;
-            let ku = rsq(ex * ex + ey * ey + ez * ez);
-            let (ux, uy, uz) = (ex * ku, ey * ku, ez * ku);
+            let (x, y, z) = (p[0][i], p[1][i], p[2][i]);
+            // With 3-component positions w = 1 and m·w = m exactly: skip the multiply.
+            let wt = |r: usize| if PW == 4 { m[r][3] * p[3][i] } else { m[r][3] };
+            let ex = m[0][0] * x + m[0][1] * y + m[0][2] * z + wt(0);
+            let ey = m[1][0] * x + m[1][1] * y + m[1][2] * z + wt(1);
+            let ez = m[2][0] * x + m[2][1] * y + m[2][2] * z + wt(2);
+            let sa = (ex * ex + ey * ey + ez * ez).sqrt();
             let (ox, oy, oz) = (n[0][i], n[1][i], n[2][i]);
-            let mut nx = nm[0][0] * ox + nm[0][1] * oy + nm[0][2] * oz;
-            let mut ny = nm[1][0] * ox + nm[1][1] * oy + nm[1][2] * oz;
-            let mut nz = nm[2][0] * ox + nm[2][1] * oy + nm[2][2] * oz;
-            let kn = if NORM { rsq(nx * nx + ny * ny + nz * nz) } else { self.scale };
-            nx *= kn;
-            ny *= kn;
-            nz *= kn;
-            let d = nx * ux + ny * uy + nz * uz;
-            let d2 = d + d;
-            let rx = ux - d2 * nx;
-            let ry = uy - d2 * ny;
-            let rz = uz - d2 * nz;
-            let az = rz + 1.0;
-            let k = rsq(rx * rx + ry * ry + az * az) * 0.5;
+            let nx = nm[0][0] * ox + nm[0][1] * oy + nm[0][2] * oz;
+            let ny = nm[1][0] * ox + nm[1][1] * oy + nm[1][2] * oz;
+            let nz = nm[2][0] * ox + nm[2][1] * oy + nm[2][2] * oz;
+            let ne = nx * ex + ny * ey + nz * ez;
+            // GL_NORMALIZE: scale R by b = n'·n' (κ² = 1/b), which cancels in s: no division.
+            let (bb, f) = if NORM {
+                let b = nx * nx + ny * ny + nz * nz;
+                // Legacy Mesa normalizes a zero normal to zero: r = u, i.e. R = e.
+                (if CENTER && b == 0.0 { 1.0 } else { b }, 2.0 * ne)
+            } else {
+                (1.0, 2.0 * scale2 * ne)
+            };
+            let rx = bb * ex - f * nx;
+            let ry = bb * ey - f * ny;
+            let rz = bb * ez - f * nz;
+            let az = rz + bb * sa;
+            let q = rx * rx + ry * ry + az * az;
+            let k = rsq_f32::<CENTER>(q) * 0.5;
             st[0][i] = rx * k + 0.5;
             st[1][i] = ry * k + 0.5;
         }
     }
 }
 
-/// GL_SPHERE_MAP texgen, float64 reference: the operations of [`sphere_texgen`] in the same
-/// order, in double precision, on the input values as given.
+/// GL_SPHERE_MAP texgen, float64 reference: GL's operations in GL's order (the formula in the
+/// module docs), in double precision, on the input values as given.
 pub fn sphere_texgen_f64<P: Elem, N: Elem>(
     positions: &[P],
     pw: usize,
@@ -447,16 +597,34 @@ pub fn sphere_texgen_f64<P: Elem, N: Elem>(
 ) -> Result<()> {
     let n = check_lengths(positions.len(), pw, normals.len(), out.len())?;
     let center = opts.singular == Singular::Center;
-    let rsq = |x: f64| if center && x == 0.0 { 0.0 } else { 1.0 / x.sqrt() };
+    let rsq = |x: f64| {
+        if center && x == 0.0 {
+            0.0
+        } else {
+            1.0 / x.sqrt()
+        }
+    };
     let (m, nm) = (&mv.m, &mv.normal_matrix);
     for i in 0..n {
-        let pv = |c: usize| if c < pw { positions[i * pw + c].f64() } else { 1.0 };
+        let pv = |c: usize| {
+            if c < pw {
+                positions[i * pw + c].f64()
+            } else {
+                1.0
+            }
+        };
         let (x, y, z, w) = (pv(0), pv(1), pv(2), pv(3));
-        let e: [f64; 3] = std::array::from_fn(|r| m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3] * w);
+        let e: [f64; 3] =
+            std::array::from_fn(|r| m[r][0] * x + m[r][1] * y + m[r][2] * z + m[r][3] * w);
         let ku = rsq(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
         let u = [e[0] * ku, e[1] * ku, e[2] * ku];
-        let o = [normals[3 * i].f64(), normals[3 * i + 1].f64(), normals[3 * i + 2].f64()];
-        let mut nv: [f64; 3] = std::array::from_fn(|r| nm[r][0] * o[0] + nm[r][1] * o[1] + nm[r][2] * o[2]);
+        let o = [
+            normals[3 * i].f64(),
+            normals[3 * i + 1].f64(),
+            normals[3 * i + 2].f64(),
+        ];
+        let mut nv: [f64; 3] =
+            std::array::from_fn(|r| nm[r][0] * o[0] + nm[r][1] * o[1] + nm[r][2] * o[2]);
         let kn = match opts.normalize {
             NormalMode::On => rsq(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]),
             NormalMode::Off => 1.0,
@@ -486,7 +654,14 @@ mod tests {
 
     #[test]
     fn mesa_length_preserving_classification() {
-        let rot = |a: f64| [[a.cos(), -a.sin(), 0.0, 1.0], [a.sin(), a.cos(), 0.0, 2.0], [0.0, 0.0, 1.0, 3.0], [0.0, 0.0, 0.0, 1.0]];
+        let rot = |a: f64| {
+            [
+                [a.cos(), -a.sin(), 0.0, 1.0],
+                [a.sin(), a.cos(), 0.0, 2.0],
+                [0.0, 0.0, 1.0, 3.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        };
         assert!(mesa_length_preserving(&IDENTITY4));
         assert!(mesa_length_preserving(&rot(0.3)));
         let mut s = rot(0.3);
@@ -501,7 +676,12 @@ mod tests {
         assert!(!mesa_length_preserving(&g));
         // A 3D rotation about an oblique axis.
         let (c, s_) = (0.6f64, 0.8f64);
-        let r3 = [[c, 0.0, s_, 0.0], [0.0, 1.0, 0.0, 0.0], [-s_, 0.0, c, 0.0], [0.0, 0.0, 0.0, 1.0]];
+        let r3 = [
+            [c, 0.0, s_, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [-s_, 0.0, c, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
         assert!(mesa_length_preserving(&r3));
         // A mirror is not (Mesa's rotation test checks col0 × col1 = col2).
         let mut mirror = IDENTITY4;
@@ -516,9 +696,15 @@ mod tests {
         m[1][1] = 0.0;
         let st = ModelviewState::new(m).unwrap();
         assert!(st.singular);
-        assert_eq!(st.normal_matrix, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+        assert_eq!(
+            st.normal_matrix,
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        );
         let mut bad = IDENTITY4;
         bad[0][1] = f64::NAN;
-        assert!(ModelviewState::new(bad).unwrap_err().to_string().starts_with("modelview:"));
+        assert!(ModelviewState::new(bad)
+            .unwrap_err()
+            .to_string()
+            .starts_with("modelview:"));
     }
 }

@@ -80,11 +80,17 @@ fn centre_rim_and_outside() {
         let a = (k as f64).to_radians();
         let r = 0.5 * (1.0 - 1e-15);
         let d = st_to_dir([0.5 + r * a.cos(), 0.5 + r * a.sin()]).unwrap();
-        assert!(d[0].abs() < 1e-6 && d[1].abs() < 1e-6 && (d[2] + 1.0).abs() < 1e-12, "{d:?}");
+        assert!(
+            d[0].abs() < 1e-6 && d[1].abs() < 1e-6 && (d[2] + 1.0).abs() < 1e-12,
+            "{d:?}"
+        );
     }
     // Just off -Z lands just inside the rim, on the side of its x/y (no cancellation).
     let st = dir_to_st([1e-9f64, 0.0, -1.0], Singular::Nan);
-    assert!((st[0] - 1.0).abs() < 1e-15 && (st[1] - 0.5).abs() < 1e-15, "{st:?}");
+    assert!(
+        (st[0] - 1.0).abs() < 1e-15 && (st[1] - 0.5).abs() < 1e-15,
+        "{st:?}"
+    );
     assert!(st_to_dir([0.0, 0.0]).is_none());
     assert!(st_to_dir([1.0, 1.0]).is_none());
     assert!(st_to_dir([f64::NAN, 0.5]).is_none());
@@ -107,7 +113,10 @@ fn solid_angles_sum_to_4pi_and_interior_is_16_over_n2() {
                 };
                 let v = m[row * n + col];
                 if f(col).powi(2) + f(row).powi(2) <= 1.0 {
-                    assert!((v - full).abs() < 1e-15 * full.max(1.0), "n={n} ({col},{row}): {v}");
+                    assert!(
+                        (v - full).abs() < 1e-15 * full.max(1.0),
+                        "n={n} ({col},{row}): {v}"
+                    );
                 }
                 assert!(v >= 0.0 && v <= full * (1.0 + 1e-12));
             }

@@ -1,9 +1,17 @@
 use proptest::prelude::*;
 use spheremap::matcap::{matcap_uv, MatcapVariant};
-use spheremap::texgen::{sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions};
+use spheremap::texgen::{
+    sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions,
+};
 use spheremap::Singular;
 
-fn run(p: &[f32], pw: usize, n: &[f32], m: [[f64; 4]; 4], opts: TexgenOptions) -> (Vec<f32>, Vec<f64>) {
+fn run(
+    p: &[f32],
+    pw: usize,
+    n: &[f32],
+    m: [[f64; 4]; 4],
+    opts: TexgenOptions,
+) -> (Vec<f32>, Vec<f64>) {
     let mv = ModelviewState::new(m).unwrap();
     let mut a = vec![0.0f32; 2 * n.len() / 3];
     let mut b = vec![0.0f64; a.len()];
@@ -12,7 +20,12 @@ fn run(p: &[f32], pw: usize, n: &[f32], m: [[f64; 4]; 4], opts: TexgenOptions) -
     (a, b)
 }
 
-const ID: [[f64; 4]; 4] = [[1., 0., 0., 0.], [0., 1., 0., 0.], [0., 0., 1., 0.], [0., 0., 0., 1.]];
+const ID: [[f64; 4]; 4] = [
+    [1., 0., 0., 0.],
+    [0., 1., 0., 0.],
+    [0., 0., 1., 0.],
+    [0., 0., 0., 1.],
+];
 
 proptest! {
     /// f32 fast path vs f64 reference on well-conditioned vertices (r away from (0,0,-1)).
@@ -39,19 +52,44 @@ fn singular_patterns_nan_and_center() {
     let (f, d) = run(&p, 3, &n, ID, TexgenOptions::default());
     assert!(f.iter().all(|v| v.is_nan()), "{f:?}");
     assert!(d.iter().all(|v| v.is_nan()), "{d:?}");
-    let center = TexgenOptions { singular: Singular::Center, ..Default::default() };
+    let center = TexgenOptions {
+        singular: Singular::Center,
+        ..Default::default()
+    };
     let (f, d) = run(&p, 3, &n, ID, center);
     // Legacy Mesa: m = 0 and the vertex at the eye give (½,½); a zero normal normalizes to zero,
     // so r = u, as with GL_NORMALIZE off.
-    let off_zero = run(&p[3..6], 3, &n[3..6], ID, TexgenOptions { normalize: NormalMode::Off, ..Default::default() }).0;
+    let off_zero = run(
+        &p[3..6],
+        3,
+        &n[3..6],
+        ID,
+        TexgenOptions {
+            normalize: NormalMode::Off,
+            ..Default::default()
+        },
+    )
+    .0;
     assert_eq!(f, vec![0.5, 0.5, off_zero[0], off_zero[1], 0.5, 0.5]);
-    assert_eq!(d.iter().map(|v| *v as f32).collect::<Vec<_>>()[..2], [0.5, 0.5]);
+    assert_eq!(
+        d.iter().map(|v| *v as f32).collect::<Vec<_>>()[..2],
+        [0.5, 0.5]
+    );
     // Zero normal without GL_NORMALIZE: r = u, finite (as GL).
-    let off = TexgenOptions { normalize: NormalMode::Off, ..Default::default() };
+    let off = TexgenOptions {
+        normalize: NormalMode::Off,
+        ..Default::default()
+    };
     let (f, _) = run(&p[3..6], 3, &n[3..6], ID, off);
     assert!(f.iter().all(|v| v.is_finite()));
     // Non-finite input propagates.
-    let (f, _) = run(&[f32::NAN, 0.0, -1.0], 3, &[0.0, 0.0, 1.0], ID, TexgenOptions::default());
+    let (f, _) = run(
+        &[f32::NAN, 0.0, -1.0],
+        3,
+        &[0.0, 0.0, 1.0],
+        ID,
+        TexgenOptions::default(),
+    );
     assert!(f.iter().all(|v| v.is_nan()));
 }
 
@@ -66,8 +104,28 @@ fn normal_off_is_not_normalized_like_gl() {
     let l = (0.05f32 + 1.0).sqrt();
     let n = [0.2 / l, 0.1 / l, 1.0 / l];
     let on = run(&p, 3, &n, m, TexgenOptions::default()).0;
-    let off = run(&p, 3, &n, m, TexgenOptions { normalize: NormalMode::Off, ..Default::default() }).0;
-    let rescale = run(&p, 3, &n, m, TexgenOptions { normalize: NormalMode::Rescale, ..Default::default() }).0;
+    let off = run(
+        &p,
+        3,
+        &n,
+        m,
+        TexgenOptions {
+            normalize: NormalMode::Off,
+            ..Default::default()
+        },
+    )
+    .0;
+    let rescale = run(
+        &p,
+        3,
+        &n,
+        m,
+        TexgenOptions {
+            normalize: NormalMode::Rescale,
+            ..Default::default()
+        },
+    )
+    .0;
     assert!((on[0] - off[0]).abs() > 1e-3, "{on:?} {off:?}");
     // For a uniform scale, GL_RESCALE_NORMAL restores a unit normal's length, like GL_NORMALIZE.
     assert!((on[0] - rescale[0]).abs() < 1e-6 && (on[1] - rescale[1]).abs() < 1e-6);
@@ -75,14 +133,42 @@ fn normal_off_is_not_normalized_like_gl() {
 
 #[test]
 fn positions_with_w_and_errors() {
-    let (a, _) = run(&[0.1, 0.2, -3.0, 1.0], 4, &[0.0, 0.0, 1.0], ID, TexgenOptions::default());
-    let (b, _) = run(&[0.1, 0.2, -3.0], 3, &[0.0, 0.0, 1.0], ID, TexgenOptions::default());
+    let (a, _) = run(
+        &[0.1, 0.2, -3.0, 1.0],
+        4,
+        &[0.0, 0.0, 1.0],
+        ID,
+        TexgenOptions::default(),
+    );
+    let (b, _) = run(
+        &[0.1, 0.2, -3.0],
+        3,
+        &[0.0, 0.0, 1.0],
+        ID,
+        TexgenOptions::default(),
+    );
     assert_eq!(a, b);
     let mv = ModelviewState::new(ID).unwrap();
     let mut out = vec![0.0f32; 2];
-    let e = sphere_texgen(&[0.0f32; 3], 3, &[0.0f32; 6], &mv, TexgenOptions::default(), &mut out).unwrap_err();
+    let e = sphere_texgen(
+        &[0.0f32; 3],
+        3,
+        &[0.0f32; 6],
+        &mv,
+        TexgenOptions::default(),
+        &mut out,
+    )
+    .unwrap_err();
     assert!(e.to_string().starts_with("normals:"), "{e}");
-    let e = sphere_texgen(&[0.0f32; 5], 5, &[0.0f32; 3], &mv, TexgenOptions::default(), &mut out).unwrap_err();
+    let e = sphere_texgen(
+        &[0.0f32; 5],
+        5,
+        &[0.0f32; 3],
+        &mv,
+        TexgenOptions::default(),
+        &mut out,
+    )
+    .unwrap_err();
     assert!(e.to_string().starts_with("positions:"), "{e}");
 }
 
@@ -93,9 +179,23 @@ fn matcap_variants() {
     // Perspective: the normal facing the viewer maps to the centre wherever the point is.
     let p = [2.0f64, -1.0, -4.0];
     let l = (4.0f64 + 1.0 + 16.0).sqrt();
-    let uv = matcap_uv([-p[0] / l, -p[1] / l, -p[2] / l], Some(p), MatcapVariant::Perspective, 0.5);
-    assert!((uv[0] - 0.5).abs() < 1e-12 && (uv[1] - 0.5).abs() < 1e-12, "{uv:?}");
+    let uv = matcap_uv(
+        [-p[0] / l, -p[1] / l, -p[2] / l],
+        Some(p),
+        MatcapVariant::Perspective,
+        0.5,
+    );
+    assert!(
+        (uv[0] - 0.5).abs() < 1e-12 && (uv[1] - 0.5).abs() < 1e-12,
+        "{uv:?}"
+    );
     // Behind the viewer on the axis: undefined.
-    assert!(matcap_uv([0.0f64, 0.0, 1.0], Some([0.0, 0.0, 2.0]), MatcapVariant::Perspective, 0.5)[0].is_nan());
+    assert!(matcap_uv(
+        [0.0f64, 0.0, 1.0],
+        Some([0.0, 0.0, 2.0]),
+        MatcapVariant::Perspective,
+        0.5
+    )[0]
+    .is_nan());
     assert!(matcap_uv([0.0f64, 0.0, 0.0], None, MatcapVariant::Classic, 0.5)[0].is_nan());
 }
