@@ -347,9 +347,11 @@ fn pixel_to_dir<'py>(
     Ok(out.into_any())
 }
 
-/// (name, doc, frame (3x3 row-major), rows ("top-is-t1"/"top-is-t0"), v_down) for each preset.
+/// (name, doc, frame (3x3 row-major), rows ("top-is-t1"/"top-is-t0"), v_down) of a preset.
+type PresetTuple = (String, String, [[f64; 3]; 3], String, bool);
+
 #[pyfunction]
-fn presets() -> Vec<(String, String, [[f64; 3]; 3], String, bool)> {
+fn presets() -> Vec<PresetTuple> {
     spheremap::PRESETS
         .iter()
         .map(|p| {

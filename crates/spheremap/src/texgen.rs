@@ -136,8 +136,9 @@ pub fn invert4(m: &[[f64; 4]; 4]) -> Option<[[f64; 4]; 4]> {
             if r != col {
                 let f = a[r][col];
                 if f != 0.0 {
-                    for c in 0..8 {
-                        a[r][c] -= f * a[col][c];
+                    let pivot_row = a[col];
+                    for (x, p) in a[r].iter_mut().zip(pivot_row) {
+                        *x -= f * p;
                     }
                 }
             }
@@ -385,20 +386,13 @@ struct Kernel {
     center: bool,
 }
 
+// The kernel indexes its fixed-size scratch arrays with plain counted loops on purpose: that is
+// the shape the vectoriser turns into straight SIMD code.
+#[allow(clippy::needless_range_loop)]
 impl Kernel {
     fn new(mv: &ModelviewState, opts: TexgenOptions) -> Self {
-        let mut m = [[0.0f32; 4]; 3];
-        for i in 0..3 {
-            for j in 0..4 {
-                m[i][j] = mv.m[i][j] as f32;
-            }
-        }
-        let mut nm = [[0.0f32; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                nm[i][j] = mv.normal_matrix[i][j] as f32;
-            }
-        }
+        let m: [[f32; 4]; 3] = std::array::from_fn(|i| mv.m[i].map(|v| v as f32));
+        let nm: [[f32; 3]; 3] = mv.normal_matrix.map(|row| row.map(|v| v as f32));
         let (normalize, scale) = match opts.normalize {
             NormalMode::On => (true, 1.0),
             NormalMode::Off => (false, 1.0),
