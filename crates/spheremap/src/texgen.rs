@@ -323,6 +323,27 @@ pub fn sphere_texgen<P: Elem, N: Elem>(
     Ok(())
 }
 
+/// De-interleaves `len` vertices (positions of `PW` values, normals of 3) into
+/// structure-of-arrays rows, as f32.
+#[inline(always)]
+fn gather<P: Elem, N: Elem, const PW: usize>(
+    pos: &[P],
+    nrm: &[N],
+    p: &mut [[f32; BLOCK]; 4],
+    n: &mut [[f32; BLOCK]; 3],
+    len: usize,
+) {
+    let (pos, nrm) = (&pos[..len * PW], &nrm[..len * 3]);
+    for i in 0..len.min(BLOCK) {
+        for c in 0..PW {
+            p[c][i] = pos[i * PW + c].f32();
+        }
+        for c in 0..3 {
+            n[c][i] = nrm[i * 3 + c].f32();
+        }
+    }
+}
+
 /// The interleaved (s,t) of one block, aligned for streaming stores.
 #[repr(align(16))]
 struct Aligned16([f32; 2 * BLOCK]);
@@ -490,13 +511,11 @@ impl Kernel {
                 &pos[start * PW..(start + len) * PW],
                 &nrm[start * 3..(start + len) * 3],
             );
-            for i in 0..len {
-                for c in 0..PW {
-                    p[c][i] = pos[i * PW + c].f32();
-                }
-                for c in 0..3 {
-                    n[c][i] = nrm[i * 3 + c].f32();
-                }
+            if len == BLOCK {
+                // A constant trip count: the de-interleave vectorises with no scalar epilogue.
+                gather::<P, N, PW>(pos, nrm, &mut p, &mut n, BLOCK);
+            } else {
+                gather::<P, N, PW>(pos, nrm, &mut p, &mut n, len);
             }
             self.block::<NORM, CENTER, PW>(&p, &n, &mut st);
             let out = &mut out[start * 2..(start + len) * 2];
