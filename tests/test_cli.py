@@ -103,3 +103,70 @@ def test_conventions_command_lists_presets():
     for name in sm.presets():
         assert f"\n{name}:" in r.stdout
     assert "+X -> pixel (54.627, 32.000)" in r.stdout
+
+
+def _write_glb(path, positions, normals, indices, nodes, scene_nodes):
+    """A minimal glTF 2.0 binary: one mesh (one triangle primitive), the given nodes."""
+    import json
+    import struct
+
+    pos = np.asarray(positions, np.float32).tobytes()
+    nrm = np.asarray(normals, np.float32).tobytes()
+    idx = np.asarray(indices, np.uint32).tobytes()
+    blob = pos + nrm + idx
+    p = np.asarray(positions, np.float32)
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(blob)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+            {"buffer": 0, "byteOffset": len(pos), "byteLength": len(nrm)},
+            {"buffer": 0, "byteOffset": len(pos) + len(nrm), "byteLength": len(idx)},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": len(p), "type": "VEC3",
+             "min": p.min(0).tolist(), "max": p.max(0).tolist()},
+            {"bufferView": 1, "componentType": 5126, "count": len(p), "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5125, "count": len(indices), "type": "SCALAR"},
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+        "nodes": nodes,
+        "scenes": [{"nodes": scene_nodes}],
+        "scene": 0,
+    }
+    js = json.dumps(doc).encode()
+    js += b" " * (-len(js) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
+    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
+
+
+def test_texgen_gltf_applies_node_transforms_to_positions_and_normals(tmp_path):
+    positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    normals = [[0.6, 0, 0.8], [0, 0.6, 0.8], [0, 0, 1]]
+    # Parent: translate; child: non-uniform scale (normals need the inverse transpose).
+    nodes = [
+        {"translation": [0.5, -0.25, -6.0], "children": [1]},
+        {"scale": [2.0, 1.0, 0.5], "mesh": 0},
+    ]
+    glb = tmp_path / "tri.glb"
+    _write_glb(glb, positions, normals, [0, 1, 2], nodes, [0])
+    out = tmp_path / "st.npy"
+    r = cli("texgen", glb, "--modelview", "identity", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "file normals" in r.stderr
+    world = np.asarray(positions, np.float64) * [2.0, 1.0, 0.5] + [0.5, -0.25, -6.0]
+    wn = np.asarray(normals, np.float64) / [2.0, 1.0, 0.5]
+    wn /= np.linalg.norm(wn, axis=1, keepdims=True)
+    np.testing.assert_allclose(np.load(out), sm.sphere_texgen(world, wn, np.eye(4)), atol=2e-6)
+
+
+def test_texgen_obj_with_file_normals(tmp_path):
+    obj = tmp_path / "q.obj"
+    obj.write_text("v 0 0 -5\nv 1 0 -5\nv 0 1 -5\nvn 0 0 1\nvn 0.6 0 0.8\nvn 0 0.6 0.8\nf 1//1 2//2 3//3\n")
+    out = tmp_path / "q.csv"
+    r = cli("texgen", obj, "--modelview", "identity", "-o", out)
+    assert r.returncode == 0 and "file normals" in r.stderr, r.stderr
+    st = np.loadtxt(out, delimiter=",", skiprows=1, dtype=np.float32)
+    want = sm.sphere_texgen([[0, 0, -5], [1, 0, -5], [0, 1, -5.0]], [[0, 0, 1], [0.6, 0, 0.8], [0, 0.6, 0.8]], np.eye(4))
+    np.testing.assert_array_equal(st, want)

@@ -233,3 +233,36 @@ pub fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f3
         .map(|&g| acc[g].normalize_or_zero().as_vec3().to_array())
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cube corner: three faces meet at the origin with right angles.  Angle weighting gives
+    /// (1,1,1)/√3 however the faces are triangulated; splitting one face in two (so it has two
+    /// triangles at the corner) must not pull the normal toward it.
+    #[test]
+    fn angle_weighted_normals_ignore_triangulation() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, 0.0], // splits the z = 0 face
+        ];
+        // Faces with outward normals -x, -y, -z (toward the cube's outside at the corner).
+        let whole = [[0, 3, 2], [0, 1, 3], [0, 2, 1]];
+        let split = [[0, 3, 2], [0, 1, 3], [0, 2, 4], [0, 4, 1]];
+        for tris in [&whole[..], &split[..]] {
+            let n = vertex_normals(&p, tris);
+            let k = -1.0 / 3f32.sqrt();
+            for c in 0..3 {
+                assert!((n[0][c] - k).abs() < 1e-6, "{:?}", n[0]);
+            }
+        }
+        // Bit-identical positions are welded; an unused vertex gets zero.
+        let n = vertex_normals(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3], [5.0; 3]], &[[0, 1, 2]]);
+        assert_eq!(n[0], n[3]);
+        assert_eq!(n[4], [0.0; 3]);
+    }
+}
