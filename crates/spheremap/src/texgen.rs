@@ -555,7 +555,9 @@ impl Kernel {
     /// zero normal with GL_NORMALIZE gives b = 0, bR = 0, Q = 0, NaN (Mesa: `0·rsq(0)` = NaN);
     /// r = (0,0,−1) gives Q = 0 exactly.  Legacy ("center") mode turns a zero normal into
     /// R = e (r = u) and Q = 0 into (½,½), as legacy Mesa.  Against GL's own order of operations
-    /// the result differs by rounding only (the Mesa oracle test bounds it).
+    /// the result differs by rounding only (the Mesa oracle test bounds it) — except for
+    /// transformed normals longer than ~1e19 with GL_NORMALIZE, where `b` overflows (GL's
+    /// `rsq(∞) = 0` makes such a normal zero; here the result is NaN).
     #[inline(always)]
     fn block<const NORM: bool, const CENTER: bool, const PW: usize>(
         &self,
@@ -656,6 +658,39 @@ pub fn sphere_texgen_f64<P: Elem, N: Elem>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The SIMD paths (AVX-512/AVX2, chosen at run time) and the portable path give the same
+    /// bits: only IEEE operations, no FMA.
+    #[test]
+    fn simd_and_portable_paths_are_bit_identical() {
+        let mut x = 0x2545F4914F6CDD1Du64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 40) as f32 / (1u64 << 24) as f32 * 4.0 - 2.0
+        };
+        let n = 1000; // 15 full blocks and a tail
+        let pos: Vec<f32> = (0..4 * n).map(|_| next()).collect();
+        let nrm: Vec<f32> = (0..3 * n).map(|_| next()).collect();
+        let m = [[0.9, 0.1, 0.0, 0.2], [-0.1, 0.9, 0.2, 0.0], [0.0, -0.2, 1.1, -5.0], [0.0, 0.0, 0.0, 1.0]];
+        let mv = ModelviewState::new(m).unwrap();
+        for normalize in [NormalMode::On, NormalMode::Off, NormalMode::Rescale] {
+            for singular in [Singular::Nan, Singular::Center] {
+                let k = Kernel::new(&mv, TexgenOptions { normalize, singular });
+                let (mut a, mut b) = (vec![0.0f32; 2 * n], vec![0.0f32; 2 * n]);
+                k.dispatch::<f32, f32, 4>(&pos, &nrm, &mut a);
+                match (k.normalize, k.center) {
+                    (false, false) => k.run::<f32, f32, 4, false, false>(&pos, &nrm, &mut b),
+                    (false, true) => k.run::<f32, f32, 4, false, true>(&pos, &nrm, &mut b),
+                    (true, false) => k.run::<f32, f32, 4, true, false>(&pos, &nrm, &mut b),
+                    (true, true) => k.run::<f32, f32, 4, true, true>(&pos, &nrm, &mut b),
+                }
+                let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&a), bits(&b), "{normalize:?} {singular:?}");
+            }
+        }
+    }
 
     #[test]
     fn rsq_special_values() {
