@@ -33,6 +33,8 @@ __all__ = [
     "dir_to_pixel",
     "pixel_to_dir",
     "presets",
+    "read_image",
+    "write_image",
     "NORMALIZE_MODES",
     "SINGULAR_MODES",
     "MATCAP_VARIANTS",
@@ -216,3 +218,41 @@ def pixel_to_dir(xy, size: int, *, preset: str = "gl") -> tuple[np.ndarray, np.n
     _choice(preset, "preset", tuple(presets()))
     dirs = _ext.pixel_to_dir(a, _size(size, "size"), preset)
     return dirs, ~np.isnan(dirs[..., 0])
+
+
+def read_image(path, *, linear: bool = False, max_pixels: int | None = None) -> np.ndarray:
+    """Reads OpenEXR, Radiance HDR, PFM, PNG (8/16-bit), JPEG or WebP (recognised by content)
+    into an (H, W, C) float32 array: linear values, row 0 at the top, C = 1 (Y), 2 (Y,A),
+    3 (R,G,B) or 4 (R,G,B,A). LDR files are sRGB-decoded unless `linear` (alpha never is).
+
+    Raises FileNotFoundError for a missing file and spheremap.DataError for a corrupt one or
+    one whose header claims more than `max_pixels` (default 2**28) pixels.
+    """
+    import os
+
+    if max_pixels is not None:
+        max_pixels = _size_any(max_pixels, "max_pixels")
+    return _ext.read_image(os.fspath(path), bool(linear), max_pixels)
+
+
+def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool = False) -> None:
+    """Writes an (H, W) or (H, W, C) array (C = 1..4, linear values, row 0 at the top) to
+    `path`; the format follows the extension: .exr (float, or `half`), .hdr, .pfm, .png (`bits`
+    8 or 16, sRGB-encoded unless `linear`), .jpg. The file is written atomically.
+    """
+    import os
+
+    a = _floats(array, "array")
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or a.shape[0] == 0 or a.shape[1] == 0:
+        raise ValueError(f"array: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    if bits not in (8, 16):
+        raise ValueError(f"bits: must be 8 or 16, got {bits!r}")
+    _ext.write_image(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32), bool(linear), bits == 16, bool(half))
+
+
+def _size_any(v, name: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"{name}: expected a positive integer, got {v!r}")
+    return int(v)

@@ -7,6 +7,7 @@
 
 mod cmd_conventions;
 mod cmd_demo;
+mod cmd_info;
 mod cmd_texgen;
 
 use clap::{Parser, Subcommand};
@@ -32,6 +33,8 @@ enum Command {
     Demo(cmd_demo::Args),
     /// Print the conventions and the named presets, with where each puts ±X, ±Y, ±Z.
     Conventions(cmd_conventions::Args),
+    /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
+    Info(cmd_info::Args),
 }
 
 /// Prints to stdout; a closed pipe (`spheremap conventions | head`) is not an error.
@@ -64,6 +67,7 @@ where
         Command::Texgen(a) => cmd_texgen::run(a),
         Command::Demo(a) => cmd_demo::run(a),
         Command::Conventions(a) => cmd_conventions::run(a),
+        Command::Info(a) => cmd_info::run(a),
     });
     std::panic::set_hook(previous_hook);
     match result {

@@ -370,6 +370,64 @@ fn presets() -> Vec<PresetTuple> {
         .collect()
 }
 
+/// Reads an image file -> (H, W, C) float32, linear, row 0 at the top.
+#[pyfunction]
+#[pyo3(signature = (path, linear, max_pixels))]
+fn read_image<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    linear: bool,
+    max_pixels: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use spheremap::image_io::{Limits, ReadOptions};
+    let mut limits = Limits::default();
+    if let Some(m) = max_pixels {
+        limits.max_pixels = m;
+    }
+    let img = py
+        .detach(|| spheremap::image_io::read_image(&path, &ReadOptions { linear, limits }))
+        .map_err(to_py)?;
+    let (h, w, c) = (img.height, img.width, img.channels);
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([h, w, c])?
+        .into_any())
+}
+
+/// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
+/// extension.
+#[pyfunction]
+#[pyo3(signature = (path, array, linear, png16, half))]
+fn write_image(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    array: PyReadonlyArrayDyn<'_, f32>,
+    linear: bool,
+    png16: bool,
+    half: bool,
+) -> PyResult<()> {
+    use spheremap::image_io::{Image, WriteOptions};
+    let shape = array.shape().to_vec();
+    let data = contiguous(&array, "array")?.to_vec();
+    let img = Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data,
+    };
+    py.detach(|| {
+        spheremap::image_io::write_image(
+            &path,
+            &img,
+            &WriteOptions {
+                linear,
+                png16,
+                half,
+            },
+        )
+    })
+    .map_err(to_py)
+}
+
 /// Runs the command line (one definition, in Rust) with `argv` (argv[0] = program name).
 #[pyfunction]
 fn _cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
@@ -391,6 +449,8 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dir_to_pixel, m)?)?;
     m.add_function(wrap_pyfunction!(pixel_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
+    m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
     Ok(())
 }

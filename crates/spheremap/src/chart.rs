@@ -7,7 +7,7 @@
 //! single direction −Z) drawn in orange.  Outside the disc: black.
 
 use crate::conventions::texel_center;
-use crate::io::Image;
+use crate::image_io::Image;
 use crate::sphere;
 
 /// Renders the chart at `size`×`size`, rows in file order (row 0 = t = 1).

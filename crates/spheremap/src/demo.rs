@@ -39,7 +39,7 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     let chart = direction_chart(chart_size);
     for name in ["direction_chart.png", "direction_chart.exr"] {
         let p = outdir.join(name);
-        io::write_image(&p, &chart)?;
+        crate::image_io::write_image(&p, &chart, &Default::default())?;
         files.push(p);
     }
     let mesh = teapot()?;

@@ -1,43 +1,13 @@
-//! Writing results: images (PNG, EXR), vertex data (CSV, `.npy`, OBJ with `vt`).
+//! Writing results: vertex data (CSV, `.npy`, OBJ with `vt`) and the atomic-write primitive
+//! every output goes through (images: [`crate::image_io`]).
 //!
 //! Every file is written atomically: to a temporary file beside the target, then renamed over
-//! it, so an error never leaves a half-written output.  Images here are linear float RGB, row 0
-//! at the top (see [`crate::conventions`]); PNG output is sRGB-encoded.
+//! it, so an error never leaves a half-written output.
 
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// A linear float image, row 0 at the top, `channels` interleaved values per pixel.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    pub width: usize,
-    pub height: usize,
-    pub channels: usize,
-    pub data: Vec<f32>,
-}
-
-impl Image {
-    pub fn new(width: usize, height: usize, channels: usize) -> Self {
-        Image {
-            width,
-            height,
-            channels,
-            data: vec![0.0; width * height * channels],
-        }
-    }
-    #[inline]
-    pub fn pixel_mut(&mut self, x: usize, y: usize) -> &mut [f32] {
-        let i = (y * self.width + x) * self.channels;
-        &mut self.data[i..i + self.channels]
-    }
-    #[inline]
-    pub fn pixel(&self, x: usize, y: usize) -> &[f32] {
-        let i = (y * self.width + x) * self.channels;
-        &self.data[i..i + self.channels]
-    }
-}
 
 /// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which
 /// is renamed to `path` only when `fill` succeeded.
@@ -72,90 +42,6 @@ pub fn atomic_write(
 
 fn io_err(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
     move |e| Error::io(path, e)
-}
-
-/// Linear → sRGB transfer (IEC 61966-2-1), clamped to [0,1].
-#[inline]
-pub fn linear_to_srgb(v: f32) -> f32 {
-    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    if v <= 0.0031308 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Writes an image; the format follows the extension: `.png` (8-bit sRGB) or `.exr` (32-bit
-/// float, linear).
-pub fn write_image(path: &Path, img: &Image) -> Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    if !(img.channels == 3 || img.channels == 4) {
-        return Err(Error::unsupported(
-            format!("{}-channel image", img.channels),
-            "only RGB and RGBA are written",
-        ));
-    }
-    match ext.as_str() {
-        "png" => {
-            let bytes: Vec<u8> = img
-                .data
-                .chunks_exact(img.channels)
-                .flat_map(|px| {
-                    px.iter().enumerate().map(|(c, &v)| {
-                        let e = if c == 3 {
-                            v.clamp(0.0, 1.0)
-                        } else {
-                            linear_to_srgb(v)
-                        };
-                        (e * 255.0 + 0.5) as u8
-                    })
-                })
-                .collect();
-            let color = if img.channels == 3 {
-                image::ExtendedColorType::Rgb8
-            } else {
-                image::ExtendedColorType::Rgba8
-            };
-            atomic_write(path, |f| {
-                let enc = image::codecs::png::PngEncoder::new(std::io::BufWriter::new(f));
-                image::ImageEncoder::write_image(
-                    enc,
-                    &bytes,
-                    img.width as u32,
-                    img.height as u32,
-                    color,
-                )
-                .map_err(|e| Error::data(path, format!("cannot encode PNG: {e}")))
-            })
-        }
-        "exr" => {
-            let color = if img.channels == 3 {
-                image::ExtendedColorType::Rgb32F
-            } else {
-                image::ExtendedColorType::Rgba32F
-            };
-            let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_le_bytes()).collect();
-            atomic_write(path, |f| {
-                let enc = image::codecs::openexr::OpenExrEncoder::new(std::io::BufWriter::new(f));
-                image::ImageEncoder::write_image(
-                    enc,
-                    &bytes,
-                    img.width as u32,
-                    img.height as u32,
-                    color,
-                )
-                .map_err(|e| Error::data(path, format!("cannot encode EXR: {e}")))
-            })
-        }
-        other => Err(Error::unsupported(
-            format!("image extension {other:?}"),
-            "write .png or .exr",
-        )),
-    }
 }
 
 /// Writes a float32 `.npy` array (NumPy format 1.0, little-endian, C order).

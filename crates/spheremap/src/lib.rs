@@ -8,7 +8,8 @@
 //! * [`sphere`] — direction ↔ (s,t), reflection, exact texel solid angles.
 //! * [`texgen`] — mesh texgen exactly as OpenGL computes it (f32 fast path, f64 reference).
 //! * [`matcap`] — MatCap lookups (classic, three.js, perspective-correct).
-//! * [`mesh`], [`io`], [`parse`] — meshes in, files out, small textual inputs.
+//! * [`image_io`] — images in and out (EXR, HDR, PFM, PNG, JPEG, WebP), by content.
+//! * [`mesh`], [`io`], [`parse`] — meshes in, vertex data out, small textual inputs.
 //! * [`chart`], [`demo`] — the labelled direction chart and the built-in demo.
 
 // `!(x > 0)` and friends are deliberate throughout: they send NaN down the invalid branch.
@@ -18,6 +19,7 @@ pub mod chart;
 pub mod conventions;
 pub mod demo;
 pub mod error;
+pub mod image_io;
 pub mod io;
 pub mod matcap;
 pub mod mesh;

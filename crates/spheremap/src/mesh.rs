@@ -261,7 +261,16 @@ mod tests {
             }
         }
         // Bit-identical positions are welded; an unused vertex gets zero.
-        let n = vertex_normals(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3], [5.0; 3]], &[[0, 1, 2]]);
+        let n = vertex_normals(
+            &[
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0; 3],
+                [5.0; 3],
+            ],
+            &[[0, 1, 2]],
+        );
         assert_eq!(n[0], n[3]);
         assert_eq!(n[4], [0.0; 3]);
     }

@@ -673,11 +673,22 @@ mod tests {
         let n = 1000; // 15 full blocks and a tail
         let pos: Vec<f32> = (0..4 * n).map(|_| next()).collect();
         let nrm: Vec<f32> = (0..3 * n).map(|_| next()).collect();
-        let m = [[0.9, 0.1, 0.0, 0.2], [-0.1, 0.9, 0.2, 0.0], [0.0, -0.2, 1.1, -5.0], [0.0, 0.0, 0.0, 1.0]];
+        let m = [
+            [0.9, 0.1, 0.0, 0.2],
+            [-0.1, 0.9, 0.2, 0.0],
+            [0.0, -0.2, 1.1, -5.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ];
         let mv = ModelviewState::new(m).unwrap();
         for normalize in [NormalMode::On, NormalMode::Off, NormalMode::Rescale] {
             for singular in [Singular::Nan, Singular::Center] {
-                let k = Kernel::new(&mv, TexgenOptions { normalize, singular });
+                let k = Kernel::new(
+                    &mv,
+                    TexgenOptions {
+                        normalize,
+                        singular,
+                    },
+                );
                 let (mut a, mut b) = (vec![0.0f32; 2 * n], vec![0.0f32; 2 * n]);
                 k.dispatch::<f32, f32, 4>(&pos, &nrm, &mut a);
                 match (k.normalize, k.center) {

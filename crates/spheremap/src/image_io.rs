@@ -1,0 +1,731 @@
+//! Reading and writing images: OpenEXR, Radiance `.hdr`, PFM, PNG (8/16-bit), JPEG, and WebP
+//! (read).  In memory an [`Image`] is linear float32, row 0 at the top (see
+//! [`crate::conventions`]), 1–4 interleaved channels named Y / Y,A / R,G,B / R,G,B,A.
+//!
+//! * Formats are recognised by their first bytes, not by the file name; a name that disagrees
+//!   with the content is reported by [`inspect`] but does not stop reading.
+//! * LDR files (PNG, JPEG, WebP) are sRGB-decoded to linear on read and encoded on write, unless
+//!   `linear` is set (for data such as normal maps that is not colour).
+//! * Header sizes are checked against [`Limits`] before any pixel memory is allocated.
+//! * Writes are atomic (temporary file + rename; see [`crate::io::atomic_write`]).
+
+use crate::error::{Error, Result};
+use crate::io::atomic_write;
+use std::io::{BufWriter, Cursor, Write};
+use std::path::Path;
+
+/// A linear float image, row 0 at the top, `channels` interleaved values per pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub data: Vec<f32>,
+}
+
+impl Image {
+    pub fn new(width: usize, height: usize, channels: usize) -> Self {
+        Image {
+            width,
+            height,
+            channels,
+            data: vec![0.0; width * height * channels],
+        }
+    }
+    #[inline]
+    pub fn pixel_mut(&mut self, x: usize, y: usize) -> &mut [f32] {
+        let i = (y * self.width + x) * self.channels;
+        &mut self.data[i..i + self.channels]
+    }
+    #[inline]
+    pub fn pixel(&self, x: usize, y: usize) -> &[f32] {
+        let i = (y * self.width + x) * self.channels;
+        &self.data[i..i + self.channels]
+    }
+    /// Channel names, by count: Y; Y,A; R,G,B; R,G,B,A.
+    pub fn channel_names(&self) -> &'static [&'static str] {
+        match self.channels {
+            1 => &["Y"],
+            2 => &["Y", "A"],
+            3 => &["R", "G", "B"],
+            _ => &["R", "G", "B", "A"],
+        }
+    }
+}
+
+/// File formats spheremap reads and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Exr,
+    Hdr,
+    Pfm,
+    Png,
+    Jpeg,
+    Webp,
+}
+
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Exr => "OpenEXR",
+            Format::Hdr => "Radiance HDR",
+            Format::Pfm => "PFM",
+            Format::Png => "PNG",
+            Format::Jpeg => "JPEG",
+            Format::Webp => "WebP",
+        }
+    }
+    /// Low dynamic range formats hold sRGB-encoded values.
+    pub fn is_ldr(self) -> bool {
+        matches!(self, Format::Png | Format::Jpeg | Format::Webp)
+    }
+    /// The format a file name's extension names, if any.
+    pub fn from_extension(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "exr" => Format::Exr,
+            "hdr" | "rgbe" | "pic" => Format::Hdr,
+            "pfm" => Format::Pfm,
+            "png" => Format::Png,
+            "jpg" | "jpeg" => Format::Jpeg,
+            "webp" => Format::Webp,
+            _ => return None,
+        })
+    }
+    /// The format the first bytes of a file identify.
+    pub fn sniff(head: &[u8]) -> Option<Format> {
+        if head.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+            Some(Format::Exr)
+        } else if head.starts_with(b"\x89PNG\r\n\x1a\n") {
+            Some(Format::Png)
+        } else if head.starts_with(&[0xff, 0xd8, 0xff]) {
+            Some(Format::Jpeg)
+        } else if head.len() >= 12 && &head[..4] == b"RIFF" && &head[8..12] == b"WEBP" {
+            Some(Format::Webp)
+        } else if head.starts_with(b"#?RADIANCE") || head.starts_with(b"#?RGBE") {
+            Some(Format::Hdr)
+        } else if head.starts_with(b"PF") || head.starts_with(b"Pf") {
+            Some(Format::Pfm)
+        } else {
+            None
+        }
+    }
+}
+
+/// Size limits checked against a file's header before its pixels are allocated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    pub max_width: usize,
+    pub max_height: usize,
+    /// Width × height.
+    pub max_pixels: usize,
+}
+
+impl Default for Limits {
+    /// 65,536 on a side and 2²⁸ pixels (4 GiB as float RGBA).
+    fn default() -> Self {
+        Limits {
+            max_width: 1 << 16,
+            max_height: 1 << 16,
+            max_pixels: 1 << 28,
+        }
+    }
+}
+
+impl Limits {
+    fn check(&self, path: &Path, w: usize, h: usize) -> Result<()> {
+        if w == 0 || h == 0 {
+            return Err(Error::data(
+                path,
+                format!("the header gives an empty image ({w}x{h})"),
+            ));
+        }
+        if w > self.max_width || h > self.max_height || w.saturating_mul(h) > self.max_pixels {
+            return Err(Error::data(
+                path,
+                format!(
+                    "the header claims {w}x{h} pixels, over the limit ({}x{}, {} pixels in all)",
+                    self.max_width, self.max_height, self.max_pixels
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// How to read.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReadOptions {
+    /// Treat LDR files as linear values (no sRGB decoding).
+    pub linear: bool,
+    pub limits: Limits,
+}
+
+/// How to write.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions {
+    /// Write LDR files without sRGB encoding.
+    pub linear: bool,
+    /// PNG bit depth: 8 (default) or 16.
+    pub png16: bool,
+    /// EXR sample type: half (16-bit float) instead of 32-bit float.
+    pub half: bool,
+}
+
+/// sRGB transfer function, decoding (IEC 61966-2-1).
+#[inline]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer function, encoding; clamps to [0,1] (NaN → 0).
+#[inline]
+pub fn linear_to_srgb(v: f32) -> f32 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    if v <= 0.0031308 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Reads an image file (format by content).
+pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<Image> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode(path, &bytes, opts)
+}
+
+/// Decodes an image held in memory; `path` names it in messages.
+pub fn decode(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
+    let format = Format::sniff(bytes).ok_or_else(|| {
+        Error::data(
+            path,
+            "not an image spheremap reads (expected OpenEXR, Radiance HDR, PFM, PNG, JPEG or WebP)",
+        )
+    })?;
+    match format {
+        Format::Exr => decode_exr(path, bytes, &opts.limits),
+        Format::Pfm => decode_pfm(path, bytes, &opts.limits),
+        _ => decode_with_image_crate(path, bytes, format, opts),
+    }
+}
+
+fn decode_with_image_crate(
+    path: &Path,
+    bytes: &[u8],
+    format: Format,
+    opts: &ReadOptions,
+) -> Result<Image> {
+    use image::ImageDecoder;
+    let bad =
+        |e: image::ImageError| Error::data(path, format!("cannot decode {}: {e}", format.name()));
+    let cursor = Cursor::new(bytes);
+    let decoder: Box<dyn image::ImageDecoder> = match format {
+        Format::Png => Box::new(image::codecs::png::PngDecoder::new(cursor).map_err(bad)?),
+        Format::Jpeg => Box::new(image::codecs::jpeg::JpegDecoder::new(cursor).map_err(bad)?),
+        Format::Webp => Box::new(image::codecs::webp::WebPDecoder::new(cursor).map_err(bad)?),
+        Format::Hdr => Box::new(image::codecs::hdr::HdrDecoder::new(cursor).map_err(bad)?),
+        Format::Exr | Format::Pfm => unreachable!("decoded elsewhere"),
+    };
+    let (w, h) = decoder.dimensions();
+    opts.limits.check(path, w as usize, h as usize)?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(bad)?;
+    let channels = img.color().channel_count() as usize;
+    let ldr = format.is_ldr() && !opts.linear;
+    let data: Vec<f32> = match img {
+        image::DynamicImage::ImageRgb32F(b) => b.into_raw(),
+        image::DynamicImage::ImageRgba32F(b) => b.into_raw(),
+        image::DynamicImage::ImageLuma8(_)
+        | image::DynamicImage::ImageLumaA8(_)
+        | image::DynamicImage::ImageRgb8(_)
+        | image::DynamicImage::ImageRgba8(_) => {
+            let lut: Vec<f32> = (0..256)
+                .map(|v| decode_ldr(v as f32 / 255.0, ldr))
+                .collect();
+            let raw = img.into_bytes();
+            let mut out: Vec<f32> = raw.iter().map(|&v| lut[v as usize]).collect();
+            undo_transfer_on_alpha(
+                &mut out,
+                channels,
+                &raw.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(),
+            );
+            out
+        }
+        other => {
+            // 16-bit PNG and anything else: go through u16.
+            let raw: Vec<u16> = match channels {
+                1 => other.to_luma16().into_raw(),
+                2 => other.to_luma_alpha16().into_raw(),
+                3 => other.to_rgb16().into_raw(),
+                _ => other.to_rgba16().into_raw(),
+            };
+            let lin: Vec<f32> = raw.iter().map(|&v| v as f32 / 65535.0).collect();
+            let mut out: Vec<f32> = lin.iter().map(|&v| decode_ldr(v, ldr)).collect();
+            undo_transfer_on_alpha(&mut out, channels, &lin);
+            out
+        }
+    };
+    Ok(Image {
+        width: w as usize,
+        height: h as usize,
+        channels,
+        data,
+    })
+}
+
+#[inline]
+fn decode_ldr(v: f32, srgb: bool) -> f32 {
+    if srgb {
+        srgb_to_linear(v)
+    } else {
+        v
+    }
+}
+
+/// Alpha is never sRGB-encoded: restore the raw values in the alpha channel.
+fn undo_transfer_on_alpha(out: &mut [f32], channels: usize, raw: &[f32]) {
+    if channels == 2 || channels == 4 {
+        for (o, r) in out
+            .chunks_exact_mut(channels)
+            .zip(raw.chunks_exact(channels))
+        {
+            o[channels - 1] = r[channels - 1];
+        }
+    }
+}
+
+fn decode_exr(path: &Path, bytes: &[u8], limits: &Limits) -> Result<crate::image_io::Image> {
+    use exr::prelude::*;
+    let bad = |e: exr::error::Error| {
+        crate::error::Error::data(path, format!("cannot decode OpenEXR: {e}"))
+    };
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(bad)?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| crate::error::Error::data(path, "OpenEXR file without a layer"))?;
+    let size = header.layer_size;
+    limits.check(path, size.width(), size.height())?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(bad)?;
+    let layer = &image.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let find = |name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq_case_insensitive(name))
+    };
+    let picked: Vec<&AnyChannel<FlatSamples>> =
+        match (find("R"), find("G"), find("B"), find("A"), find("Y")) {
+            (Some(r), Some(g), Some(b), a, _) => [Some(r), Some(g), Some(b), a]
+                .into_iter()
+                .flatten()
+                .collect(),
+            (_, _, _, a, Some(y)) => [Some(y), a].into_iter().flatten().collect(),
+            _ => {
+                let names: Vec<String> = layer
+                    .channel_data
+                    .list
+                    .iter()
+                    .map(|c| c.name.to_string())
+                    .collect();
+                return Err(crate::error::Error::unsupported(
+                    format!("OpenEXR channels {names:?} in {}", path.display()),
+                    "expected R,G,B[,A] or Y[,A]",
+                ));
+            }
+        };
+    let planes: Vec<Vec<f32>> = picked
+        .iter()
+        .map(|c| c.sample_data.values_as_f32().collect())
+        .collect();
+    let channels = planes.len();
+    let mut data = vec![0.0f32; w * h * channels];
+    for (c, plane) in planes.iter().enumerate() {
+        for (i, v) in plane.iter().enumerate() {
+            data[i * channels + c] = *v;
+        }
+    }
+    Ok(crate::image_io::Image {
+        width: w,
+        height: h,
+        channels,
+        data,
+    })
+}
+
+/// PFM: a text header `PF` (RGB) or `Pf` (grey), `width height`, and a scale whose sign gives the
+/// byte order (negative = little-endian); then float rows from the **bottom** up.
+fn decode_pfm(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Image> {
+    let bad = |why: &str| Error::data(path, format!("not a valid PFM file: {why}"));
+    let mut fields = Vec::new();
+    let mut pos = 0;
+    while fields.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if start == pos || pos - start > 32 {
+            return Err(bad("truncated or malformed header"));
+        }
+        fields
+            .push(std::str::from_utf8(&bytes[start..pos]).map_err(|_| bad("header is not text"))?);
+    }
+    pos += 1; // the single whitespace byte that ends the header
+    let channels = match fields[0] {
+        "PF" => 3,
+        "Pf" => 1,
+        _ => return Err(bad("expected PF or Pf")),
+    };
+    let w: usize = fields[1].parse().map_err(|_| bad("bad width"))?;
+    let h: usize = fields[2].parse().map_err(|_| bad("bad height"))?;
+    let scale: f32 = fields[3].parse().map_err(|_| bad("bad scale"))?;
+    if !scale.is_finite() || scale == 0.0 {
+        return Err(bad("scale must be finite and non-zero"));
+    }
+    limits.check(path, w, h)?;
+    let need = w * h * channels * 4;
+    let body = bytes.get(pos..).unwrap_or(&[]);
+    if body.len() < need {
+        return Err(bad(&format!(
+            "truncated: {} bytes of pixel data, {need} needed",
+            body.len()
+        )));
+    }
+    let little = scale < 0.0;
+    let mut data = vec![0.0f32; w * h * channels];
+    let row = w * channels;
+    for y in 0..h {
+        let src_row = h - 1 - y; // stored bottom-up
+        for i in 0..row {
+            let o = (src_row * row + i) * 4;
+            let b = [body[o], body[o + 1], body[o + 2], body[o + 3]];
+            data[y * row + i] = if little {
+                f32::from_le_bytes(b)
+            } else {
+                f32::from_be_bytes(b)
+            };
+        }
+    }
+    Ok(Image {
+        width: w,
+        height: h,
+        channels,
+        data,
+    })
+}
+
+/// Writes an image; the format follows the extension.
+pub fn write_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<()> {
+    let format = Format::from_extension(path).ok_or_else(|| {
+        Error::param(
+            "output",
+            format!(
+                "{}: unknown image extension; use .exr, .hdr, .pfm, .png or .jpg",
+                path.display()
+            ),
+        )
+    })?;
+    if img.data.len() != img.width * img.height * img.channels || !(1..=4).contains(&img.channels) {
+        return Err(Error::param("image", "inconsistent size or channel count"));
+    }
+    if img.width == 0 || img.height == 0 {
+        return Err(Error::param("image", "empty image"));
+    }
+    let bytes = encode(path, img, format, opts)?;
+    atomic_write(path, |f| {
+        f.write_all(&bytes).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Encodes into memory in `format`.
+pub fn encode(path: &Path, img: &Image, format: Format, opts: &WriteOptions) -> Result<Vec<u8>> {
+    let bad =
+        |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
+    let mut buf = Cursor::new(Vec::new());
+    let (w, h, c) = (img.width as u32, img.height as u32, img.channels);
+    match format {
+        Format::Exr => encode_exr(path, img, opts.half, &mut buf)?,
+        Format::Pfm => encode_pfm(img, &mut buf),
+        Format::Hdr => {
+            let rgb = to_rgb(img);
+            let px: Vec<image::Rgb<f32>> = rgb
+                .chunks_exact(3)
+                .map(|p| image::Rgb([p[0].max(0.0), p[1].max(0.0), p[2].max(0.0)]))
+                .collect();
+            image::codecs::hdr::HdrEncoder::new(&mut buf)
+                .encode(&px, w as usize, h as usize)
+                .map_err(bad)?;
+        }
+        Format::Png | Format::Jpeg => {
+            let srgb = !opts.linear;
+            let enc = |v: f32, k: usize| {
+                let alpha = (c == 2 || c == 4) && k == c - 1;
+                if srgb && !alpha {
+                    linear_to_srgb(v)
+                } else if v.is_nan() {
+                    0.0
+                } else {
+                    v.clamp(0.0, 1.0)
+                }
+            };
+            let color = |sixteen: bool| match (c, sixteen) {
+                (1, false) => image::ExtendedColorType::L8,
+                (2, false) => image::ExtendedColorType::La8,
+                (3, false) => image::ExtendedColorType::Rgb8,
+                (_, false) => image::ExtendedColorType::Rgba8,
+                (1, true) => image::ExtendedColorType::L16,
+                (2, true) => image::ExtendedColorType::La16,
+                (3, true) => image::ExtendedColorType::Rgb16,
+                (_, true) => image::ExtendedColorType::Rgba16,
+            };
+            if format == Format::Png && opts.png16 {
+                let raw: Vec<u8> = img
+                    .data
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(i, &v)| ((enc(v, i % c) * 65535.0 + 0.5) as u16).to_ne_bytes()) // the encoder takes native-endian u16
+                    .collect();
+                let e = image::codecs::png::PngEncoder::new(&mut buf);
+                image::ImageEncoder::write_image(e, &raw, w, h, color(true)).map_err(bad)?;
+            } else {
+                let raw: Vec<u8> = img
+                    .data
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| (enc(v, i % c) * 255.0 + 0.5) as u8)
+                    .collect();
+                if format == Format::Png {
+                    let e = image::codecs::png::PngEncoder::new(&mut buf);
+                    image::ImageEncoder::write_image(e, &raw, w, h, color(false)).map_err(bad)?;
+                } else {
+                    if c == 2 || c == 4 {
+                        return Err(Error::unsupported(
+                            "JPEG with alpha",
+                            "write PNG or EXR to keep the alpha channel",
+                        ));
+                    }
+                    let e = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 95);
+                    image::ImageEncoder::write_image(e, &raw, w, h, color(false)).map_err(bad)?;
+                }
+            }
+        }
+        Format::Webp => {
+            return Err(Error::unsupported(
+                "writing WebP",
+                "spheremap reads WebP; write PNG instead",
+            ))
+        }
+    }
+    Ok(buf.into_inner())
+}
+
+/// RGB values of any image (grey repeated, alpha dropped).
+fn to_rgb(img: &Image) -> Vec<f32> {
+    img.data
+        .chunks_exact(img.channels)
+        .flat_map(|p| {
+            if img.channels >= 3 {
+                [p[0], p[1], p[2]]
+            } else {
+                [p[0]; 3]
+            }
+        })
+        .collect()
+}
+
+fn encode_exr(
+    path: &Path,
+    img: &crate::image_io::Image,
+    half: bool,
+    buf: &mut Cursor<Vec<u8>>,
+) -> Result<()> {
+    use exr::prelude::*;
+    let (w, h, c) = (img.width, img.height, img.channels);
+    let plane = |k: usize| -> FlatSamples {
+        let v = img.data.iter().skip(k).step_by(c).copied();
+        if half {
+            FlatSamples::F16(v.map(f16::from_f32).collect())
+        } else {
+            FlatSamples::F32(v.collect())
+        }
+    };
+    let names = img.channel_names();
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = (0..c)
+        .map(|k| AnyChannel::new(names[k], plane(k)))
+        .collect();
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(buf)
+        .map_err(|e| crate::error::Error::data(path, format!("cannot encode OpenEXR: {e}")))
+}
+
+fn encode_pfm(img: &Image, buf: &mut Cursor<Vec<u8>>) {
+    let grey = img.channels == 1;
+    let mut w = BufWriter::new(buf);
+    let _ = write!(
+        w,
+        "{}\n{} {}\n-1.0\n",
+        if grey { "Pf" } else { "PF" },
+        img.width,
+        img.height
+    );
+    let rgb = if grey { img.data.clone() } else { to_rgb(img) };
+    let row = img.width * if grey { 1 } else { 3 };
+    for y in (0..img.height).rev() {
+        for v in &rgb[y * row..(y + 1) * row] {
+            let _ = w.write_all(&v.to_le_bytes());
+        }
+    }
+    let _ = w.flush();
+}
+
+/// What `spheremap info` reports about a file.
+#[derive(Clone, Debug)]
+pub struct Inspection {
+    pub format: Format,
+    /// The extension names another format than the content.
+    pub extension_mismatch: Option<Format>,
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub channel_names: Vec<String>,
+    /// Per channel (min, max, mean) over finite values.
+    pub stats: Vec<(f32, f32, f64)>,
+    pub nan_count: usize,
+    pub inf_count: usize,
+    pub negative_count: usize,
+    /// (x, y) of the first non-finite value.
+    pub first_non_finite: Option<(usize, usize)>,
+    /// A guess of the environment mapping, labelled as such.
+    pub mapping_guess: (&'static str, &'static str),
+}
+
+/// Reads a file and describes it.
+pub fn inspect(path: &Path, opts: &ReadOptions) -> Result<Inspection> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let img = decode(path, &bytes, opts)?;
+    let format = Format::sniff(&bytes).expect("decoded, so sniffed");
+    let ext = Format::from_extension(path);
+    let c = img.channels;
+    let mut stats = vec![(f32::INFINITY, f32::NEG_INFINITY, 0.0f64); c];
+    let mut counts = vec![0usize; c];
+    let (mut nan, mut inf, mut neg, mut first) = (0, 0, 0, None);
+    for (i, px) in img.data.chunks_exact(c).enumerate() {
+        for (k, &v) in px.iter().enumerate() {
+            if v.is_finite() {
+                let s = &mut stats[k];
+                s.0 = s.0.min(v);
+                s.1 = s.1.max(v);
+                s.2 += v as f64;
+                counts[k] += 1;
+                if v < 0.0 {
+                    neg += 1;
+                }
+            } else {
+                if v.is_nan() {
+                    nan += 1
+                } else {
+                    inf += 1
+                }
+                first.get_or_insert((i % img.width, i / img.width));
+            }
+        }
+    }
+    for (s, n) in stats.iter_mut().zip(&counts) {
+        s.2 /= (*n).max(1) as f64;
+    }
+    Ok(Inspection {
+        format,
+        extension_mismatch: ext.filter(|e| *e != format),
+        width: img.width,
+        height: img.height,
+        channels: c,
+        channel_names: img.channel_names().iter().map(|s| s.to_string()).collect(),
+        stats,
+        nan_count: nan,
+        inf_count: inf,
+        negative_count: neg,
+        first_non_finite: first,
+        mapping_guess: guess_mapping(&img),
+    })
+}
+
+/// Guesses the environment mapping from the shape (and, for square images, whether the corners
+/// outside the inscribed disc are empty).  Returns (name, reason).  A guess, never a fact.
+pub fn guess_mapping(img: &Image) -> (&'static str, &'static str) {
+    let (w, h) = (img.width, img.height);
+    if w == 2 * h {
+        return (
+            "latlong",
+            "width is twice the height (a side-by-side dual paraboloid has this shape too)",
+        );
+    }
+    if w == 6 * h || h == 6 * w {
+        return ("cube (strip)", "one side is six times the other");
+    }
+    if 3 * w == 4 * h || 4 * w == 3 * h {
+        return ("cube (cross)", "4:3 aspect ratio");
+    }
+    if w == h {
+        // Mean brightness of the four corners outside the disc vs the whole image.
+        let k = (w / 16).max(1);
+        let mut corner = 0.0f64;
+        let mut all = 0.0f64;
+        let lum = |p: &[f32]| {
+            p.iter()
+                .take(3)
+                .map(|v| if v.is_finite() { v.abs() as f64 } else { 0.0 })
+                .sum::<f64>()
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let v = lum(img.pixel(x, y));
+                all += v;
+                if (x < k || x >= w - k) && (y < k || y >= h - k) {
+                    corner += v;
+                }
+            }
+        }
+        let corner_mean = corner / (4 * k * k) as f64;
+        let mean = all / (w * h) as f64;
+        if corner_mean <= 0.02 * mean.max(1e-12) {
+            return (
+                "sphere / mirror ball / angular (disc)",
+                "square with empty corners outside the inscribed disc",
+            );
+        }
+        return (
+            "octahedral or a single cube face",
+            "square with content in the corners",
+        );
+    }
+    if h == 2 * w {
+        return (
+            "dual paraboloid (stacked)",
+            "two squares, one above the other",
+        );
+    }
+    ("unknown", "no recognised aspect ratio")
+}

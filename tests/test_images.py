@@ -1,0 +1,89 @@
+"""Image I/O through Python and `spheremap info`."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import spheremap as sm
+
+TESTDATA = "testdata"
+
+
+@pytest.fixture
+def repo(request):
+    return request.config.rootpath
+
+
+def test_read_real_files(repo):
+    a = sm.read_image(repo / TESTDATA / "apartment.exr")
+    assert a.shape == (256, 512, 3) and a.dtype == np.float32
+    assert np.isfinite(a).all() and (a < 0).any() and a.max() > 10
+    m = sm.read_image(repo / TESTDATA / "matcap_0177.webp")
+    assert m.shape == (512, 512, 3) and 0 <= m.min() and m.max() <= 1
+    lin = sm.read_image(repo / TESTDATA / "matcap_0177.webp", linear=True)
+    assert (lin >= m - 1e-7).all() and (lin > m).any()  # sRGB decoding darkens
+
+
+@pytest.mark.parametrize("ext, tol", [("exr", 0), ("pfm", 0), ("hdr", 0.02), ("png", 0.01)])
+def test_round_trips(tmp_path, ext, tol):
+    rng = np.random.default_rng(0)
+    img = rng.uniform(0, 1, size=(7, 13, 3)).astype(np.float32)
+    p = tmp_path / f"x.{ext}"
+    sm.write_image(p, img)
+    back = sm.read_image(p)
+    assert back.shape == img.shape
+    np.testing.assert_allclose(back, img, atol=tol, rtol=tol)
+
+
+def test_alpha_grey_half_and_16_bit(tmp_path):
+    rgba = np.random.default_rng(1).uniform(0, 1, size=(5, 6, 4)).astype(np.float32)
+    sm.write_image(tmp_path / "a.png", rgba, bits=16)
+    np.testing.assert_allclose(sm.read_image(tmp_path / "a.png"), rgba, atol=1e-4)
+    grey = rgba[:, :, 0]
+    sm.write_image(tmp_path / "g.exr", grey, half=True)
+    g = sm.read_image(tmp_path / "g.exr")
+    assert g.shape == (5, 6, 1)
+    np.testing.assert_allclose(g[:, :, 0], grey, rtol=1e-3)
+
+
+def test_errors(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        sm.read_image(tmp_path / "missing.exr")
+    (tmp_path / "bad.exr").write_bytes(b"v/1\x01garbage")
+    with pytest.raises(sm.DataError, match="bad.exr"):
+        sm.read_image(tmp_path / "bad.exr")
+    with pytest.raises(sm.DataError, match="over the limit"):
+        sm.read_image("testdata/apartment.exr", max_pixels=1000)
+    with pytest.raises(ValueError, match="^array"):
+        sm.write_image(tmp_path / "x.png", np.zeros((4, 4, 5), np.float32))
+    with pytest.raises(ValueError, match="^bits"):
+        sm.write_image(tmp_path / "x.png", np.zeros((4, 4, 3), np.float32), bits=12)
+    with pytest.raises(ValueError, match="unknown image extension"):
+        sm.write_image(tmp_path / "x.tiff", np.zeros((4, 4, 3), np.float32))
+    assert not list(tmp_path.glob("x.*"))
+
+
+def test_info_cli(tmp_path, repo):
+    r = subprocess.run([sys.executable, "-m", "spheremap", "info", str(repo / TESTDATA / "apartment.exr"), "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    info = json.loads(r.stdout)
+    assert (info["format"], info["width"], info["height"], info["channels"]) == ("OpenEXR", 512, 256, 3)
+    assert info["nan"] == 0 and info["negative"] > 0
+    assert info["mapping_guess"]["name"] == "latlong" and info["mapping_guess"]["is_a_guess"]
+    # A NaN is counted and located; a PNG named .exr is read by content and flagged.
+    img = np.ones((4, 8, 3), np.float32)
+    img[2, 5, 1] = np.nan
+    sm.write_image(tmp_path / "n.pfm", img)
+    info = json.loads(subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "n.pfm"), "--json"],
+                                     capture_output=True, text=True).stdout)
+    assert info["nan"] == 1 and info["first_non_finite"] == [5, 2]
+    sm.write_image(tmp_path / "p.png", np.zeros((4, 4, 3), np.float32))
+    (tmp_path / "p.png").rename(tmp_path / "p.exr")
+    r = subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "p.exr")], capture_output=True, text=True)
+    assert r.returncode == 0 and "the extension says OpenEXR, the content is PNG" in r.stdout
+    bad = subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "none.hdr")], capture_output=True, text=True)
+    assert bad.returncode == 2 and "none.hdr" in bad.stderr and bad.stderr.count("\n") == 1
