@@ -35,6 +35,10 @@ __all__ = [
     "presets",
     "read_image",
     "write_image",
+    "MAPPINGS",
+    "dir_to_uv",
+    "uv_to_dir",
+    "texel_solid_angles",
     "NORMALIZE_MODES",
     "SINGULAR_MODES",
     "MATCAP_VARIANTS",
@@ -43,6 +47,8 @@ __all__ = [
 NORMALIZE_MODES = ("on", "off", "rescale")
 SINGULAR_MODES = ("nan", "center")
 MATCAP_VARIANTS = ("classic", "threejs", "perspective")
+#: Environment mappings available to dir_to_uv / uv_to_dir / texel_solid_angles (more to come).
+MAPPINGS = ("sphere", "latlong")
 
 
 def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
@@ -256,3 +262,33 @@ def _size_any(v, name: str) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
         raise ValueError(f"{name}: expected a positive integer, got {v!r}")
     return int(v)
+
+
+def dir_to_uv(dirs, mapping: str = "latlong", *, preset: str | None = None) -> np.ndarray:
+    """World directions (..., 3) -> image coordinates (u, v) (..., 2) of `mapping` in
+    `preset`'s convention: u = x/W to the right, v = y/H DOWN (row 0 at the top), for every
+    mapping. mapping "sphere" (presets as `presets()`, default "gl"; u = s, v = 1 - t) or
+    "latlong" (presets blender (default), threejs, skylibs, filament, mitsuba, pbrt).
+    NaN where a direction has no single position."""
+    d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
+    _choice(mapping, "mapping", MAPPINGS)
+    return _ext.dir_to_uv(d, mapping, preset)
+
+
+def uv_to_dir(uv, mapping: str = "latlong", *, preset: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Image coordinates (u, v) (..., 2), v down -> (unit directions (..., 3), valid (...)).
+    Lat-long u wraps; points outside a mapping's domain are NaN and invalid."""
+    a = _floats(uv, "uv", last=(2,)).astype(np.float64, copy=False)
+    _choice(mapping, "mapping", MAPPINGS)
+    d = _ext.uv_to_dir(a, mapping, preset)
+    return d, ~np.isnan(d[..., 0])
+
+
+def texel_solid_angles(mapping: str, width: int, height: int | None = None) -> np.ndarray:
+    """Exact solid angle (sr) of every texel of a height x width image in `mapping`
+    (height defaults to width for "sphere" and width/2 for "latlong"); sums to 4 pi."""
+    _choice(mapping, "mapping", MAPPINGS)
+    width = _size(width, "width")
+    if height is None:
+        height = width if mapping == "sphere" else max(1, width // 2)
+    return _ext.texel_solid_angles(mapping, width, _size(height, "height"))

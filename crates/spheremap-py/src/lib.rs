@@ -370,6 +370,113 @@ fn presets() -> Vec<PresetTuple> {
         .collect()
 }
 
+/// A mapping by name, with its preset: image coordinates (u, v), v down, for every mapping.
+enum Mapping {
+    Sphere(&'static SpherePreset),
+    LatLong(&'static spheremap::latlong::LatLongPreset),
+}
+
+impl Mapping {
+    fn parse(mapping: &str, preset: Option<&str>) -> PyResult<Self> {
+        match mapping {
+            "sphere" => Ok(Mapping::Sphere(
+                SpherePreset::by_name(preset.unwrap_or("gl")).map_err(to_py)?,
+            )),
+            "latlong" => Ok(Mapping::LatLong(
+                spheremap::latlong::LatLongPreset::by_name(preset.unwrap_or("blender"))
+                    .map_err(to_py)?,
+            )),
+            other => Err(PyValueError::new_err(format!(
+                "mapping: unknown mapping {other:?}; available so far: sphere, latlong"
+            ))),
+        }
+    }
+    fn dir_to_uv(&self, d: [f64; 3]) -> [f64; 2] {
+        match self {
+            Mapping::Sphere(p) => {
+                let (x, y) = p.dir_to_pixel(d, 1, Singular::Nan);
+                [x, y]
+            }
+            Mapping::LatLong(p) => p.dir_to_uv(d),
+        }
+    }
+    fn uv_to_dir(&self, uv: [f64; 2]) -> [f64; 3] {
+        match self {
+            Mapping::Sphere(p) => p.pixel_to_dir(uv[0], uv[1], 1),
+            Mapping::LatLong(p) => p.uv_to_dir(uv),
+        }
+        .unwrap_or([f64::NAN; 3])
+    }
+}
+
+#[pyfunction]
+#[pyo3(signature = (dirs, mapping, preset=None))]
+fn dir_to_uv<'py>(
+    py: Python<'py>,
+    dirs: PyReadonlyArrayDyn<'py, f64>,
+    mapping: &str,
+    preset: Option<&str>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = Mapping::parse(mapping, preset)?;
+    let shape = dirs.shape().to_vec();
+    let inp = contiguous(&dirs, "dirs")?;
+    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 2), false);
+    let mut w = out.readwrite();
+    let o = w.as_slice_mut().expect("fresh array is contiguous");
+    py.detach(|| map_rows::<f64, f64, 3, 2>(inp, o, |d| m.dir_to_uv(d)));
+    drop(w);
+    Ok(out.into_any())
+}
+
+#[pyfunction]
+#[pyo3(signature = (uv, mapping, preset=None))]
+fn uv_to_dir<'py>(
+    py: Python<'py>,
+    uv: PyReadonlyArrayDyn<'py, f64>,
+    mapping: &str,
+    preset: Option<&str>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = Mapping::parse(mapping, preset)?;
+    let shape = uv.shape().to_vec();
+    let inp = contiguous(&uv, "uv")?;
+    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 3), false);
+    let mut w = out.readwrite();
+    let o = w.as_slice_mut().expect("fresh array is contiguous");
+    py.detach(|| map_rows::<f64, f64, 2, 3>(inp, o, |q| m.uv_to_dir(q)));
+    drop(w);
+    Ok(out.into_any())
+}
+
+/// Exact texel solid angles of a `height`×`width` image in `mapping`.
+#[pyfunction]
+fn texel_solid_angles<'py>(
+    py: Python<'py>,
+    mapping: &str,
+    width: usize,
+    height: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let v: Vec<f64> = match mapping {
+        "sphere" if width == height => spheremap::sphere::solid_angle_map(width),
+        "sphere" => return Err(PyValueError::new_err("height: a sphere map is square")),
+        "latlong" => (0..height)
+            .flat_map(|r| {
+                std::iter::repeat_n(
+                    spheremap::latlong::texel_solid_angle(r, width, height),
+                    width,
+                )
+            })
+            .collect(),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "mapping: unknown mapping {other:?}; available so far: sphere, latlong"
+            )))
+        }
+    };
+    Ok(PyArray1::from_vec(py, v)
+        .reshape([height, width])?
+        .into_any())
+}
+
 /// Reads an image file -> (H, W, C) float32, linear, row 0 at the top.
 #[pyfunction]
 #[pyo3(signature = (path, linear, max_pixels))]
@@ -449,6 +556,9 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dir_to_pixel, m)?)?;
     m.add_function(wrap_pyfunction!(pixel_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
+    m.add_function(wrap_pyfunction!(dir_to_uv, m)?)?;
+    m.add_function(wrap_pyfunction!(uv_to_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(texel_solid_angles, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;

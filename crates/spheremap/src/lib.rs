@@ -7,6 +7,7 @@
 //!   presets for other tools.
 //! * [`sphere`] — direction ↔ (s,t), reflection, exact texel solid angles.
 //! * [`texgen`] — mesh texgen exactly as OpenGL computes it (f32 fast path, f64 reference).
+//! * [`latlong`] — the lat-long (equirectangular) mapping and its presets (Blender, three.js, skylibs, Filament, Mitsuba, pbrt).
 //! * [`matcap`] — MatCap lookups (classic, three.js, perspective-correct).
 //! * [`image_io`] — images in and out (EXR, HDR, PFM, PNG, JPEG, WebP), by content.
 //! * [`mesh`], [`io`], [`parse`] — meshes in, vertex data out, small textual inputs.
@@ -21,6 +22,7 @@ pub mod demo;
 pub mod error;
 pub mod image_io;
 pub mod io;
+pub mod latlong;
 pub mod matcap;
 pub mod mesh;
 pub mod parse;

@@ -1,0 +1,59 @@
+import numpy as np
+import pytest
+
+import spheremap as sm
+
+
+def _dirs(n=2000, seed=0):
+    d = np.random.default_rng(seed).normal(size=(n, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("preset", ["blender", "threejs", "skylibs", "filament", "mitsuba", "pbrt"])
+def test_latlong_round_trip(preset):
+    d = _dirs()
+    uv = sm.dir_to_uv(d, "latlong", preset=preset)
+    assert ((0 <= uv) & (uv <= 1)).all()
+    back, valid = sm.uv_to_dir(uv, "latlong", preset=preset)
+    assert valid.all()
+    np.testing.assert_allclose(back, d, atol=1e-12)
+
+
+def test_latlong_default_is_threejs_formula():
+    d = _dirs()
+    uv = sm.dir_to_uv(d)
+    u = (0.5 + np.arctan2(d[:, 2], d[:, 0]) / (2 * np.pi)) % 1.0
+    np.testing.assert_allclose(uv[:, 0], u, atol=1e-12)
+    np.testing.assert_allclose(uv[:, 1], np.arccos(d[:, 1]) / np.pi, atol=1e-12)
+
+
+def test_latlong_skylibs_preset_matches_skylibs():
+    projections = pytest.importorskip("envmap.projections")
+    d = _dirs()
+    u, v = projections.world2latlong(d[:, 0], d[:, 1], d[:, 2])
+    uv = sm.dir_to_uv(d, "latlong", preset="skylibs")
+    du = np.abs(uv[:, 0] - u % 1.0)
+    assert np.minimum(du, 1 - du).max() < 1e-12
+    np.testing.assert_allclose(uv[:, 1], v, atol=1e-12)
+
+
+def test_sphere_mapping_uv_is_image_coordinates():
+    uv = sm.dir_to_uv([[0, 1.0, 0]], "sphere")  # +Y is above the centre: v < 1/2
+    np.testing.assert_allclose(uv, [[0.5, 0.5 - 1 / (2 * np.sqrt(2))]])
+    np.testing.assert_allclose(sm.dir_to_uv(_dirs(10), "sphere") * 64, sm.dir_to_pixel(_dirs(10), 64))
+
+
+@pytest.mark.parametrize("mapping, w, h", [("latlong", 64, 32), ("latlong", 7, 3), ("sphere", 33, 33)])
+def test_solid_angles_sum_to_4pi(mapping, w, h):
+    a = sm.texel_solid_angles(mapping, w, h)
+    assert a.shape == (h, w)
+    assert abs(a.sum() - 4 * np.pi) < 1e-10
+
+
+def test_mapping_errors():
+    with pytest.raises(ValueError, match="^mapping"):
+        sm.dir_to_uv([[1.0, 0, 0]], "cube")
+    with pytest.raises(ValueError, match="^preset"):
+        sm.dir_to_uv([[1.0, 0, 0]], "latlong", preset="maya")
+    with pytest.raises(ValueError, match="^height"):
+        sm.texel_solid_angles("sphere", 8, 4)
