@@ -53,7 +53,7 @@ fn pbrt() {
 fn default_is_the_stated_formula() {
     let p = LatLongPreset::by_name("blender").unwrap();
     for d in [[0.3, 0.4, -0.5], [-0.7, -0.1, 0.2], [0.01, 0.99, 0.02]] {
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] as f64).sqrt();
+        let l: f64 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let want = [
             0.5 + f64::atan2(d[2], d[0]) / std::f64::consts::TAU,
             (d[1] / l).acos() / std::f64::consts::PI,
