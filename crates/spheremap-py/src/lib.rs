@@ -111,6 +111,24 @@ fn out_shape(shape: &[usize], last: usize) -> Vec<usize> {
     s
 }
 
+/// Maps each row of `I` f64 values of `arr` to `O` values, into a new array of the same leading
+/// shape, in parallel and without the GIL.
+fn map_f64_rows<'py, const I: usize, const O: usize>(
+    py: Python<'py>,
+    arr: &PyReadonlyArrayDyn<'py, f64>,
+    name: &str,
+    f: impl Fn([f64; I]) -> [f64; O] + Sync + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    let shape = arr.shape().to_vec();
+    let inp = contiguous(arr, name)?;
+    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, O), false);
+    let mut w = out.readwrite();
+    let o = w.as_slice_mut().expect("fresh array is contiguous");
+    py.detach(|| map_rows::<f64, f64, I, O>(inp, o, f));
+    drop(w);
+    Ok(out.into_any())
+}
+
 #[pyfunction]
 #[pyo3(signature = (positions, normals, modelview, normalize, singular, precision, out=None))]
 #[allow(clippy::too_many_arguments)]
@@ -310,19 +328,10 @@ fn dir_to_pixel<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     let sg = Singular::parse(singular, "singular").map_err(to_py)?;
-    let shape = dirs.shape().to_vec();
-    let inp = contiguous(&dirs, "dirs")?;
-    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 2), false);
-    let mut w = out.readwrite();
-    let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| {
-        map_rows::<f64, f64, 3, 2>(inp, o, |d| {
-            let (x, y) = p.dir_to_pixel(d, size, sg);
-            [x, y]
-        })
-    });
-    drop(w);
-    Ok(out.into_any())
+    map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| {
+        let (x, y) = p.dir_to_pixel(d, size, sg);
+        [x, y]
+    })
 }
 
 #[pyfunction]
@@ -333,18 +342,9 @@ fn pixel_to_dir<'py>(
     preset: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
-    let shape = xy.shape().to_vec();
-    let inp = contiguous(&xy, "xy")?;
-    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 3), false);
-    let mut w = out.readwrite();
-    let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| {
-        map_rows::<f64, f64, 2, 3>(inp, o, |q| {
-            p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])
-        })
-    });
-    drop(w);
-    Ok(out.into_any())
+    map_f64_rows(py, &xy, "xy", |q: [f64; 2]| {
+        p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])
+    })
 }
 
 /// (name, doc, frame (3x3 row-major), rows ("top-is-t1"/"top-is-t0"), v_down) of a preset.
@@ -418,14 +418,7 @@ fn dir_to_uv<'py>(
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Mapping::parse(mapping, preset)?;
-    let shape = dirs.shape().to_vec();
-    let inp = contiguous(&dirs, "dirs")?;
-    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 2), false);
-    let mut w = out.readwrite();
-    let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| map_rows::<f64, f64, 3, 2>(inp, o, |d| m.dir_to_uv(d)));
-    drop(w);
-    Ok(out.into_any())
+    map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| m.dir_to_uv(d))
 }
 
 #[pyfunction]
@@ -437,14 +430,7 @@ fn uv_to_dir<'py>(
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Mapping::parse(mapping, preset)?;
-    let shape = uv.shape().to_vec();
-    let inp = contiguous(&uv, "uv")?;
-    let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, 3), false);
-    let mut w = out.readwrite();
-    let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| map_rows::<f64, f64, 2, 3>(inp, o, |q| m.uv_to_dir(q)));
-    drop(w);
-    Ok(out.into_any())
+    map_f64_rows(py, &uv, "uv", |q: [f64; 2]| m.uv_to_dir(q))
 }
 
 /// Exact texel solid angles of a `height`×`width` image in `mapping`.

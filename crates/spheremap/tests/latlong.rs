@@ -52,7 +52,7 @@ fn pbrt() {
 #[test]
 fn default_is_the_stated_formula() {
     let p = LatLongPreset::by_name("blender").unwrap();
-    for d in [[0.3, 0.4, -0.5], [-0.7, -0.1, 0.2], [0.01, 0.99, 0.02]] {
+    for d in [[0.3f64, 0.4, -0.5], [-0.7, -0.1, 0.2], [0.01, 0.99, 0.02]] {
         let l: f64 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let want = [
             0.5 + f64::atan2(d[2], d[0]) / std::f64::consts::TAU,
