@@ -43,11 +43,35 @@ def test_sphere_mapping_uv_is_image_coordinates():
     np.testing.assert_allclose(sm.dir_to_uv(_dirs(10), "sphere") * 64, sm.dir_to_pixel(_dirs(10), 64))
 
 
-@pytest.mark.parametrize("mapping, w, h", [("latlong", 64, 32), ("latlong", 7, 3), ("sphere", 33, 33)])
-def test_solid_angles_sum_to_4pi(mapping, w, h):
+@pytest.mark.parametrize("mapping, w, h, tol", [("latlong", 64, 32, 1e-10), ("latlong", 7, 3, 1e-10), ("sphere", 33, 33, 1e-10),
+                                             ("angular", 48, 48, 1e-6), ("octahedral", 31, 31, 1e-10)])
+def test_solid_angles_sum_to_4pi(mapping, w, h, tol):
     a = sm.texel_solid_angles(mapping, w, h)
     assert a.shape == (h, w)
-    assert abs(a.sum() - 4 * np.pi) < 1e-10
+    assert abs(a.sum() - 4 * np.pi) < tol
+
+
+@pytest.mark.parametrize("mapping", ["angular", "octahedral"])
+def test_round_trips(mapping):
+    d = _dirs()
+    uv = sm.dir_to_uv(d, mapping)
+    back, valid = sm.uv_to_dir(uv, mapping)
+    assert valid.all()
+    np.testing.assert_allclose(back, d, atol=1e-9)
+
+
+def test_solid_angle_is_the_local_jacobian():
+    """A texel's solid angle matches the area its four corners' directions span (small texels)."""
+    n = 256
+    for mapping in ["angular", "octahedral", "sphere"]:
+        w = sm.texel_solid_angles(mapping, n)
+        i, j = 100, 120  # an interior texel
+        c = np.array([[i, j], [i + 1, j], [i + 1, j + 1], [i, j + 1]], float) / n
+        d, ok = sm.uv_to_dir(c, mapping)
+        assert ok.all()
+        # Spherical quadrilateral area ~ |(d1-d0) x (d3-d0)| for a small texel.
+        approx = np.linalg.norm(np.cross(d[1] - d[0], d[3] - d[0]))
+        assert abs(approx - w[j, i]) < 0.02 * w[j, i], mapping
 
 
 def test_mapping_errors():
@@ -57,3 +81,5 @@ def test_mapping_errors():
         sm.dir_to_uv([[1.0, 0, 0]], "latlong", preset="maya")
     with pytest.raises(ValueError, match="^height"):
         sm.texel_solid_angles("sphere", 8, 4)
+    with pytest.raises(ValueError, match="^preset"):
+        sm.dir_to_uv([[1.0, 0, 0]], "octahedral", preset="blender")

@@ -48,7 +48,7 @@ NORMALIZE_MODES = ("on", "off", "rescale")
 SINGULAR_MODES = ("nan", "center")
 MATCAP_VARIANTS = ("classic", "threejs", "perspective")
 #: Environment mappings available to dir_to_uv / uv_to_dir / texel_solid_angles (more to come).
-MAPPINGS = ("sphere", "latlong")
+MAPPINGS = ("sphere", "latlong", "angular", "octahedral")
 
 
 def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
@@ -267,8 +267,10 @@ def _size_any(v, name: str) -> int:
 def dir_to_uv(dirs, mapping: str = "latlong", *, preset: str | None = None) -> np.ndarray:
     """World directions (..., 3) -> image coordinates (u, v) (..., 2) of `mapping` in
     `preset`'s convention: u = x/W to the right, v = y/H DOWN (row 0 at the top), for every
-    mapping. mapping "sphere" (presets as `presets()`, default "gl"; u = s, v = 1 - t) or
-    "latlong" (presets blender (default), threejs, skylibs, filament, mitsuba, pbrt).
+    mapping. mapping "sphere" (presets as `presets()`, default "gl"; u = s, v = 1 - t),
+    "latlong" (presets blender (default), threejs, skylibs, filament, mitsuba, pbrt),
+    "angular" (Debevec light probe: centre -Z ahead, rim +Z; preset "debevec") or
+    "octahedral" (pbrt-v4 equal-area, pbrt's Z-up frame = ours (x, z, y); preset "pbrt").
     NaN where a direction has no single position."""
     d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
     _choice(mapping, "mapping", MAPPINGS)
@@ -286,9 +288,10 @@ def uv_to_dir(uv, mapping: str = "latlong", *, preset: str | None = None) -> tup
 
 def texel_solid_angles(mapping: str, width: int, height: int | None = None) -> np.ndarray:
     """Exact solid angle (sr) of every texel of a height x width image in `mapping`
-    (height defaults to width for "sphere" and width/2 for "latlong"); sums to 4 pi."""
+    (height defaults to width/2 for "latlong", else width); sums to 4 pi (angular: to 1e-6,
+    by quadrature; the others exactly)."""
     _choice(mapping, "mapping", MAPPINGS)
     width = _size(width, "width")
     if height is None:
-        height = width if mapping == "sphere" else max(1, width // 2)
+        height = max(1, width // 2) if mapping == "latlong" else width
     return _ext.texel_solid_angles(mapping, width, _size(height, "height"))

@@ -374,6 +374,21 @@ fn presets() -> Vec<PresetTuple> {
 enum Mapping {
     Sphere(&'static SpherePreset),
     LatLong(&'static spheremap::latlong::LatLongPreset),
+    Angular,
+    Octahedral,
+}
+
+const MAPPING_NAMES: &str = "sphere, latlong, angular, octahedral";
+
+/// Mappings with a single convention accept only that preset's name (or none).
+fn only_preset(mapping: &str, preset: Option<&str>, name: &str) -> PyResult<()> {
+    match preset {
+        None => Ok(()),
+        Some(p) if p == name => Ok(()),
+        Some(p) => Err(PyValueError::new_err(format!(
+            "preset: {mapping} has one preset, {name:?}, not {p:?}"
+        ))),
+    }
 }
 
 impl Mapping {
@@ -386,8 +401,10 @@ impl Mapping {
                 spheremap::latlong::LatLongPreset::by_name(preset.unwrap_or("blender"))
                     .map_err(to_py)?,
             )),
+            "angular" => only_preset(mapping, preset, "debevec").map(|_| Mapping::Angular),
+            "octahedral" => only_preset(mapping, preset, "pbrt").map(|_| Mapping::Octahedral),
             other => Err(PyValueError::new_err(format!(
-                "mapping: unknown mapping {other:?}; available so far: sphere, latlong"
+                "mapping: unknown mapping {other:?}; available so far: {MAPPING_NAMES}"
             ))),
         }
     }
@@ -398,12 +415,16 @@ impl Mapping {
                 [x, y]
             }
             Mapping::LatLong(p) => p.dir_to_uv(d),
+            Mapping::Angular => spheremap::angular::dir_to_uv(d),
+            Mapping::Octahedral => spheremap::octahedral::dir_to_uv(d),
         }
     }
     fn uv_to_dir(&self, uv: [f64; 2]) -> [f64; 3] {
         match self {
             Mapping::Sphere(p) => p.pixel_to_dir(uv[0], uv[1], 1),
             Mapping::LatLong(p) => p.uv_to_dir(uv),
+            Mapping::Angular => spheremap::angular::uv_to_dir(uv),
+            Mapping::Octahedral => spheremap::octahedral::uv_to_dir(uv),
         }
         .unwrap_or([f64::NAN; 3])
     }
@@ -443,7 +464,19 @@ fn texel_solid_angles<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let v: Vec<f64> = match mapping {
         "sphere" if width == height => spheremap::sphere::solid_angle_map(width),
-        "sphere" => return Err(PyValueError::new_err("height: a sphere map is square")),
+        "angular" if width == height => (0..height)
+            .flat_map(|r| {
+                (0..width).map(move |c| spheremap::angular::texel_solid_angle(c, r, width))
+            })
+            .collect(),
+        "octahedral" if width == height => {
+            vec![spheremap::octahedral::texel_solid_angle(width); width * height]
+        }
+        "sphere" | "angular" | "octahedral" => {
+            return Err(PyValueError::new_err(format!(
+                "height: a {mapping} map is square"
+            )))
+        }
         "latlong" => (0..height)
             .flat_map(|r| {
                 std::iter::repeat_n(
@@ -454,7 +487,7 @@ fn texel_solid_angles<'py>(
             .collect(),
         other => {
             return Err(PyValueError::new_err(format!(
-                "mapping: unknown mapping {other:?}; available so far: sphere, latlong"
+                "mapping: unknown mapping {other:?}; available so far: {MAPPING_NAMES}"
             )))
         }
     };

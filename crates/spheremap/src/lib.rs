@@ -16,6 +16,7 @@
 // `!(x > 0)` and friends are deliberate throughout: they send NaN down the invalid branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod angular;
 pub mod chart;
 pub mod conventions;
 pub mod demo;
@@ -25,6 +26,7 @@ pub mod io;
 pub mod latlong;
 pub mod matcap;
 pub mod mesh;
+pub mod octahedral;
 pub mod parse;
 pub mod real;
 pub mod sphere;
