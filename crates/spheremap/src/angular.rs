@@ -125,8 +125,8 @@ mod tests {
         assert!(near(p([0.0, 1.0, 0.0]), (32.0, 32.0 - c)));
         assert!(near(p([0.0, -1.0, 0.0]), (32.0, 32.0 + c)));
         assert_eq!(p([0.0, 0.0, 1.0]), (64.0, 32.0)); // behind: the rim
-        for d in [[0.3, -0.2, 0.9], [0.1, 0.7, -0.2], [-0.5, 0.5, 0.1]] {
-            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] as f64).sqrt();
+        for d in [[0.3f64, -0.2, 0.9], [0.1, 0.7, -0.2], [-0.5, 0.5, 0.1]] {
+            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let back = uv_to_dir(dir_to_uv(d)).unwrap();
             for k in 0..3 {
                 assert!((back[k] - d[k] / l).abs() < 1e-12);
