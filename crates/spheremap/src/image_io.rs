@@ -236,6 +236,8 @@ fn decode_with_image_crate(
     let img = image::DynamicImage::from_decoder(decoder).map_err(bad)?;
     let channels = img.color().channel_count() as usize;
     let ldr = format.is_ldr() && !opts.linear;
+    // Alpha is never sRGB-encoded: the last channel of Y,A and R,G,B,A stays linear.
+    let is_alpha = |i: usize| (channels == 2 || channels == 4) && i % channels == channels - 1;
     let data: Vec<f32> = match img {
         image::DynamicImage::ImageRgb32F(b) => b.into_raw(),
         image::DynamicImage::ImageRgba32F(b) => b.into_raw(),
@@ -247,13 +249,16 @@ fn decode_with_image_crate(
                 .map(|v| decode_ldr(v as f32 / 255.0, ldr))
                 .collect();
             let raw = img.into_bytes();
-            let mut out: Vec<f32> = raw.iter().map(|&v| lut[v as usize]).collect();
-            undo_transfer_on_alpha(
-                &mut out,
-                channels,
-                &raw.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(),
-            );
-            out
+            raw.iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    if is_alpha(i) {
+                        v as f32 / 255.0
+                    } else {
+                        lut[v as usize]
+                    }
+                })
+                .collect()
         }
         other => {
             // 16-bit PNG and anything else: go through u16.
@@ -263,10 +268,17 @@ fn decode_with_image_crate(
                 3 => other.to_rgb16().into_raw(),
                 _ => other.to_rgba16().into_raw(),
             };
-            let lin: Vec<f32> = raw.iter().map(|&v| v as f32 / 65535.0).collect();
-            let mut out: Vec<f32> = lin.iter().map(|&v| decode_ldr(v, ldr)).collect();
-            undo_transfer_on_alpha(&mut out, channels, &lin);
-            out
+            raw.iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    let x = v as f32 / 65535.0;
+                    if is_alpha(i) {
+                        x
+                    } else {
+                        decode_ldr(x, ldr)
+                    }
+                })
+                .collect()
         }
     };
     Ok(Image {
@@ -283,18 +295,6 @@ fn decode_ldr(v: f32, srgb: bool) -> f32 {
         srgb_to_linear(v)
     } else {
         v
-    }
-}
-
-/// Alpha is never sRGB-encoded: restore the raw values in the alpha channel.
-fn undo_transfer_on_alpha(out: &mut [f32], channels: usize, raw: &[f32]) {
-    if channels == 2 || channels == 4 {
-        for (o, r) in out
-            .chunks_exact_mut(channels)
-            .zip(raw.chunks_exact(channels))
-        {
-            o[channels - 1] = r[channels - 1];
-        }
     }
 }
 
