@@ -213,7 +213,6 @@ def dir_to_pixel(dirs, size: int, *, preset: str = "gl", singular: str = "nan") 
     that preset's size x size image: (0, 0) is the top-left corner of row 0, pixel centres are at
     i + 1/2. NaN where a direction has no single pixel."""
     d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
-    _choice(preset, "preset", tuple(presets()))
     return _ext.dir_to_pixel(d, _size(size, "size"), preset, _choice(singular, "singular", SINGULAR_MODES))
 
 
@@ -221,7 +220,6 @@ def pixel_to_dir(xy, size: int, *, preset: str = "gl") -> tuple[np.ndarray, np.n
     """Continuous pixel coordinates (..., 2) in `preset`'s size x size image -> (unit directions
     in the preset's frame (..., 3), valid (...) bool)."""
     a = _floats(xy, "xy", last=(2,)).astype(np.float64, copy=False)
-    _choice(preset, "preset", tuple(presets()))
     dirs = _ext.pixel_to_dir(a, _size(size, "size"), preset)
     return dirs, ~np.isnan(dirs[..., 0])
 
