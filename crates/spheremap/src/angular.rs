@@ -16,95 +16,64 @@
 //! texel's part inside the disc (Gauss–Legendre on sub-cells; the integrand vanishes at the rim,
 //! so the clipping costs little accuracy: the map sums to 4π within 1e-6).
 
+use crate::real::Real;
 use std::f64::consts::PI;
 
 /// Direction (any non-zero length) → (u, v), v down.  NaN for zero or non-finite input.  +Z
 /// (straight behind) is the whole rim; it is returned as the rim point on the right (u = 1).
-pub fn dir_to_uv(d: [f64; 3]) -> [f64; 2] {
-    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if !(l > 0.0 && l.is_finite()) {
-        return [f64::NAN; 2];
+#[inline(always)]
+pub fn dir_to_uv<T: Real>(d: [T; 3]) -> [T; 2] {
+    let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if !(l2 > T::ZERO && l2.is_finite()) {
+        return [T::NAN; 2];
     }
-    let (x, y, z) = (d[0] / l, d[1] / l, d[2] / l);
+    let (x, y, z) = (d[0], d[1], d[2]);
     let h = x.hypot(y);
-    let phi = h.atan2(-z); // angle from −Z, accurate everywhere
-    let (a, b) = if h > 0.0 {
-        (x / h * phi / PI, y / h * phi / PI)
-    } else if z < 0.0 {
-        (0.0, 0.0)
+    let phi = h.atan2(-z) * T::from_f64(1.0 / PI); // angle from −Z / π, accurate everywhere
+    let (a, b) = if h > T::ZERO {
+        (x / h * phi, y / h * phi)
+    } else if z < T::ZERO {
+        (T::ZERO, T::ZERO)
     } else {
-        (1.0, 0.0)
+        (T::ONE, T::ZERO)
     };
-    [(a + 1.0) * 0.5, (1.0 - b) * 0.5]
+    [(a + T::ONE) * T::HALF, (T::ONE - b) * T::HALF]
 }
 
 /// (u, v), v down → unit direction; `None` outside the disc or for non-finite input.
-pub fn uv_to_dir(uv: [f64; 2]) -> Option<[f64; 3]> {
-    let (a, b) = (2.0 * uv[0] - 1.0, 1.0 - 2.0 * uv[1]);
+#[inline(always)]
+pub fn uv_to_dir<T: Real>(uv: [T; 2]) -> Option<[T; 3]> {
+    let (a, b) = (T::TWO * uv[0] - T::ONE, T::ONE - T::TWO * uv[1]);
     let rho = a.hypot(b);
-    if !(rho <= 1.0) {
+    if !(rho <= T::ONE) {
         return None;
     }
-    let phi = PI * rho;
-    let s = if rho > 0.0 { phi.sin() / rho } else { 0.0 };
-    Some([a * s, b * s, -phi.cos()])
+    Some(disc_to_dir(a, b, rho))
+}
+
+/// The angular formula at disc point (a, b), radius ρ; also defined past the rim (ρ ∈ (1, 2)),
+/// where it continues across the single direction +Z onto the other side.
+#[inline(always)]
+pub(crate) fn disc_to_dir<T: Real>(a: T, b: T, rho: T) -> [T; 3] {
+    let phi = T::from_f64(PI) * rho;
+    let s = if rho > T::ZERO {
+        phi.sin() / rho
+    } else {
+        T::from_f64(PI)
+    };
+    [a * s, b * s, -phi.cos()]
 }
 
 /// Solid angle of texel (`col`, `row`) of an `n`×`n` angular map.
 pub fn texel_solid_angle(col: usize, row: usize, n: usize) -> f64 {
-    let f = 2.0 / n as f64;
-    let (a0, b0) = (col as f64 * f - 1.0, row as f64 * f - 1.0);
-    // Wholly outside the disc: nothing.
-    let near = |lo: f64| {
-        if lo > 0.0 {
-            lo
-        } else if lo + f < 0.0 {
-            -(lo + f)
+    crate::quad::disc_texel_integral(col, row, n, |rho| {
+        if rho > 0.0 {
+            PI * (PI * rho).sin() / rho
         } else {
-            0.0
+            PI * PI
         }
-    };
-    if near(a0).hypot(near(b0)) >= 1.0 {
-        return 0.0;
-    }
-    // Sub-cells: more where the texel is cut by the rim.
-    let far = |lo: f64| lo.abs().max((lo + f).abs());
-    let k = if far(a0).hypot(far(b0)) <= 1.0 { 1 } else { 16 };
-    let h = f / k as f64;
-    let mut sum = 0.0;
-    for i in 0..k {
-        for j in 0..k {
-            let (ca, cb) = (a0 + (i as f64 + 0.5) * h, b0 + (j as f64 + 0.5) * h);
-            for (xa, wa) in GL8 {
-                for (xb, wb) in GL8 {
-                    let (a, b) = (ca + 0.5 * h * xa, cb + 0.5 * h * xb);
-                    let rho = a.hypot(b);
-                    if rho <= 1.0 {
-                        let g = if rho > 0.0 {
-                            PI * (PI * rho).sin() / rho
-                        } else {
-                            PI * PI
-                        };
-                        sum += wa * wb * g;
-                    }
-                }
-            }
-        }
-    }
-    sum * 0.25 * h * h
+    })
 }
-
-/// 8-point Gauss–Legendre nodes and weights on [−1, 1].
-const GL8: [(f64, f64); 8] = [
-    (-0.960_289_856_497_536_2, 0.101_228_536_290_376_26),
-    (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
-    (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
-    (-0.183_434_642_495_649_8, 0.362_683_783_378_362),
-    (0.183_434_642_495_649_8, 0.362_683_783_378_362),
-    (0.525_532_409_916_329, 0.313_706_645_877_887_3),
-    (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
-    (0.960_289_856_497_536_2, 0.101_228_536_290_376_26),
-];
 
 #[cfg(test)]
 mod tests {

@@ -33,6 +33,7 @@
 //! `ω = (2π/W)(cos θ₀ − cos θ₁)`; a row's texels are equal, and the map sums to 4π.
 
 use crate::error::{Error, Result};
+use crate::real::Real;
 use std::f64::consts::{PI, TAU};
 
 /// A lat-long convention.
@@ -95,26 +96,30 @@ impl LatLongPreset {
     }
 
     /// Direction (any non-zero length) → (u, v), v down.  NaN for zero or non-finite input.
-    pub fn dir_to_uv(&self, d: [f64; 3]) -> [f64; 2] {
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if !(l > 0.0 && l.is_finite()) {
-            return [f64::NAN; 2];
+    /// Generic: f64 is the reference, f32 the fast path (polynomial atan2, see [`Real::atan2`]).
+    #[inline(always)]
+    pub fn dir_to_uv<T: Real>(&self, d: [T; 3]) -> [T; 2] {
+        let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if !(l2 > T::ZERO && l2.is_finite()) {
+            return [T::NAN; 2];
         }
         // atan2 of (z, x) is 0 at the poles (x = z = 0): any u is right there.
-        let u = (self.u_plus_x + d[2].atan2(d[0]) / TAU).rem_euclid(1.0);
+        let u = T::from_f64(self.u_plus_x) + d[2].atan2(d[0]) * T::from_f64(1.0 / TAU);
+        let u = u - u.floor();
         // acos loses accuracy near the poles; atan2 of (horizontal length, y) does not.
-        let v = (d[0].hypot(d[2])).atan2(d[1]) / PI;
-        [if u >= 1.0 { 0.0 } else { u }, v]
+        let v = d[0].hypot(d[2]).atan2(d[1]) * T::from_f64(1.0 / PI);
+        [if u >= T::ONE { T::ZERO } else { u }, v]
     }
 
     /// (u, v) → unit direction; `None` for v outside [0,1] or non-finite input (u wraps).
-    pub fn uv_to_dir(&self, uv: [f64; 2]) -> Option<[f64; 3]> {
+    #[inline(always)]
+    pub fn uv_to_dir<T: Real>(&self, uv: [T; 2]) -> Option<[T; 3]> {
         let [u, v] = uv;
-        if !(u.is_finite() && (0.0..=1.0).contains(&v)) {
+        if !(u.is_finite() && v >= T::ZERO && v <= T::ONE) {
             return None;
         }
-        let phi = (u - self.u_plus_x) * TAU;
-        let theta = v * PI;
+        let phi = (u - T::from_f64(self.u_plus_x)) * T::from_f64(TAU);
+        let theta = v * T::from_f64(PI);
         let s = theta.sin();
         Some([s * phi.cos(), theta.cos(), s * phi.sin()])
     }

@@ -19,21 +19,28 @@
 pub mod angular;
 pub mod chart;
 pub mod conventions;
+pub mod cube;
 pub mod demo;
 pub mod error;
 pub mod image_io;
 pub mod io;
 pub mod latlong;
+pub mod mapping;
 pub mod matcap;
 pub mod mesh;
 pub mod octahedral;
+pub mod paraboloid;
 pub mod parse;
+mod quad;
 pub mod real;
+pub mod resample;
 pub mod sphere;
 pub mod texgen;
+pub mod view;
 
 pub use conventions::{RowOrder, Singular, SpherePreset, PRESETS};
 pub use error::{Error, Result};
+pub use mapping::Mapping;
 pub use matcap::{matcap_uv, MatcapVariant};
 pub use sphere::{dir_to_st, reflect, st_to_dir, texel_solid_angle};
 pub use texgen::{sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions};

@@ -12,53 +12,55 @@
 //! Wrap rule (pbrt's `WrapMode::OctahedralSphere`): past the left or right edge, u reflects and v
 //! flips (v → 1 − v); past the top or bottom edge, v reflects and u flips.
 
+use crate::real::Real;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
-/// Our frame → pbrt's frame.
-#[inline]
-fn to_pbrt(d: [f64; 3]) -> [f64; 3] {
-    [d[0], d[2], d[1]]
-}
-
 /// Direction (ours, any non-zero length) → (u, v), v down.  NaN for zero/non-finite input.
-pub fn dir_to_uv(d: [f64; 3]) -> [f64; 2] {
-    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    if !(l > 0.0 && l.is_finite()) {
-        return [f64::NAN; 2];
+#[inline(always)]
+pub fn dir_to_uv<T: Real>(d: [T; 3]) -> [T; 2] {
+    let l2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if !(l2 > T::ZERO && l2.is_finite()) {
+        return [T::NAN; 2];
     }
-    let [dx, dy, dz] = to_pbrt([d[0] / l, d[1] / l, d[2] / l]);
+    let il = T::ONE / l2.sqrt();
+    // Ours → pbrt's frame: pbrt (x, y, z) = ours (x, z, y).
+    let (dx, dy, dz) = (d[0] * il, d[2] * il, d[1] * il);
     let (x, y, z) = (dx.abs(), dy.abs(), dz.abs());
-    let r = (1.0 - z).max(0.0).sqrt();
-    let a = x.max(y);
-    let b = if a == 0.0 { 0.0 } else { x.min(y) / a };
-    let mut phi = b.atan() / FRAC_PI_2;
+    let r = (T::ONE - z).max(T::ZERO).sqrt();
+    // φ/(π/2) = atan(min/max)/(π/2), mirrored past the diagonal.
+    let mut phi = x.min(y).atan2(x.max(y)) * T::from_f64(1.0 / FRAC_PI_2);
     if x < y {
-        phi = 1.0 - phi;
+        phi = T::ONE - phi;
     }
     let mut v = phi * r;
     let mut u = r - v;
-    if dz < 0.0 {
+    if dz < T::ZERO {
         std::mem::swap(&mut u, &mut v);
-        u = 1.0 - u;
-        v = 1.0 - v;
+        u = T::ONE - u;
+        v = T::ONE - v;
     }
     let (u, v) = (u.copysign(dx), v.copysign(dy));
-    [0.5 * (u + 1.0), 0.5 * (v + 1.0)]
+    [T::HALF * (u + T::ONE), T::HALF * (v + T::ONE)]
 }
 
 /// (u, v) ∈ [0,1]², v down → unit direction (ours); `None` outside the square or non-finite.
-pub fn uv_to_dir(uv: [f64; 2]) -> Option<[f64; 3]> {
-    if !((0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1])) {
+#[inline(always)]
+pub fn uv_to_dir<T: Real>(uv: [T; 2]) -> Option<[T; 3]> {
+    if !(uv[0] >= T::ZERO && uv[0] <= T::ONE && uv[1] >= T::ZERO && uv[1] <= T::ONE) {
         return None;
     }
-    let (u, v) = (2.0 * uv[0] - 1.0, 2.0 * uv[1] - 1.0);
+    let (u, v) = (T::TWO * uv[0] - T::ONE, T::TWO * uv[1] - T::ONE);
     let (up, vp) = (u.abs(), v.abs());
-    let signed_distance = 1.0 - (up + vp);
-    let r = 1.0 - signed_distance.abs();
-    let phi = if r == 0.0 { 1.0 } else { (vp - up) / r + 1.0 } * FRAC_PI_4;
-    let z = (1.0 - r * r).copysign(signed_distance);
+    let signed_distance = T::ONE - (up + vp);
+    let r = T::ONE - signed_distance.abs();
+    let phi = if r == T::ZERO {
+        T::ONE
+    } else {
+        (vp - up) / r + T::ONE
+    } * T::from_f64(FRAC_PI_4);
+    let z = (T::ONE - r * r).copysign(signed_distance);
     let (cos_phi, sin_phi) = (phi.cos().copysign(u), phi.sin().copysign(v));
-    let k = r * (2.0 - r * r).max(0.0).sqrt();
+    let k = r * (T::TWO - r * r).max(T::ZERO).sqrt();
     let (x, y) = (cos_phi * k, sin_phi * k);
     // pbrt (x, y, z) → ours (x, z, y).
     Some([x, z, y])

@@ -17,6 +17,7 @@ pub trait Real:
     + Div<Output = Self>
     + Neg<Output = Self>
     + 'static
+    + Real64Atan2
 {
     const ZERO: Self;
     const ONE: Self;
@@ -29,6 +30,17 @@ pub trait Real:
     fn is_nan(self) -> bool;
     fn from_f64(v: f64) -> Self;
     fn to_f64(self) -> f64;
+    /// `atan2(self, x)`.  f64: the C library's, correctly rounded in practice.  f32: a
+    /// branch-free minimax polynomial ([`atan2_fast`]), absolute error ≤ 3e-7 rad (one f32 ulp of π),
+    /// and many times faster.
+    fn atan2(self, x: Self) -> Self;
+    fn sin(self) -> Self;
+    fn cos(self) -> Self;
+    fn floor(self) -> Self;
+    fn copysign(self, sign: Self) -> Self;
+    fn max(self, o: Self) -> Self;
+    fn min(self, o: Self) -> Self;
+    fn hypot(self, o: Self) -> Self;
 }
 
 macro_rules! impl_real {
@@ -63,13 +75,136 @@ macro_rules! impl_real {
             fn to_f64(self) -> f64 {
                 self as f64
             }
+            #[inline(always)]
+            fn atan2(self, x: Self) -> Self {
+                Real64Atan2::atan2_impl(self, x)
+            }
+            #[inline(always)]
+            fn sin(self) -> Self {
+                <$t>::sin(self)
+            }
+            #[inline(always)]
+            fn cos(self) -> Self {
+                <$t>::cos(self)
+            }
+            #[inline(always)]
+            fn floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            #[inline(always)]
+            fn copysign(self, sign: Self) -> Self {
+                <$t>::copysign(self, sign)
+            }
+            #[inline(always)]
+            fn max(self, o: Self) -> Self {
+                <$t>::max(self, o)
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                <$t>::min(self, o)
+            }
+            #[inline(always)]
+            fn hypot(self, o: Self) -> Self {
+                // Not the C library's `hypot` (slow, and the inputs here are unit-scale): the
+                // plain formula, exact to rounding for |values| in 1e-150..1e150.
+                (self * self + o * o).sqrt()
+            }
         }
     };
 }
 impl_real!(f32);
 impl_real!(f64);
 
+impl Real64Atan2 for f64 {
+    #[inline(always)]
+    fn atan2_impl(self, x: f64) -> f64 {
+        f64::atan2(self, x)
+    }
+}
+impl Real64Atan2 for f32 {
+    #[inline(always)]
+    fn atan2_impl(self, x: f32) -> f32 {
+        atan2_fast(self, x)
+    }
+}
+
+/// Per-type atan2 (kept out of the macro: f32 and f64 differ).
+pub trait Real64Atan2 {
+    fn atan2_impl(self, x: Self) -> Self;
+}
+
+/// Fast f32 `atan2(y, x)`, branch-free so it vectorizes.
+///
+/// Reduce to `a = min(|x|,|y|) / max(|x|,|y|) ∈ [0,1]`; `atan(a) = a·P(a²)` with P the degree-7
+/// minimax fit below (max abs error 3.7e-8 on [0,1], fitted by Lawson-weighted least squares);
+/// then undo the reduction by octant: `π/2 − θ` if |y| > |x|, `π − θ` if x < 0, sign of y.
+/// `atan2(0, 0) = 0`; NaN in → NaN out.  Measured against f64: ≤ 2.7e-7 rad (the rounding of π − θ in f32).
+#[inline(always)]
+pub fn atan2_fast(y: f32, x: f32) -> f32 {
+    const C: [f32; 8] = [
+        0.999_999_34,
+        -0.333_298_6,
+        0.199_465_66,
+        -0.139_086_3,
+        0.096_421_98,
+        -0.055_912_35,
+        0.021_862_98,
+        -0.004_054_574,
+    ];
+    let (ax, ay) = (x.abs(), y.abs());
+    let mx = ax.max(ay);
+    let mn = ax.min(ay);
+    let a = if mx > 0.0 { mn / mx } else { 0.0 };
+    let s = a * a;
+    let p = C[7];
+    let p = p * s + C[6];
+    let p = p * s + C[5];
+    let p = p * s + C[4];
+    let p = p * s + C[3];
+    let p = p * s + C[2];
+    let p = p * s + C[1];
+    let p = p * s + C[0];
+    let mut r = a * p;
+    if ay > ax {
+        r = core::f32::consts::FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = core::f32::consts::PI - r;
+    }
+    let r = if x.is_nan() || y.is_nan() {
+        f32::NAN
+    } else {
+        r
+    };
+    r.copysign(y)
+}
+
 #[inline(always)]
 pub(crate) fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atan2_fast_matches_f64() {
+        let mut worst = 0.0f64;
+        let n = 2000;
+        for i in 0..n {
+            let a = i as f64 / n as f64 * std::f64::consts::TAU;
+            for r in [1.0f64, 1e-3, 7.5e3] {
+                let (y, x) = ((a.sin() * r) as f32, (a.cos() * r) as f32);
+                let e = (atan2_fast(y, x) as f64 - (y as f64).atan2(x as f64)).abs();
+                worst = worst.max(e);
+            }
+        }
+        assert!(worst <= 3e-7, "{worst}"); // ≈ 1 ulp of f32 at π
+        assert_eq!(atan2_fast(0.0, 0.0), 0.0);
+        assert_eq!(atan2_fast(0.0, -1.0), std::f32::consts::PI);
+        assert_eq!(atan2_fast(-0.0, -1.0), -std::f32::consts::PI);
+        assert!(atan2_fast(f32::NAN, 1.0).is_nan());
+        assert!(atan2_fast(1.0, f32::NAN).is_nan());
+    }
 }

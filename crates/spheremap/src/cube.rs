@@ -1,0 +1,552 @@
+//! Cube maps: the six faces, their orientation (GL/KTX, and D3D as a preset), and the file
+//! layouts people store them in.
+//!
+//! ## Faces (OpenGL 4.6 §8.13, Table 8.19; KTX, DDS and Vulkan use the same table)
+//!
+//! Face order +X, −X, +Y, −Y, +Z, −Z (indices 0‥5).  For a direction r the face is the axis of
+//! the largest |component| (ties: x before y before z), `ma` that component, and
+//!
+//! ```text
+//! face   sc    tc         s = (sc/|ma| + 1)/2   t = (tc/|ma| + 1)/2
+//!  +X   −rz   −ry         texel (col, row) of a face image has
+//!  −X   +rz   −ry         s = (col + ½)/F, t = (row + ½)/F:
+//!  +Y   +rx   +rz         row 0 of every face is t = 0.
+//!  −Y   +rx   −rz
+//!  +Z   +rx   −ry
+//!  −Z   −rx   −ry
+//! ```
+//!
+//! Seen from inside the cube these face images are mirror images (the "RenderMan", left-handed
+//! convention): the +Z face shows +X on the right although a viewer at the centre facing +Z with
+//! +Y up has −X on the right.  The side faces are mirrored left-right and ±Y top-bottom.
+//!
+//! ## The internal representation: a face stack
+//!
+//! spheremap holds a cube map as one image F wide and 6F tall: the six GL face images in GL
+//! order, top to bottom — byte for byte the numpy array `(6, F, F, C)` the Python API takes.
+//! The canvas coordinates of the stack are (u, v) = (col/F, row/6F), v down.
+//!
+//! ## Layouts (files)
+//!
+//! ```text
+//!  stack / vstrip (F × 6F)      hstrip (6F × F)            hcross = dice (4F × 3F)
+//!  +X                           +X −X +Y −Y +Z −Z               +Y
+//!  −X                           (GL face images,           −X  −Z  +X  +Z
+//!  +Y                            as stored in KTX/DDS)          −Y
+//!  −Y
+//!  +Z                           horizon (6F × F)           vcross (3F × 4F)
+//!  −Z                           −Z +X +Z −X +Y −Y               +Y
+//!  (GL face images)                                        −X  −Z  +X
+//!                                                               −Y
+//!                                                               +Z (rotated 180°)
+//! ```
+//!
+//! `hstrip`, `vstrip` and six files hold the GL face images unchanged.  The crosses and
+//! `horizon` hold **views from the inside** (not mirrored: each face as a camera at the centre
+//! sees it, side faces with +Y up, +Y with +Z at its top, −Y with −Z at its top), arranged so the
+//! cross is one continuous picture around the forward face −Z.  These are py360convert's `dice`
+//! and `horizon` layouts (faces F R B L U D), with py360convert's forward +Z being our −Z: its
+//! world is ours with z negated (DESIGN §2), checked numerically in `tests/test_peers.py`.
+
+use crate::error::{Error, Result};
+use crate::image_io::Image;
+use crate::real::Real;
+
+/// Face names in GL order, as used in file patterns (`{face}`).
+pub const FACE_NAMES: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
+
+/// The GL table: for each face, (major axis, sign), (sc axis, sign), (tc axis, sign).
+const TABLE: [[(usize, f64); 3]; 6] = [
+    [(0, 1.0), (2, -1.0), (1, -1.0)],
+    [(0, -1.0), (2, 1.0), (1, -1.0)],
+    [(1, 1.0), (0, 1.0), (2, 1.0)],
+    [(1, -1.0), (0, 1.0), (2, -1.0)],
+    [(2, 1.0), (0, 1.0), (1, -1.0)],
+    [(2, -1.0), (0, -1.0), (1, -1.0)],
+];
+
+/// Direction → (face, s, t), s and t ∈ [0,1] within the face (t = 0 at row 0).  Face 0 with NaN
+/// coordinates for a zero or non-finite direction.
+#[inline(always)]
+pub fn dir_to_face_st<T: Real>(d: [T; 3]) -> (usize, T, T) {
+    let (ax, ay, az) = (d[0].abs(), d[1].abs(), d[2].abs());
+    let (axis, ma) = if ax >= ay && ax >= az {
+        (0, d[0])
+    } else if ay >= az {
+        (1, d[1])
+    } else {
+        (2, d[2])
+    };
+    if !(ma.abs() > T::ZERO && ma.is_finite()) {
+        return (0, T::NAN, T::NAN);
+    }
+    let face = 2 * axis + usize::from(ma < T::ZERO);
+    let [_, (si, ss), (ti, ts)] = TABLE[face];
+    let inv = T::ONE / ma.abs();
+    let sc = d[si] * T::from_f64(ss) * inv;
+    let tc = d[ti] * T::from_f64(ts) * inv;
+    (face, (sc + T::ONE) * T::HALF, (tc + T::ONE) * T::HALF)
+}
+
+/// (face, s, t) → the (unnormalized) point on the cube, ‖·‖∞ = 1 inside the face.  s and t may
+/// lie outside [0,1]: the face plane extended (used to cross seams).
+#[inline(always)]
+pub fn face_st_to_point<T: Real>(face: usize, s: T, t: T) -> [T; 3] {
+    let [(mi, ms), (si, ss), (ti, ts)] = TABLE[face];
+    let mut p = [T::ZERO; 3];
+    p[mi] = T::from_f64(ms);
+    p[si] = (T::TWO * s - T::ONE) * T::from_f64(ss);
+    p[ti] = (T::TWO * t - T::ONE) * T::from_f64(ts);
+    p
+}
+
+/// (face, s, t) → unit direction.
+pub fn face_st_to_dir<T: Real>(face: usize, s: T, t: T) -> [T; 3] {
+    let p = face_st_to_point(face, s, t);
+    let il = T::ONE / (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+    [p[0] * il, p[1] * il, p[2] * il]
+}
+
+/// Exact solid angle of texel (col, row) of a face of F×F texels (same on every face).
+///
+/// The face is the plane at distance 1, coordinates a, b ∈ [−1,1]; the solid angle of the
+/// rectangle [0,a]×[0,b] is `atan(ab / √(1 + a² + b²))`, so a texel is an inclusion–exclusion
+/// of four such terms.  Σ over the cube = 4π.
+pub fn texel_solid_angle(col: usize, row: usize, f: usize) -> f64 {
+    let g = |a: f64, b: f64| (a * b).atan2((1.0 + a * a + b * b).sqrt());
+    let c = |i: usize| 2.0 * i as f64 / f as f64 - 1.0;
+    let (a0, a1, b0, b1) = (c(col), c(col + 1), c(row), c(row + 1));
+    g(a1, b1) - g(a0, b1) - g(a1, b0) + g(a0, b0)
+}
+
+/// A cube-map convention: a frame change from the preset's world to ours.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CubePreset {
+    pub name: &'static str,
+    /// Row-major 3×3, preset frame → ours.
+    pub frame: [[f64; 3]; 3],
+    pub doc: &'static str,
+}
+
+pub const CUBE_PRESETS: &[CubePreset] = &[
+    CubePreset {
+        name: "gl",
+        frame: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        doc: "OpenGL / KTX / Vulkan cube map in a right-handed Y-up world (the GL face table \
+              applied to our directions). spheremap's own convention.",
+    },
+    CubePreset {
+        name: "d3d",
+        frame: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]],
+        doc: "Direct3D cube map in D3D's left-handed world (+Z forward = our -Z): the same face \
+              table in D3D coordinates, so the file's '+Z' face is our -Z and its face images \
+              are not mirrored as seen from inside.",
+    },
+];
+
+impl CubePreset {
+    pub fn by_name(name: &str) -> Result<&'static CubePreset> {
+        CUBE_PRESETS.iter().find(|p| p.name == name).ok_or_else(|| {
+            let names: Vec<_> = CUBE_PRESETS.iter().map(|p| p.name).collect();
+            Error::param(
+                "preset",
+                format!(
+                    "unknown cube preset {name:?}; expected one of: {}",
+                    names.join(", ")
+                ),
+            )
+        })
+    }
+}
+
+/// How the six faces sit in a file.  See the module diagram.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// F × 6F, GL faces top to bottom (the internal stack).
+    VStrip,
+    /// 6F × F, GL faces left to right.
+    HStrip,
+    /// 4F × 3F cross of inside views around −Z (= py360convert `dice`).
+    HCross,
+    /// 3F × 4F cross of inside views, +Z at the bottom rotated 180°.
+    VCross,
+    /// 6F × F, inside views −Z +X +Z −X +Y −Y (py360convert `horizon`).
+    Horizon,
+}
+
+/// A face image's orientation in a layout slot, relative to the GL face image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Orient {
+    Same,
+    FlipH,
+    FlipV,
+}
+
+impl Layout {
+    pub const NAMES: [&'static str; 6] =
+        ["vstrip", "hstrip", "hcross", "vcross", "dice", "horizon"];
+
+    pub fn parse(name: &str) -> Result<Layout> {
+        Ok(match name {
+            "vstrip" | "stack" => Layout::VStrip,
+            "hstrip" => Layout::HStrip,
+            "hcross" | "cross" | "dice" => Layout::HCross,
+            "vcross" => Layout::VCross,
+            "horizon" => Layout::Horizon,
+            other => {
+                return Err(Error::param(
+                    "layout",
+                    format!(
+                        "unknown cube layout {other:?}; expected one of: {}, or six files with \
+                         a {{face}} pattern",
+                        Self::NAMES.join(", ")
+                    ),
+                ))
+            }
+        })
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Layout::VStrip => "vstrip",
+            Layout::HStrip => "hstrip",
+            Layout::HCross => "hcross",
+            Layout::VCross => "vcross",
+            Layout::Horizon => "horizon",
+        }
+    }
+
+    /// The layout an image of `w`×`h` must be, judged by shape alone, when it is unambiguous:
+    /// 1:6 vstrip, 4:3 hcross, 3:4 vcross.  6:1 is hstrip or horizon: the caller must say.
+    pub fn from_shape(w: usize, h: usize) -> Result<Layout> {
+        if w > 0 && h == 6 * w {
+            Ok(Layout::VStrip)
+        } else if h > 0 && 3 * w == 4 * h && w % 4 == 0 {
+            Ok(Layout::HCross)
+        } else if w > 0 && 4 * w == 3 * h && w % 3 == 0 {
+            Ok(Layout::VCross)
+        } else if h > 0 && w == 6 * h {
+            Err(Error::param(
+                "layout",
+                format!(
+                    "a {w}x{h} image could be 'hstrip' (GL faces) or 'horizon' (py360convert); \
+                     say which"
+                ),
+            ))
+        } else {
+            Err(Error::param(
+                "layout",
+                format!(
+                    "a {w}x{h} image is no cube layout (vstrip 1:6, hstrip/horizon 6:1, \
+                     hcross 4:3, vcross 3:4 with square faces)"
+                ),
+            ))
+        }
+    }
+
+    /// (width, height) of the layout for faces of F.
+    pub fn dims(self, f: usize) -> (usize, usize) {
+        match self {
+            Layout::VStrip => (f, 6 * f),
+            Layout::HStrip | Layout::Horizon => (6 * f, f),
+            Layout::HCross => (4 * f, 3 * f),
+            Layout::VCross => (3 * f, 4 * f),
+        }
+    }
+
+    /// Face size for a layout image of `w`×`h`, checking the shape.
+    pub fn face_size(self, w: usize, h: usize) -> Result<usize> {
+        let f = match self {
+            Layout::VStrip => w,
+            Layout::HStrip | Layout::Horizon => h,
+            Layout::HCross => w / 4,
+            Layout::VCross => w / 3,
+        };
+        if f == 0 || self.dims(f) != (w, h) {
+            let (ew, eh) = self.dims(f.max(1));
+            return Err(Error::param(
+                "layout",
+                format!(
+                    "a {w}x{h} image is not a '{}' cube layout (that is {}:{} with square \
+                     faces, e.g. {ew}x{eh})",
+                    self.name(),
+                    ew / f.max(1),
+                    eh / f.max(1)
+                ),
+            ));
+        }
+        Ok(f)
+    }
+
+    /// For each GL face: its slot (column, row in face units) and orientation.
+    fn slots(self) -> [(usize, usize, Orient); 6] {
+        use Orient::*;
+        match self {
+            Layout::VStrip => [
+                (0, 0, Same),
+                (0, 1, Same),
+                (0, 2, Same),
+                (0, 3, Same),
+                (0, 4, Same),
+                (0, 5, Same),
+            ],
+            Layout::HStrip => [
+                (0, 0, Same),
+                (1, 0, Same),
+                (2, 0, Same),
+                (3, 0, Same),
+                (4, 0, Same),
+                (5, 0, Same),
+            ],
+            // Inside views: side faces mirrored left-right, ±Y top-bottom (module docs).
+            Layout::HCross => [
+                (2, 1, FlipH),
+                (0, 1, FlipH),
+                (1, 0, FlipV),
+                (1, 2, FlipV),
+                (3, 1, FlipH),
+                (1, 1, FlipH),
+            ],
+            // +Z below −Y: the inside view turned 180° = FlipH ∘ rot180 = FlipV.
+            Layout::VCross => [
+                (2, 1, FlipH),
+                (0, 1, FlipH),
+                (1, 0, FlipV),
+                (1, 2, FlipV),
+                (1, 3, FlipV),
+                (1, 1, FlipH),
+            ],
+            // F R B L U D = −Z +X +Z −X +Y −Y.
+            Layout::Horizon => [
+                (1, 0, FlipH),
+                (3, 0, FlipH),
+                (4, 0, FlipV),
+                (5, 0, FlipV),
+                (2, 0, FlipH),
+                (0, 0, FlipH),
+            ],
+        }
+    }
+
+    /// Layout image → face stack (F × 6F).  Unused cells of a cross are ignored.
+    pub fn to_stack(self, img: &Image) -> Result<Image> {
+        let f = self.face_size(img.width, img.height)?;
+        let c = img.channels;
+        let mut out = Image::new(f, 6 * f, c);
+        for (face, &(sx, sy, o)) in self.slots().iter().enumerate() {
+            for row in 0..f {
+                for col in 0..f {
+                    let (scol, srow) = o.apply(col, row, f);
+                    let src = ((sy * f + srow) * img.width + sx * f + scol) * c;
+                    let dst = ((face * f + row) * f + col) * c;
+                    out.data[dst..dst + c].copy_from_slice(&img.data[src..src + c]);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Face stack → layout image; unused cells of a cross are 0 (alpha 0 when there is alpha).
+    pub fn from_stack(self, stack: &Image) -> Result<Image> {
+        let f = stack.width;
+        if stack.height != 6 * f {
+            return Err(Error::param(
+                "image",
+                format!(
+                    "a cube face stack is F x 6F, got {}x{}",
+                    stack.width, stack.height
+                ),
+            ));
+        }
+        let c = stack.channels;
+        let (w, h) = self.dims(f);
+        let mut out = Image::new(w, h, c);
+        for (face, &(sx, sy, o)) in self.slots().iter().enumerate() {
+            for row in 0..f {
+                for col in 0..f {
+                    let (scol, srow) = o.apply(col, row, f);
+                    let dst = ((sy * f + srow) * w + sx * f + scol) * c;
+                    let src = ((face * f + row) * f + col) * c;
+                    out.data[dst..dst + c].copy_from_slice(&stack.data[src..src + c]);
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl Orient {
+    /// Where GL face texel (col, row) sits inside the slot.  Each is its own inverse.
+    #[inline]
+    fn apply(self, col: usize, row: usize, f: usize) -> (usize, usize) {
+        match self {
+            Orient::Same => (col, row),
+            Orient::FlipH => (f - 1 - col, row),
+            Orient::FlipV => (col, f - 1 - row),
+        }
+    }
+}
+
+/// Six face files: expands a pattern holding `{face}` into the six paths (GL order, names
+/// px nx py ny pz nz).
+pub fn face_paths(pattern: &str) -> Option<[String; 6]> {
+    if !pattern.contains("{face}") {
+        return None;
+    }
+    Some(FACE_NAMES.map(|n| pattern.replace("{face}", n)))
+}
+
+/// Six face images (GL order, equal square sizes and channel counts) → stack.
+pub fn stack_faces(faces: &[Image], names: &[String]) -> Result<Image> {
+    let f = faces[0].width;
+    let c = faces[0].channels;
+    for (img, name) in faces.iter().zip(names) {
+        if img.width != img.height || img.width != f || img.channels != c {
+            return Err(Error::data(
+                name,
+                format!(
+                    "cube face is {}x{} with {} channels; expected {f}x{f} with {c} like {}",
+                    img.width, img.height, img.channels, names[0]
+                ),
+            ));
+        }
+    }
+    let mut out = Image::new(f, 6 * f, c);
+    for (i, img) in faces.iter().enumerate() {
+        out.data[i * f * f * c..(i + 1) * f * f * c].copy_from_slice(&img.data);
+    }
+    Ok(out)
+}
+
+/// Stack → six face images (GL order).
+pub fn split_stack(stack: &Image) -> Vec<Image> {
+    let f = stack.width;
+    let c = stack.channels;
+    (0..6)
+        .map(|i| Image {
+            width: f,
+            height: f,
+            channels: c,
+            data: stack.data[i * f * f * c..(i + 1) * f * f * c].to_vec(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_round_trip_and_pins() {
+        // Face centres.
+        let axes = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        for (i, a) in axes.iter().enumerate() {
+            assert_eq!(dir_to_face_st(*a), (i, 0.5, 0.5));
+        }
+        // +Z face: +X to the right (s = 1), +Y at row 0 (t = 0).
+        assert_eq!(dir_to_face_st([0.5, 0.0, 1.0f64]), (4, 0.75, 0.5));
+        assert_eq!(dir_to_face_st([1.0, 0.0, 1.0f64]), (0, 0.0, 0.5)); // tie: x wins
+        assert!((dir_to_face_st([0.0, 0.99, 1.0f64]).2 - 0.005).abs() < 1e-15); // +Y at row 0
+                                                                                // +X face: −Z to the right.
+        assert_eq!(dir_to_face_st([1.0, 0.0, -0.5f64]), (0, 0.75, 0.5));
+        for face in 0..6 {
+            for (s, t) in [(0.1, 0.2), (0.9, 0.4), (0.5, 0.99)] {
+                let d = face_st_to_dir(face, s, t);
+                let (f2, s2, t2) = dir_to_face_st(d);
+                assert_eq!(f2, face);
+                assert!((s2 - s).abs() < 1e-12 && (t2 - t).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn solid_angles_sum_to_4pi() {
+        for f in [1usize, 2, 7, 64] {
+            let s: f64 = (0..f)
+                .flat_map(|r| (0..f).map(move |c| texel_solid_angle(c, r, f)))
+                .sum();
+            assert!(
+                (6.0 * s - 4.0 * std::f64::consts::PI).abs() < 1e-12,
+                "{f}: {s}"
+            );
+        }
+    }
+
+    #[test]
+    fn layouts_round_trip() {
+        let f = 3;
+        let mut stack = Image::new(f, 6 * f, 1);
+        for (i, v) in stack.data.iter_mut().enumerate() {
+            *v = i as f32;
+        }
+        for l in [
+            Layout::VStrip,
+            Layout::HStrip,
+            Layout::HCross,
+            Layout::VCross,
+            Layout::Horizon,
+        ] {
+            let img = l.from_stack(&stack).unwrap();
+            assert_eq!((img.width, img.height), l.dims(f));
+            assert_eq!(l.to_stack(&img).unwrap().data, stack.data, "{l:?}");
+        }
+    }
+
+    /// The cross is one continuous picture: across every shared edge of the horizontal cross,
+    /// neighbouring texels look in nearly the same direction.
+    #[test]
+    fn cross_is_continuous() {
+        let f = 16;
+        let mut stack = Image::new(f, 6 * f, 3);
+        for face in 0..6 {
+            for row in 0..f {
+                for col in 0..f {
+                    let d = face_st_to_dir(
+                        face,
+                        (col as f64 + 0.5) / f as f64,
+                        (row as f64 + 0.5) / f as f64,
+                    );
+                    let i = ((face * f + row) * f + col) * 3;
+                    for k in 0..3 {
+                        stack.data[i + k] = d[k] as f32;
+                    }
+                }
+            }
+        }
+        for layout in [Layout::HCross, Layout::VCross] {
+            let img = layout.from_stack(&stack).unwrap();
+            let at = |x: usize, y: usize| {
+                let i = (y * img.width + x) * 3;
+                [img.data[i], img.data[i + 1], img.data[i + 2]]
+            };
+            let filled = |p: [f32; 3]| p.iter().any(|v| *v != 0.0);
+            let mut edges = 0;
+            for y in 0..img.height {
+                for x in 0..img.width {
+                    for (dx, dy) in [(1, 0), (0, 1)] {
+                        let (x2, y2) = (x + dx, y + dy);
+                        if x2 >= img.width || y2 >= img.height {
+                            continue;
+                        }
+                        let (a, b) = (at(x, y), at(x2, y2));
+                        if !(filled(a) && filled(b)) {
+                            continue;
+                        }
+                        let dot: f32 = (0..3).map(|k| a[k] * b[k]).sum();
+                        // One texel is at most 2/F ≈ 0.125 rad wide.
+                        assert!(dot > 0.99, "{layout:?} ({x},{y})-({x2},{y2}): {dot}");
+                        edges += 1;
+                    }
+                }
+            }
+            assert!(edges > 0);
+        }
+    }
+}

@@ -1,0 +1,351 @@
+//! The conversion engine: furnace, energy, conventions chained through every pair, seams,
+//! views, anti-aliasing, and f32 against f64.
+
+use spheremap::image_io::Image;
+use spheremap::mapping::Mapping;
+use spheremap::resample::{resample, EnvMap, Filter, Outside, Precision, ResampleOptions};
+use spheremap::view;
+
+fn mappings() -> Vec<Mapping> {
+    [
+        ("sphere", None),
+        ("sphere", Some("skylibs")),
+        ("latlong", None),
+        ("latlong", Some("pbrt")),
+        ("cube", None),
+        ("cube", Some("d3d")),
+        ("angular", None),
+        ("paraboloid", None),
+        ("octahedral", None),
+    ]
+    .iter()
+    .map(|(n, p)| Mapping::parse(n, *p).unwrap())
+    .collect()
+}
+
+/// A canvas of `m` with size `n` whose texels hold f(direction at the texel centre); 0 off the map.
+fn fill(m: Mapping, n: usize, c: usize, f: impl Fn([f64; 3]) -> Vec<f64>) -> Image {
+    let (w, h) = m.canvas(n);
+    let mut img = Image::new(w, h, c);
+    for y in 0..h {
+        for x in 0..w {
+            let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
+            if let Some(d) = m.uv_to_dir(uv) {
+                let v = f(d);
+                for k in 0..c {
+                    img.pixel_mut(x, y)[k] = v[k] as f32;
+                }
+            }
+        }
+    }
+    img
+}
+
+fn nm(m: &Mapping) -> String {
+    format!("{}:{}", m.name(), m.preset_name())
+}
+
+/// The one direction a disc source squeezes into its whole rim, if any.
+fn singular(m: &Mapping) -> Option<[f64; 3]> {
+    match m {
+        Mapping::Sphere(p) => Some(p.from_eye([0.0, 0.0, -1.0])),
+        Mapping::Angular => Some([0.0, 0.0, 1.0]),
+        _ => None,
+    }
+}
+
+fn convert(src: Mapping, img: &Image, dst: Mapping, n: usize, o: &ResampleOptions) -> Image {
+    let e = EnvMap::new(src, img, "src").unwrap();
+    let (w, h) = dst.canvas(n);
+    resample(&e, dst, w, h, o, None).unwrap().0
+}
+
+fn opts(samples: u32) -> ResampleOptions {
+    ResampleOptions {
+        samples,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn furnace_every_pair_every_filter() {
+    for src in mappings() {
+        let img = fill(src, 24, 3, |_| vec![0.25, 1.0, 4.0]);
+        for dst in mappings() {
+            for (samples, filter) in [
+                (1, Filter::Box),
+                (4, Filter::Box),
+                (9, Filter::Tent),
+                (4, Filter::Gaussian),
+            ] {
+                let o = ResampleOptions {
+                    samples,
+                    filter,
+                    ..Default::default()
+                };
+                let out = convert(src, &img, dst, 16, &o);
+                for (i, v) in out.data.chunks(3).enumerate() {
+                    let ok = (v[0] / 0.25 - 1.0).abs() < 1e-5
+                        && (v[1] - 1.0).abs() < 1e-5
+                        && (v[2] / 4.0 - 1.0).abs() < 1e-5;
+                    assert!(
+                        ok,
+                        "{} -> {} samples {samples} {filter:?}: texel {i} = {v:?}",
+                        nm(&src),
+                        nm(&dst)
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn black_outside_is_black_and_rims_are_partial() {
+    let img = fill(Mapping::parse("latlong", None).unwrap(), 32, 1, |_| {
+        vec![1.0]
+    });
+    let o = ResampleOptions {
+        outside: Outside::Black,
+        ..Default::default()
+    };
+    let out = convert(
+        Mapping::parse("latlong", None).unwrap(),
+        &img,
+        Mapping::parse("sphere", None).unwrap(),
+        32,
+        &o,
+    );
+    assert_eq!(out.pixel(0, 0)[0], 0.0);
+    assert_eq!(out.pixel(16, 16)[0], 1.0);
+    // A texel the rim cuts holds its covered fraction.
+    let rim = out.pixel(16, 0)[0];
+    assert!(rim > 0.0 && rim < 1.0, "{rim}");
+}
+
+/// Energy: Σ L·Ω is preserved by the box filter when shrinking, every pair.  The environment's
+/// integral is known: ∫(1 + 0.8x + 0.5y² + 0.3 sin 3z) dω = 4π(1 + 1/6).
+#[test]
+fn energy_is_preserved_when_shrinking() {
+    let f = |d: [f64; 3]| vec![1.0 + 0.8 * d[0] + 0.5 * d[1] * d[1] + 0.3 * (3.0 * d[2]).sin()];
+    let ea = 4.0 * std::f64::consts::PI * (1.0 + 1.0 / 6.0);
+    for src in mappings() {
+        let img = fill(src, 96, 1, f);
+        for dst in mappings() {
+            let out = convert(src, &img, dst, 24, &opts(16));
+            let (w, h) = (out.width, out.height);
+            let eb: f64 = dst
+                .solid_angles(w, h)
+                .iter()
+                .zip(&out.data)
+                .map(|(o, v)| o * *v as f64)
+                .sum();
+            let rel = (eb - ea).abs() / ea;
+            assert!(
+                rel < 2e-3,
+                "{} -> {}: {ea} vs {eb} ({rel:.2e})",
+                nm(&src),
+                nm(&dst)
+            );
+        }
+    }
+}
+
+/// Conventions chain through every pair: a map whose texels hold their own direction comes out
+/// holding the destination texel's direction (up to bilinear interpolation error).
+#[test]
+fn directions_survive_every_pair() {
+    for src in mappings() {
+        let img = fill(src, 128, 3, |d| d.to_vec());
+        for dst in mappings() {
+            let out = convert(src, &img, dst, 16, &opts(1));
+            let (w, h) = (out.width, out.height);
+            let mut worst = 0.0f64;
+            for y in 0..h {
+                for x in 0..w {
+                    let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
+                    let Some(d) = dst.uv_to_dir(uv) else { continue };
+                    let v = out.pixel(x, y);
+                    let l = ((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) as f64).sqrt();
+                    let dot = (0..3).map(|k| v[k] as f64 * d[k]).sum::<f64>() / l;
+                    // A disc source squeezes one direction into its whole rim: there bilinear
+                    // interpolation mixes far-apart directions (the ring 25° around it is the
+                    // outer 1.5% of the disc's radius).  Skip it.
+                    let ang = dot.clamp(-1.0, 1.0).acos().to_degrees();
+                    let near_singular = singular(&src).is_some_and(|q| {
+                        (0..3).map(|k| q[k] * d[k]).sum::<f64>() > 25f64.to_radians().cos()
+                    });
+                    if !near_singular {
+                        worst = worst.max(ang);
+                    }
+                }
+            }
+            assert!(
+                worst < 2.0,
+                "{} -> {}: worst {worst:.3}°",
+                nm(&src),
+                nm(&dst)
+            );
+        }
+    }
+}
+
+#[test]
+fn views_rotate_the_output() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let img = fill(ll, 128, 3, |d| d.to_vec());
+    // Looking along +X: the sphere map's centre shows the direction back at the viewer, −X.
+    let rot = view::look_up([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]).unwrap();
+    let o = ResampleOptions {
+        samples: 1,
+        rotation: rot,
+        ..Default::default()
+    };
+    let out = convert(ll, &img, sp, 64, &o);
+    let c = out.pixel(32, 32);
+    assert!(c[0] < -0.99, "{c:?}");
+    // And +Z (the eye's right) sits at s ≈ 0.854, the middle row.
+    let r = out.pixel(54, 32);
+    assert!(r[2] > 0.97, "{r:?}");
+}
+
+#[test]
+fn f32_fast_path_matches_f64_reference() {
+    let f = |d: [f64; 3]| vec![(4.0 * d[0]).sin() + d[1], (3.0 * d[2]).cos(), d[0] * d[1]];
+    for (src, dst) in [
+        ("latlong", "sphere"),
+        ("cube", "sphere"),
+        ("sphere", "latlong"),
+        ("octahedral", "paraboloid"),
+    ] {
+        let (src, dst) = (
+            Mapping::parse(src, None).unwrap(),
+            Mapping::parse(dst, None).unwrap(),
+        );
+        let img = fill(src, 64, 3, f);
+        for samples in [1, 8] {
+            let a = convert(
+                src,
+                &img,
+                dst,
+                48,
+                &ResampleOptions {
+                    samples,
+                    ..Default::default()
+                },
+            );
+            let b = convert(
+                src,
+                &img,
+                dst,
+                48,
+                &ResampleOptions {
+                    samples,
+                    precision: Precision::F64,
+                    ..Default::default()
+                },
+            );
+            let (mut worst, mut at) = (0.0f32, 0);
+            for (i, (x, y)) in a.data.iter().zip(&b.data).enumerate() {
+                if (x - y).abs() > worst {
+                    (worst, at) = ((x - y).abs(), i / 3);
+                }
+            }
+            assert!(
+                worst < 2e-3,
+                "{} -> {} samples {samples}: {worst} at texel ({}, {})",
+                nm(&src),
+                nm(&dst),
+                at % a.width,
+                at / a.width
+            );
+        }
+    }
+}
+
+/// A fine checkerboard shrunk into a small sphere map: one sample per texel aliases, the
+/// adaptive default does not (it agrees with a brute-force 64×64-sample reference).
+#[test]
+fn adaptive_sampling_does_not_alias() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let (w, h) = (1024, 512);
+    let mut img = Image::new(w, h, 1);
+    for y in 0..h {
+        for x in 0..w {
+            img.data[y * w + x] = ((x / 2 + y / 2) % 2) as f32;
+        }
+    }
+    let reference = convert(
+        ll,
+        &img,
+        sp,
+        32,
+        &ResampleOptions {
+            samples: 4096,
+            max_samples: 4096,
+            ..Default::default()
+        },
+    );
+    let err = |o: &Image| {
+        let mut e = 0.0f64;
+        let mut n = 0;
+        for y in 0..32 {
+            for x in 0..32 {
+                let (a, b) = (x as f64 - 15.5, y as f64 - 15.5);
+                if a.hypot(b) < 15.0 {
+                    e += (o.pixel(x, y)[0] - reference.pixel(x, y)[0]).powi(2) as f64;
+                    n += 1;
+                }
+            }
+        }
+        (e / n as f64).sqrt()
+    };
+    let one = err(&convert(ll, &img, sp, 32, &opts(1)));
+    let adaptive = err(&convert(ll, &img, sp, 32, &ResampleOptions::default()));
+    assert!(one > 0.2, "one sample should alias: rms {one}");
+    assert!(
+        adaptive < 0.03,
+        "adaptive rms {adaptive} (one sample: {one})"
+    );
+}
+
+#[test]
+fn deterministic_for_a_seed() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let img = fill(ll, 64, 1, |d| vec![(9.0 * d[0]).sin()]);
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let a = convert(ll, &img, sp, 32, &opts(8));
+    let b = convert(ll, &img, sp, 32, &opts(8));
+    assert_eq!(a.data, b.data);
+    let c = convert(ll, &img, sp, 32, &ResampleOptions { seed: 7, ..opts(8) });
+    assert_ne!(a.data, c.data);
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let img = fill(ll, 8, 1, |_| vec![1.0]);
+    let e = EnvMap::new(ll, &img, "src").unwrap();
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let err = resample(&e, sp, 8, 9, &opts(1), None)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("size:"), "{err}");
+    let err = resample(&e, sp, 8, 8, &opts(0), None)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("samples:"), "{err}");
+    let bad = ResampleOptions {
+        rotation: [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        ..opts(1)
+    };
+    let err = resample(&e, sp, 8, 8, &bad, None).unwrap_err().to_string();
+    assert!(err.starts_with("rotation:"), "{err}");
+    let sq = Image::new(8, 8, 1);
+    let err = EnvMap::new(Mapping::parse("cube", None).unwrap(), &sq, "in.exr")
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("in.exr: a cube map is"), "{err}");
+}
