@@ -6,6 +6,7 @@
 //! argument and the cause), clap's own codes for usage errors (2) and `--help` (0).
 
 mod cmd_conventions;
+mod cmd_convert;
 mod cmd_demo;
 mod cmd_info;
 mod cmd_texgen;
@@ -33,6 +34,9 @@ enum Command {
     Demo(cmd_demo::Args),
     /// Print the conventions and the named presets, with where each puts ±X, ±Y, ±Z.
     Conventions(cmd_conventions::Args),
+    /// Convert an environment map between mappings (sphere, latlong, cube, angular,
+    /// paraboloid, octahedral), footprint-filtered, for any view.
+    Convert(cmd_convert::Args),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -68,6 +72,7 @@ where
         Command::Demo(a) => cmd_demo::run(a),
         Command::Conventions(a) => cmd_conventions::run(a),
         Command::Info(a) => cmd_info::run(a),
+        Command::Convert(a) => cmd_convert::run(a),
     });
     std::panic::set_hook(previous_hook);
     match result {

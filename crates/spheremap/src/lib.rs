@@ -15,12 +15,15 @@
 
 // `!(x > 0)` and friends are deliberate throughout: they send NaN down the invalid branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over channels and axes read like the formulas they implement.
+#![allow(clippy::needless_range_loop)]
 
 pub mod angular;
 pub mod chart;
 pub mod conventions;
 pub mod cube;
 pub mod demo;
+pub mod envio;
 pub mod error;
 pub mod image_io;
 pub mod io;

@@ -99,7 +99,7 @@ mod tests {
         assert_eq!(p([1.0, 0.0, 1e-300]), (64.0, 32.0)); // …and left of the back rim
         let (x, y) = p([-1.0, 0.0, 1e-9]); // −X: right rim of the back
         assert!((x - 128.0).abs() < 1e-6 && y == 32.0);
-        assert_eq!(p([0.0, 0.0, 0.0]).0.is_nan(), true);
+        assert!(p([0.0, 0.0, 0.0]).0.is_nan());
         for d in [
             [0.3f64, -0.2, 0.9],
             [0.1, 0.7, -0.2],

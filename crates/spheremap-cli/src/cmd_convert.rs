@@ -1,0 +1,243 @@
+//! `spheremap convert`: any environment mapping to any other (thin layer over
+//! `spheremap::resample` and `spheremap::envio`).
+
+use anyhow::{bail, Context};
+use spheremap::cube::Layout;
+use spheremap::envio::{default_size, env_paths, read_env, same_file, write_env};
+use spheremap::image_io::{ReadOptions, WriteOptions};
+use spheremap::mapping::Mapping;
+use spheremap::resample::{
+    resample, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
+};
+use spheremap::view;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Input map (EXR, HDR, PFM, PNG, JPEG, WebP), or six cube faces as a pattern with {face}
+    /// (px nx py ny pz nz), e.g. 'sky_{face}.exr'.
+    input: String,
+    /// Output map (format by extension: .exr .hdr .pfm .png .jpg), or a {face} pattern for six
+    /// cube faces.
+    output: String,
+    /// Input mapping: sphere, latlong, cube, angular, paraboloid, octahedral.
+    #[arg(long)]
+    from: String,
+    /// Output mapping (same names).
+    #[arg(long)]
+    to: String,
+    /// Preset of the input mapping (see `spheremap conventions`); default: the mapping's own.
+    #[arg(long)]
+    from_preset: Option<String>,
+    /// Preset of the output mapping.
+    #[arg(long)]
+    preset: Option<String>,
+    /// Output size N: sphere/angular/octahedral N×N, latlong/paraboloid 2N×N, cube faces N×N.
+    /// Default: the input's N (a cube face F gives 2F, and N gives cube faces of N/2).
+    #[arg(long)]
+    size: Option<usize>,
+    /// Samples per output texel: 1 = one lookup at the texel centre (no filtering, for
+    /// comparisons); S > 1 = at least S, more where a texel's footprint covers more source texels.
+    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
+    samples: u32,
+    /// The most samples one texel may take when adapting to its footprint.
+    #[arg(long, default_value_t = 1024)]
+    max_samples: u32,
+    /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
+    #[arg(long, default_value = "box")]
+    filter: String,
+    /// Outside a sphere/angular/paraboloid disc: gutter (mirror across the rim, no dark fringe
+    /// under GPU filtering; default) or black.
+    #[arg(long, default_value = "gutter")]
+    outside: String,
+    /// The output's view: world direction of the eye's -Z (with --up).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    look: Option<Vec<f64>>,
+    /// The output's view: world direction of the eye's +Y (with --look; default 0 1 0).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// The output's view as yaw (degrees about world +Y; 90 = looking along -X).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "look")]
+    yaw: Option<f64>,
+    /// Pitch in degrees (90 = looking up).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "look")]
+    pitch: Option<f64>,
+    /// Roll in degrees (about the view axis, counter-clockwise as seen).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "look")]
+    roll: Option<f64>,
+    /// The input's view, when it was made for one (a sphere map of a turned camera).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    from_look: Option<Vec<f64>>,
+    /// The input view's up (with --from-look).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    from_up: Option<Vec<f64>>,
+    /// Cube layout of the output: hcross (default), vcross, hstrip, vstrip, dice, horizon.
+    #[arg(long)]
+    layout: Option<String>,
+    /// Cube layout of the input (default: from its shape; a 6:1 strip must be named).
+    #[arg(long)]
+    from_layout: Option<String>,
+    /// Seed of the sample jitter (results are deterministic for a seed).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// f32 (fast, default) or f64 (reference) arithmetic.
+    #[arg(long, default_value = "f32")]
+    precision: String,
+    /// Read/write LDR files as linear values (no sRGB transfer).
+    #[arg(long)]
+    linear: bool,
+    /// EXR output as half floats.
+    #[arg(long)]
+    half: bool,
+    /// 16-bit PNG output.
+    #[arg(long)]
+    png16: bool,
+    /// Allow the output to overwrite an input file.
+    #[arg(long)]
+    force: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
+}
+
+fn vec3(v: &Option<Vec<f64>>) -> Option<[f64; 3]> {
+    v.as_ref().map(|v| [v[0], v[1], v[2]])
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let src = Mapping::parse(&a.from, a.from_preset.as_deref()).context("--from/--from-preset")?;
+    let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
+    let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
+    let from_layout = a.from_layout.as_deref().map(Layout::parse).transpose()?;
+    let precision = match a.precision.as_str() {
+        "f32" => Precision::F32,
+        "f64" => Precision::F64,
+        p => bail!("precision: unknown value {p:?}; expected f32 or f64"),
+    };
+    let dst_view = match (
+        vec3(&a.look),
+        a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some(),
+    ) {
+        (Some(l), _) => view::look_up(l, vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]))?,
+        (None, true) => view::yaw_pitch_roll(
+            a.yaw.unwrap_or(0.0),
+            a.pitch.unwrap_or(0.0),
+            a.roll.unwrap_or(0.0),
+        )?,
+        (None, false) => {
+            if a.up.is_some() {
+                bail!("up: --up needs --look");
+            }
+            view::IDENTITY
+        }
+    };
+    let src_view = match vec3(&a.from_look) {
+        Some(l) => view::look_up(l, vec3(&a.from_up).unwrap_or([0.0, 1.0, 0.0]))?,
+        None => view::IDENTITY,
+    };
+    // Never overwrite an input.
+    let outs = env_paths(&a.output);
+    for i in env_paths(&a.input) {
+        for o in &outs {
+            if !a.force && same_file(Path::new(&i), Path::new(o)) {
+                bail!("{o}: the output would overwrite the input (use --force to allow)");
+            }
+        }
+    }
+    let ropts = ReadOptions {
+        linear: a.linear,
+        ..Default::default()
+    };
+    let img = read_env(&a.input, src, from_layout, &ropts)?;
+    let env = EnvMap::new(src, &img, &a.input)?;
+    let n = match a.size {
+        Some(n) => n,
+        None => default_size(src, src.size_of(img.width, img.height, &a.input)?, dst),
+    };
+    if n == 0 || n > 1 << 15 {
+        bail!("size: {n} is out of range 1..=32768");
+    }
+    let (w, h) = dst.canvas(n);
+    let opts = ResampleOptions {
+        samples: a.samples,
+        max_samples: a.max_samples,
+        filter: Filter::parse(&a.filter)?,
+        outside: Outside::parse(&a.outside)?,
+        rotation: view::between(&src_view, &dst_view),
+        seed: a.seed,
+        precision,
+    };
+    let t0 = Instant::now();
+    let progress = Progress::default();
+    let (out, report) = std::thread::scope(|s| {
+        let work = s.spawn(|| resample(&env, dst, w, h, &opts, Some(&progress)));
+        if !a.quiet && !a.json {
+            show_progress(&progress, &work);
+        }
+        work.join().expect("the conversion thread panicked")
+    })?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let wopts = WriteOptions {
+        linear: a.linear,
+        png16: a.png16,
+        half: a.half,
+    };
+    let written = write_env(&a.output, dst, &out, layout, &wopts)?;
+    if a.json {
+        let v = serde_json::json!({
+            "input": a.input, "output": written,
+            "from": src.name(), "from_preset": src.preset_name(),
+            "to": dst.name(), "preset": dst.preset_name(),
+            "size": n, "width": w, "height": h, "channels": out.channels,
+            "samples": a.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
+            "lookups": report.lookups, "max_texel_samples": report.max_texel_samples,
+            "seconds": seconds,
+        });
+        crate::out(&format!("{v}\n"));
+    } else if !a.quiet {
+        eprintln!(
+            "{} ({} {}) -> {} ({} {}, {w}x{h}): {:.1} lookups/texel, {:.3} s",
+            a.input,
+            src.name(),
+            src.preset_name(),
+            written.join(", "),
+            dst.name(),
+            dst.preset_name(),
+            report.lookups as f64 / (w * h) as f64,
+            seconds
+        );
+    }
+    Ok(())
+}
+
+/// A progress bar on stderr for work that takes more than a moment.
+fn show_progress<T>(p: &Progress, work: &std::thread::ScopedJoinHandle<'_, T>) {
+    use indicatif::{ProgressBar, ProgressStyle};
+    let start = Instant::now();
+    let mut bar: Option<ProgressBar> = None;
+    while !work.is_finished() {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        if bar.is_none() && start.elapsed().as_millis() > 400 {
+            let b = ProgressBar::new(p.total.load(Ordering::Relaxed).max(1) as u64);
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} converting [{bar:40}] {pos}/{len} rows, {eta} left",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar = Some(b);
+        }
+        if let Some(b) = &bar {
+            b.set_length(p.total.load(Ordering::Relaxed).max(1) as u64);
+            b.set_position(p.done.load(Ordering::Relaxed) as u64);
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+}
