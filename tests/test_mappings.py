@@ -76,7 +76,7 @@ def test_solid_angle_is_the_local_jacobian():
 
 def test_mapping_errors():
     with pytest.raises(ValueError, match="^mapping"):
-        sm.dir_to_uv([[1.0, 0, 0]], "cube")
+        sm.dir_to_uv([[1.0, 0, 0]], "cylinder")
     with pytest.raises(ValueError, match="^preset"):
         sm.dir_to_uv([[1.0, 0, 0]], "latlong", preset="maya")
     with pytest.raises(ValueError, match="^height"):

@@ -39,6 +39,11 @@ __all__ = [
     "dir_to_uv",
     "uv_to_dir",
     "texel_solid_angles",
+    "convert",
+    "cube_from_layout",
+    "cube_to_layout",
+    "CUBE_LAYOUTS",
+    "FILTERS",
     "NORMALIZE_MODES",
     "SINGULAR_MODES",
     "MATCAP_VARIANTS",
@@ -47,8 +52,12 @@ __all__ = [
 NORMALIZE_MODES = ("on", "off", "rescale")
 SINGULAR_MODES = ("nan", "center")
 MATCAP_VARIANTS = ("classic", "threejs", "perspective")
-#: Environment mappings available to dir_to_uv / uv_to_dir / texel_solid_angles (more to come).
-MAPPINGS = ("sphere", "latlong", "angular", "octahedral")
+#: Environment mappings (dir_to_uv, uv_to_dir, texel_solid_angles, convert).
+MAPPINGS = ("sphere", "latlong", "cube", "angular", "paraboloid", "octahedral")
+#: Cube-map file layouts (see the README's diagram); "dice" = "hcross".
+CUBE_LAYOUTS = ("hcross", "vcross", "hstrip", "vstrip", "dice", "horizon")
+#: Reconstruction filters of convert.
+FILTERS = ("box", "tent", "gaussian")
 
 
 def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
@@ -284,12 +293,113 @@ def uv_to_dir(uv, mapping: str = "latlong", *, preset: str | None = None) -> tup
     return d, ~np.isnan(d[..., 0])
 
 
-def texel_solid_angles(mapping: str, width: int, height: int | None = None) -> np.ndarray:
-    """Exact solid angle (sr) of every texel of a height x width image in `mapping`
-    (height defaults to width/2 for "latlong", else width); sums to 4 pi (angular: to 1e-6,
-    by quadrature; the others exactly)."""
+def texel_solid_angles(mapping: str, width: int, height: int | None = None, *, preset: str | None = None) -> np.ndarray:
+    """Exact solid angle (sr) of every texel of a height x width canvas of `mapping` (height
+    defaults to width/2 for "latlong" and "paraboloid", 6*width for "cube" — the face stack —
+    else width); sums to 4 pi (angular and paraboloid: to 1e-7, by quadrature; the others
+    exactly)."""
     _choice(mapping, "mapping", MAPPINGS)
     width = _size(width, "width")
     if height is None:
-        height = max(1, width // 2) if mapping == "latlong" else width
-    return _ext.texel_solid_angles(mapping, width, _size(height, "height"))
+        height = {"latlong": max(1, width // 2), "paraboloid": max(1, width // 2), "cube": 6 * width}.get(mapping, width)
+    return _ext.texel_solid_angles(mapping, width, _size(height, "height"), preset)
+
+
+def _vec3(v, name: str):
+    if v is None:
+        return None
+    a = _floats(v, name, last=(3,), ndim=1).astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite, got {v!r}")
+    return tuple(float(x) for x in a)
+
+
+def convert(image, src: str, dst: str, *, size: int | None = None, samples: int = 4,
+            max_samples: int = 1024, filter: str = "box", outside: str = "gutter",
+            look=None, up=None, yaw: float | None = None, pitch: float | None = None,
+            roll: float | None = None, src_look=None, src_up=None,
+            src_preset: str | None = None, dst_preset: str | None = None,
+            seed: int = 0, precision: str = "f32") -> np.ndarray:
+    """Converts an environment map between mappings (the engine of ``spheremap convert``).
+
+    image: (H, W, C) float32/float64, C = 1..4 (an (H, W) array is one channel), in `src`'s
+        canvas; for src="cube" a (6, F, F, C) array of faces in GL order +X, -X, +Y, -Y, +Z, -Z
+        (GL/KTX face orientation; use `cube_from_layout` for crosses and strips).
+    src, dst: one of MAPPINGS; src_preset / dst_preset name their conventions (see the README).
+    size: N of the output (sphere N x N, latlong 2N x N, cube faces N x N, ...); default from
+        the input.
+    samples: 1 = exactly one bilinear lookup at each texel centre (no filtering); S > 1 = at
+        least S stratified samples per texel over the filter's footprint, more where the
+        footprint covers more source texels (up to max_samples).
+    filter: "box" (the texel's own footprint, default), "tent", "gaussian".
+    outside: "gutter" (mirror across a disc's rim, default) or "black".
+    look, up: the output's view (world vectors of the eye's -Z and +Y), or yaw/pitch/roll in
+        degrees; src_look/src_up: the input's view when it was made for one.
+    precision: "f32" (fast) or "f64" (reference).
+
+    Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
+    """
+    _choice(src, "src", MAPPINGS)
+    _choice(dst, "dst", MAPPINGS)
+    _choice(filter, "filter", FILTERS)
+    _choice(outside, "outside", ("gutter", "black"))
+    _choice(precision, "precision", ("f32", "f64"))
+    a = _floats(image, "image")
+    if src == "cube":
+        if a.ndim == 3:
+            a = a[..., None]
+        if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2] or not 1 <= a.shape[3] <= 4:
+            raise ValueError(f"image: a cube map is (6, F, F, C) with C in 1..4, got shape {a.shape}")
+        a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+    else:
+        if a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+            raise ValueError(f"image: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    if size is not None:
+        size = _size_any(size, "size")
+    samples = _size_any(samples, "samples")
+    max_samples = _size_any(max_samples, "max_samples")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    if look is None and up is not None:
+        raise ValueError("up: needs look")
+    if look is not None and (yaw, pitch, roll) != (None, None, None):
+        raise ValueError("look: give look/up or yaw/pitch/roll, not both")
+    ypr = None
+    if (yaw, pitch, roll) != (None, None, None):
+        ypr = _vec3([yaw or 0.0, pitch or 0.0, roll or 0.0], "yaw")
+    out = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
+                       filter, outside, int(seed), precision, src_preset, dst_preset,
+                       _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),
+                       _vec3(src_up, "src_up"))
+    if dst == "cube":
+        f = out.shape[1]
+        out = out.reshape(6, f, f, out.shape[2])
+    return out
+
+
+def cube_from_layout(image, layout: str) -> np.ndarray:
+    """A cube-map image in `layout` (one of CUBE_LAYOUTS) -> (6, F, F, C) faces in GL order and
+    GL face orientation (the crosses and "horizon" hold views from inside; see the README)."""
+    _choice(layout, "layout", CUBE_LAYOUTS)
+    a = _floats(image, "image")
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ValueError(f"image: expected (H, W, C) with C in 1..4, got shape {a.shape}")
+    st = _ext.layout_to_stack(np.ascontiguousarray(a, dtype=np.float32), layout)
+    f = st.shape[1]
+    return st.reshape(6, f, f, st.shape[2])
+
+
+def cube_to_layout(faces, layout: str = "hcross") -> np.ndarray:
+    """(6, F, F, C) faces in GL order -> one image in `layout` (unused cells of a cross are 0)."""
+    _choice(layout, "layout", CUBE_LAYOUTS)
+    a = _floats(faces, "faces")
+    if a.ndim == 3:
+        a = a[..., None]
+    if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2] or not 1 <= a.shape[3] <= 4:
+        raise ValueError(f"faces: expected (6, F, F, C) with C in 1..4, got shape {a.shape}")
+    st = np.ascontiguousarray(a, dtype=np.float32).reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+    return _ext.stack_to_layout(st, layout)

@@ -370,64 +370,9 @@ fn presets() -> Vec<PresetTuple> {
         .collect()
 }
 
-/// A mapping by name, with its preset: image coordinates (u, v), v down, for every mapping.
-enum Mapping {
-    Sphere(&'static SpherePreset),
-    LatLong(&'static spheremap::latlong::LatLongPreset),
-    Angular,
-    Octahedral,
-}
-
-const MAPPING_NAMES: &str = "sphere, latlong, angular, octahedral";
-
-/// Mappings with a single convention accept only that preset's name (or none).
-fn only_preset(mapping: &str, preset: Option<&str>, name: &str) -> PyResult<()> {
-    match preset {
-        None => Ok(()),
-        Some(p) if p == name => Ok(()),
-        Some(p) => Err(PyValueError::new_err(format!(
-            "preset: {mapping} has one preset, {name:?}, not {p:?}"
-        ))),
-    }
-}
-
-impl Mapping {
-    fn parse(mapping: &str, preset: Option<&str>) -> PyResult<Self> {
-        match mapping {
-            "sphere" => Ok(Mapping::Sphere(
-                SpherePreset::by_name(preset.unwrap_or("gl")).map_err(to_py)?,
-            )),
-            "latlong" => Ok(Mapping::LatLong(
-                spheremap::latlong::LatLongPreset::by_name(preset.unwrap_or("blender"))
-                    .map_err(to_py)?,
-            )),
-            "angular" => only_preset(mapping, preset, "debevec").map(|_| Mapping::Angular),
-            "octahedral" => only_preset(mapping, preset, "pbrt").map(|_| Mapping::Octahedral),
-            other => Err(PyValueError::new_err(format!(
-                "mapping: unknown mapping {other:?}; available so far: {MAPPING_NAMES}"
-            ))),
-        }
-    }
-    fn dir_to_uv(&self, d: [f64; 3]) -> [f64; 2] {
-        match self {
-            Mapping::Sphere(p) => {
-                let (x, y) = p.dir_to_pixel(d, 1, Singular::Nan);
-                [x, y]
-            }
-            Mapping::LatLong(p) => p.dir_to_uv(d),
-            Mapping::Angular => spheremap::angular::dir_to_uv(d),
-            Mapping::Octahedral => spheremap::octahedral::dir_to_uv(d),
-        }
-    }
-    fn uv_to_dir(&self, uv: [f64; 2]) -> [f64; 3] {
-        match self {
-            Mapping::Sphere(p) => p.pixel_to_dir(uv[0], uv[1], 1),
-            Mapping::LatLong(p) => p.uv_to_dir(uv),
-            Mapping::Angular => spheremap::angular::uv_to_dir(uv),
-            Mapping::Octahedral => spheremap::octahedral::uv_to_dir(uv),
-        }
-        .unwrap_or([f64::NAN; 3])
-    }
+/// A mapping by name (the core's [`spheremap::Mapping`]).
+fn parse_mapping(mapping: &str, preset: Option<&str>) -> PyResult<spheremap::Mapping> {
+    spheremap::Mapping::parse(mapping, preset).map_err(to_py)
 }
 
 #[pyfunction]
@@ -438,7 +383,7 @@ fn dir_to_uv<'py>(
     mapping: &str,
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let m = Mapping::parse(mapping, preset)?;
+    let m = parse_mapping(mapping, preset)?;
     map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| m.dir_to_uv(d))
 }
 
@@ -450,49 +395,191 @@ fn uv_to_dir<'py>(
     mapping: &str,
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let m = Mapping::parse(mapping, preset)?;
-    map_f64_rows(py, &uv, "uv", |q: [f64; 2]| m.uv_to_dir(q))
+    let m = parse_mapping(mapping, preset)?;
+    map_f64_rows(py, &uv, "uv", |q: [f64; 2]| {
+        m.uv_to_dir(q).unwrap_or([f64::NAN; 3])
+    })
 }
 
-/// Exact texel solid angles of a `height`×`width` image in `mapping`.
+/// Exact texel solid angles of a `height`×`width` canvas of `mapping` (cube: the F×6F stack).
 #[pyfunction]
+#[pyo3(signature = (mapping, width, height, preset=None))]
 fn texel_solid_angles<'py>(
     py: Python<'py>,
     mapping: &str,
     width: usize,
     height: usize,
+    preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let v: Vec<f64> = match mapping {
-        "sphere" if width == height => spheremap::sphere::solid_angle_map(width),
-        "angular" if width == height => (0..height)
-            .flat_map(|r| {
-                (0..width).map(move |c| spheremap::angular::texel_solid_angle(c, r, width))
-            })
-            .collect(),
-        "octahedral" if width == height => {
-            vec![spheremap::octahedral::texel_solid_angle(width); width * height]
-        }
-        "sphere" | "angular" | "octahedral" => {
-            return Err(PyValueError::new_err(format!(
-                "height: a {mapping} map is square"
-            )))
-        }
-        "latlong" => (0..height)
-            .flat_map(|r| {
-                std::iter::repeat_n(
-                    spheremap::latlong::texel_solid_angle(r, width, height),
-                    width,
-                )
-            })
-            .collect(),
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "mapping: unknown mapping {other:?}; available so far: {MAPPING_NAMES}"
-            )))
-        }
-    };
+    let m = parse_mapping(mapping, preset)?;
+    m.size_of(width, height, "height")
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let v = py.detach(|| m.solid_angles(width, height));
     Ok(PyArray1::from_vec(py, v)
         .reshape([height, width])?
+        .into_any())
+}
+
+/// The view rotation (destination eye frame → source frame) from the Python keywords.
+#[allow(clippy::too_many_arguments)]
+fn rotation(
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    ypr: Option<[f64; 3]>,
+    src_look: Option<[f64; 3]>,
+    src_up: Option<[f64; 3]>,
+) -> spheremap::Result<[[f64; 3]; 3]> {
+    use spheremap::view;
+    let y = [0.0, 1.0, 0.0];
+    let dst = match (look, ypr) {
+        (Some(l), _) => view::look_up(l, up.unwrap_or(y))?,
+        (None, Some([a, b, c])) => view::yaw_pitch_roll(a, b, c)?,
+        (None, None) => view::IDENTITY,
+    };
+    let src = match src_look {
+        Some(l) => view::look_up(l, src_up.unwrap_or(y))?,
+        None => view::IDENTITY,
+    };
+    Ok(view::between(&src, &dst))
+}
+
+/// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
+/// Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
+#[pyfunction]
+#[pyo3(signature = (image, src, dst, size, samples, max_samples, filter, outside, seed, precision,
+                    src_preset=None, dst_preset=None, look=None, up=None, ypr=None,
+                    src_look=None, src_up=None))]
+#[allow(clippy::too_many_arguments)]
+fn convert<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    src: &str,
+    dst: &str,
+    size: Option<usize>,
+    samples: u32,
+    max_samples: u32,
+    filter: &str,
+    outside: &str,
+    seed: u64,
+    precision: &str,
+    src_preset: Option<&str>,
+    dst_preset: Option<&str>,
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    ypr: Option<[f64; 3]>,
+    src_look: Option<[f64; 3]>,
+    src_up: Option<[f64; 3]>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
+    use std::sync::atomic::Ordering;
+    let sm = parse_mapping(src, src_preset)?;
+    let dm = parse_mapping(dst, dst_preset)?;
+    let shape = image.shape().to_vec();
+    let (h, w, c) = (shape[0], shape[1], shape[2]);
+    let data = contiguous(&image, "image")?;
+    let n_src = sm
+        .size_of(w, h, "image")
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let n = size.unwrap_or_else(|| spheremap::envio::default_size(sm, n_src, dm));
+    if n == 0 || n > 1 << 15 {
+        return Err(PyValueError::new_err(format!(
+            "size: {n} is out of range 1..=32768"
+        )));
+    }
+    let opts = ResampleOptions {
+        samples,
+        max_samples,
+        filter: rs::Filter::parse(filter).map_err(to_py)?,
+        outside: rs::Outside::parse(outside).map_err(to_py)?,
+        rotation: rotation(look, up, ypr, src_look, src_up).map_err(to_py)?,
+        seed,
+        precision: match precision {
+            "f32" => rs::Precision::F32,
+            "f64" => rs::Precision::F64,
+            p => {
+                return Err(PyValueError::new_err(format!(
+                    "precision: unknown value {p:?}; expected 'f32' or 'f64'"
+                )))
+            }
+        },
+    };
+    let (dw, dh) = dm.canvas(n);
+    let progress = Progress::default();
+    let env = EnvMap {
+        mapping: sm,
+        width: w,
+        height: h,
+        channels: c,
+        data,
+    };
+    let mut interrupted: Option<PyErr> = None;
+    let result = py.detach(|| {
+        std::thread::scope(|s| {
+            let work = s.spawn(|| rs::resample(&env, dm, dw, dh, &opts, Some(&progress)));
+            while !work.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(20));
+                if interrupted.is_none() {
+                    if let Err(e) = Python::attach(|py| py.check_signals()) {
+                        progress.cancel.store(true, Ordering::Relaxed);
+                        interrupted = Some(e);
+                    }
+                }
+            }
+            work.join()
+        })
+    });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    let (img, _report) = result
+        .map_err(|_| PyValueError::new_err("internal error: the conversion thread panicked"))?
+        .map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([img.height, img.width, img.channels])?
+        .into_any())
+}
+
+/// Cube layout image (H, W, C) float32 -> face stack (6F, F, C), GL order.
+#[pyfunction]
+fn layout_to_stack<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    layout: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
+    let shape = image.shape().to_vec();
+    let img = spheremap::image_io::Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data: contiguous(&image, "image")?.to_vec(),
+    };
+    let st = l
+        .to_stack(&img)
+        .map_err(|e| PyValueError::new_err(format!("image: {e}")))?;
+    Ok(PyArray1::from_vec(py, st.data)
+        .reshape([st.height, st.width, st.channels])?
+        .into_any())
+}
+
+/// Face stack (6F, F, C) float32 -> cube layout image.
+#[pyfunction]
+fn stack_to_layout<'py>(
+    py: Python<'py>,
+    stack: PyReadonlyArrayDyn<'py, f32>,
+    layout: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
+    let shape = stack.shape().to_vec();
+    let img = spheremap::image_io::Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data: contiguous(&stack, "faces")?.to_vec(),
+    };
+    let out = l.from_stack(&img).map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, out.data)
+        .reshape([out.height, out.width, out.channels])?
         .into_any())
 }
 
@@ -579,6 +666,9 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(uv_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(texel_solid_angles, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(convert, m)?)?;
+    m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
+    m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
     Ok(())
