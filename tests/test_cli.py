@@ -24,8 +24,14 @@ def repo(request):
 def test_demo_writes_chart_and_teapot(tmp_path):
     r = cli("demo", tmp_path / "d", "--size", 128)
     assert r.returncode == 0, r.stderr
-    for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv"]:
+    for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv",
+              "apartment_sphere.exr", "apartment_sphere.png"]:
         assert (tmp_path / "d" / f).stat().st_size > 0
+    # The demo's sphere map is the bundled HDRI seen from the demo camera (look = target - eye).
+    demo = sm.read_image(tmp_path / "d" / "apartment_sphere.exr")
+    hdri = sm.read_image("testdata/apartment.exr")
+    want = sm.convert(hdri, "latlong", "sphere", size=128, look=(0, -12, -40), up=(0, 1, 0))
+    np.testing.assert_allclose(demo, want, rtol=1e-3, atol=1e-3)
     st = np.loadtxt(tmp_path / "d" / "teapot_texgen.csv", delimiter=",", skiprows=1)
     assert st.shape == (792, 2) and np.isfinite(st).all()
     assert not list((tmp_path / "d").glob(".*.tmp"))
@@ -170,3 +176,47 @@ def test_texgen_obj_with_file_normals(tmp_path):
     st = np.loadtxt(out, delimiter=",", skiprows=1, dtype=np.float32)
     want = sm.sphere_texgen([[0, 0, -5], [1, 0, -5], [0, 1, -5.0]], [[0, 0, 1], [0.6, 0, 0.8], [0, 0.6, 0.8]], np.eye(4))
     np.testing.assert_array_equal(st, want)
+
+
+def test_convert_cli_matches_python_and_layouts(tmp_path):
+    hdri = "testdata/apartment.exr"
+    out = tmp_path / "s.exr"
+    r = cli("convert", hdri, out, "--from", "latlong", "--to", "sphere", "--size", 64, "--samples", 9, "--look", 1, 0, 0, "--json")
+    assert r.returncode == 0, r.stderr
+    import json
+
+    summary = json.loads(r.stdout)
+    assert summary["width"] == 64 and summary["to"] == "sphere" and summary["lookups"] >= 9 * 64 * 64 * 0.78
+    want = sm.convert(sm.read_image(hdri), "latlong", "sphere", size=64, samples=9, look=(1, 0, 0))
+    np.testing.assert_allclose(sm.read_image(out), want, rtol=1e-6, atol=1e-6)
+    # Cube: six files by pattern, then a cross read back by shape.
+    r = cli("convert", hdri, tmp_path / "f_{face}.exr", "--from", "latlong", "--to", "cube", "--size", 32, "-q")
+    assert r.returncode == 0, r.stderr
+    faces = np.stack([sm.read_image(tmp_path / f"f_{n}.exr") for n in ["px", "nx", "py", "ny", "pz", "nz"]])
+    r = cli("convert", tmp_path / "f_{face}.exr", tmp_path / "cross.exr", "--from", "cube", "--to", "cube", "--size", 32, "--samples", 1, "-q")
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_allclose(sm.cube_from_layout(sm.read_image(tmp_path / "cross.exr"), "hcross"), faces, atol=1e-5)
+
+
+def test_convert_cli_errors(tmp_path):
+    hdri = "testdata/apartment.exr"
+    cases = [
+        (["--from", "globe", "--to", "sphere"], "mapping: unknown mapping"),
+        (["--from", "latlong", "--to", "sphere", "--samples", "0"], "samples:"),
+        (["--from", "latlong", "--to", "cube", "--layout", "zigzag"], "layout:"),
+        (["--from", "sphere", "--to", "latlong"], "a sphere map is square"),
+        (["--from", "latlong", "--to", "sphere", "--look", "0", "0", "0"], "look:"),
+    ]
+    for extra, msg in cases:
+        out = tmp_path / "o.exr"
+        r = cli("convert", hdri, out, *extra)
+        assert r.returncode == 2, (extra, r.stderr)
+        assert msg in r.stderr and r.stderr.count("\n") == 1, (extra, r.stderr)
+        assert not out.exists()
+    r = cli("convert", tmp_path / "missing_{face}.exr", tmp_path / "o.exr", "--from", "cube", "--to", "sphere")
+    assert r.returncode == 2 and "missing_px.exr" in r.stderr
+    copy = tmp_path / "in.exr"
+    shutil.copy(hdri, copy)
+    before = copy.read_bytes()
+    r = cli("convert", copy, copy, "--from", "latlong", "--to", "latlong")
+    assert r.returncode == 2 and "--force" in r.stderr and copy.read_bytes() == before

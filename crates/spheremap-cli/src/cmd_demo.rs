@@ -5,7 +5,7 @@ pub struct Args {
     /// Output directory (created if missing).
     #[arg(default_value = "spheremap-demo")]
     outdir: PathBuf,
-    /// Size of the direction chart in texels.
+    /// Size of the direction chart and of the HDRI's sphere map, in texels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(16..=8192))]
     size: u32,
 }
@@ -16,7 +16,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let report = spheremap::demo::run(&a.outdir, a.size as usize)?;
     let _ = writeln!(
         o,
-        "spheremap demo: GL_SPHERE_MAP direction chart and texgen of the bundled teapot"
+        "spheremap demo: GL_SPHERE_MAP direction chart, texgen of the bundled teapot, and the bundled HDRI as a sphere map"
     );
     let _ = writeln!(
         o,

@@ -2,7 +2,9 @@
 //!
 //! Writes into a directory: the direction chart as a sphere map (PNG and EXR), and the bundled
 //! Utah teapot with GL_SPHERE_MAP texgen applied (OBJ with `vt` + MTL pointing at the chart, and
-//! the raw (s,t) as CSV), for a viewer at (0, 12, 40) looking at the teapot's centre.
+//! the raw (s,t) as CSV), for a viewer at (0, 12, 40) looking at the teapot's centre; and the
+//! bundled CC0 HDRI (Poly Haven's apartment, 512×256 lat-long) converted into the sphere map of
+//! that viewer (EXR, linear; PNG, sRGB) with the default footprint filter and gutter.
 
 use crate::chart::direction_chart;
 use crate::error::{Error, Result};
@@ -14,6 +16,18 @@ use std::path::{Path, PathBuf};
 
 /// The Utah teapot (public domain; npm package `teapot` 1.0.0), 792 vertices, no normals.
 pub const TEAPOT_OBJ: &str = include_str!("../data/teapot.obj");
+
+/// A CC0 lat-long HDRI (Poly Haven via npm `@pmndrs/assets` 1.7.0, 512×256, DWAB EXR).
+pub const APARTMENT_EXR: &[u8] = include_bytes!("../data/apartment.exr");
+
+/// The bundled HDRI, decoded.
+pub fn apartment() -> Result<crate::image_io::Image> {
+    crate::image_io::decode(
+        Path::new("apartment.exr (bundled)"),
+        APARTMENT_EXR,
+        &Default::default(),
+    )
+}
 
 /// Camera of the demo, as `gluLookAt` arguments.
 pub const DEMO_EYE: [f64; 3] = [0.0, 12.0, 40.0];
@@ -57,6 +71,25 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     let csv = outdir.join("teapot_texgen.csv");
     io::write_csv(&csv, &["s", "t"], &st)?;
     files.push(csv);
+    // The HDRI as the sphere map of the demo viewer (the eye looks at the target from DEMO_EYE).
+    let hdri = apartment()?;
+    let src = crate::resample::EnvMap::new(
+        crate::Mapping::parse("latlong", None)?,
+        &hdri,
+        "apartment.exr",
+    )?;
+    let look = [0, 1, 2].map(|k| DEMO_TARGET[k] - DEMO_EYE[k]);
+    let opts = crate::resample::ResampleOptions {
+        rotation: crate::view::look_up(look, DEMO_UP)?,
+        ..Default::default()
+    };
+    let sphere = crate::Mapping::parse("sphere", None)?;
+    let (map, _) = crate::resample::resample(&src, sphere, chart_size, chart_size, &opts, None)?;
+    for name in ["apartment_sphere.exr", "apartment_sphere.png"] {
+        let p = outdir.join(name);
+        crate::image_io::write_image(&p, &map, &Default::default())?;
+        files.push(p);
+    }
     let nan_texcoords = st
         .chunks_exact(2)
         .filter(|p| p[0].is_nan() || p[1].is_nan())
