@@ -515,17 +515,33 @@ fn convert<'py>(
     let mut interrupted: Option<PyErr> = None;
     let result = py.detach(|| {
         std::thread::scope(|s| {
-            let work = s.spawn(|| rs::resample(&env, dm, dw, dh, &opts, Some(&progress)));
-            while !work.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(20));
-                if interrupted.is_none() {
-                    if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        progress.cancel.store(true, Ordering::Relaxed);
-                        interrupted = Some(e);
+            // The worker reports on a channel, so the result is picked up at once; meanwhile
+            // this thread wakes every 20 ms to let Python see Ctrl-C.
+            let (tx, rx) = std::sync::mpsc::channel();
+            let progress = &progress;
+            let (env, opts) = (&env, &opts);
+            s.spawn(move || {
+                let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    rs::resample(env, dm, dw, dh, opts, Some(progress))
+                }));
+                let _ = tx.send(r);
+            });
+            loop {
+                match rx.recv_timeout(std::time::Duration::from_millis(20)) {
+                    Ok(r) => return r,
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                        if interrupted.is_none() {
+                            if let Err(e) = Python::attach(|py| py.check_signals()) {
+                                progress.cancel.store(true, Ordering::Relaxed);
+                                interrupted = Some(e);
+                            }
+                        }
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                        return Err(Box::new("worker vanished") as Box<dyn std::any::Any + Send>)
                     }
                 }
             }
-            work.join()
         })
     });
     if let Some(e) = interrupted {

@@ -89,7 +89,7 @@ macro_rules! impl_real {
             }
             #[inline(always)]
             fn floor(self) -> Self {
-                <$t>::floor(self)
+                Real64Atan2::floor_impl(self)
             }
             #[inline(always)]
             fn copysign(self, sign: Self) -> Self {
@@ -120,17 +120,40 @@ impl Real64Atan2 for f64 {
     fn atan2_impl(self, x: f64) -> f64 {
         f64::atan2(self, x)
     }
+    #[inline(always)]
+    fn floor_impl(self) -> f64 {
+        f64::floor(self)
+    }
 }
 impl Real64Atan2 for f32 {
     #[inline(always)]
     fn atan2_impl(self, x: f32) -> f32 {
         atan2_fast(self, x)
     }
+    #[inline(always)]
+    fn floor_impl(self) -> f32 {
+        floor_fast(self)
+    }
 }
 
-/// Per-type atan2 (kept out of the macro: f32 and f64 differ).
+/// Per-type operations (kept out of the macro: f32 and f64 differ).
 pub trait Real64Atan2 {
     fn atan2_impl(self, x: Self) -> Self;
+    fn floor_impl(self) -> Self;
+}
+
+/// `floor` without a libm call (baseline x86-64 has no `roundss`), branch-free so it vectorizes:
+/// truncate, step down where truncation rounded up.  |x| ≥ 2²³ is already integral and NaN
+/// stays NaN.
+#[inline(always)]
+pub fn floor_fast(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    let t = if t > x { t - 1.0 } else { t };
+    if x.abs() < 8_388_608.0 {
+        t
+    } else {
+        x
+    }
 }
 
 /// Fast f32 `atan2(y, x)`, branch-free so it vectorizes.
@@ -206,5 +229,28 @@ mod tests {
         assert_eq!(atan2_fast(-0.0, -1.0), -std::f32::consts::PI);
         assert!(atan2_fast(f32::NAN, 1.0).is_nan());
         assert!(atan2_fast(1.0, f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn floor_fast_matches_floor() {
+        for x in [
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999,
+            -2.001,
+            8388607.5,
+            -8388607.5,
+            1e10,
+            -1e10,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
+            assert_eq!(floor_fast(x), x.floor(), "{x}");
+        }
+        assert!(floor_fast(f32::NAN).is_nan());
     }
 }

@@ -68,9 +68,9 @@ fn seam_is_continuous() {
     for p in LATLONG_PRESETS {
         // Two directions a hair apart on either side of the seam map to u ≈ 0 and u ≈ 1 and
         // back to directions a hair apart.
-        let seam = p.uv_to_dir([0.0, 0.4]).unwrap();
-        let a = p.uv_to_dir([1e-9, 0.4]).unwrap();
-        let b = p.uv_to_dir([1.0 - 1e-9, 0.4]).unwrap();
+        let seam = p.uv_to_dir([0.0f64, 0.4]).unwrap();
+        let a = p.uv_to_dir([1e-9f64, 0.4]).unwrap();
+        let b = p.uv_to_dir([1.0f64 - 1e-9, 0.4]).unwrap();
         for k in 0..3 {
             assert!((a[k] - seam[k]).abs() < 1e-8 && (b[k] - seam[k]).abs() < 1e-8);
         }
@@ -107,7 +107,7 @@ proptest! {
 #[test]
 fn degenerate_input() {
     let p = LatLongPreset::by_name("blender").unwrap();
-    assert!(p.dir_to_uv([0.0, 0.0, 0.0])[0].is_nan());
+    assert!(p.dir_to_uv([0.0f64, 0.0, 0.0])[0].is_nan());
     assert!(p.dir_to_uv([f64::NAN, 0.0, 1.0])[0].is_nan());
     assert!(p.uv_to_dir([0.5, 1.5]).is_none());
     assert!(p.uv_to_dir([f64::NAN, 0.5]).is_none());
