@@ -36,7 +36,7 @@ enum Command {
     Conventions(cmd_conventions::Args),
     /// Convert an environment map between mappings (sphere, latlong, cube, angular,
     /// paraboloid, octahedral), footprint-filtered, for any view.
-    Convert(cmd_convert::Args),
+    Convert(Box<cmd_convert::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -72,7 +72,7 @@ where
         Command::Demo(a) => cmd_demo::run(a),
         Command::Conventions(a) => cmd_conventions::run(a),
         Command::Info(a) => cmd_info::run(a),
-        Command::Convert(a) => cmd_convert::run(a),
+        Command::Convert(a) => cmd_convert::run(*a),
     });
     std::panic::set_hook(previous_hook);
     match result {

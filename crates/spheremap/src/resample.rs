@@ -621,7 +621,7 @@ fn run<T: Real, const C: usize>(
     let max_n = AtomicUsize::new(0);
     // The vectorized one-sample path (f32 only).
     if opts.samples == 1 && std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>() {
-        // SAFETY-free downcast: T is f32, so these are the same types.
+        // SAFETY: T is f32 (the TypeId check above), so Src<T>/Dst<T> are Src<f32>/Dst<f32>.
         let s32: &Src<f32> = unsafe { &*(&s as *const Src<T> as *const Src<f32>) };
         let d32: &Dst<f32> = unsafe { &*(&d as *const Dst<T> as *const Dst<f32>) };
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
@@ -1118,7 +1118,7 @@ mod rows {
             }
             Mapping::Paraboloid => return None,
         };
-        // One unsigned comparison per axis also rejects negatives and NaN.
+        // Written as `!(in range)` so that NaN positions fail too.
         if !(ok_tile && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < s.wf && fy + 1.0 < s.hf) {
             return None;
         }

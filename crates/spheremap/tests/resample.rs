@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 //! The conversion engine: furnace, energy, conventions chained through every pair, seams,
 //! views, anti-aliasing, and f32 against f64.
 
