@@ -19,9 +19,9 @@ import numpy as np
 import spheremap as sm
 
 
-def numpy_j1(ll, n):
-    """latlong (skylibs preset: u = 1/2 + atan2(x, -z)/2pi) -> GL sphere map, one bilinear tap."""
-    h, w, _ = ll.shape
+def j1_maps(h, w, n):
+    """Source pixel coordinates (texel centres at integers) of every texel of an n x n GL sphere
+    map in an h x w lat-long (skylibs preset: u = 1/2 + atan2(x, -z)/2pi), and the disc mask."""
     c = (np.arange(n, dtype=np.float32) + 0.5) / n * 2 - 1
     a, b = np.meshgrid(c, -c)
     d2 = a * a + b * b
@@ -29,6 +29,13 @@ def numpy_j1(ll, n):
     x, y, zz = 2 * z * a, 2 * z * b, 1 - 2 * d2
     u = (0.5 + np.arctan2(x, -zz) / (2 * np.pi)) % 1.0 * w - 0.5
     v = np.arctan2(np.hypot(x, zz), y) / np.pi * h - 0.5
+    return u, v, d2 <= 1
+
+
+def numpy_j1(ll, n):
+    """latlong -> GL sphere map, one bilinear tap, vectorised numpy."""
+    h, w, _ = ll.shape
+    u, v, disc = j1_maps(h, w, n)
     x0 = np.floor(u).astype(np.int64)
     y0 = np.clip(np.floor(v).astype(np.int64), 0, h - 2)
     fx, fy = (u - x0)[..., None], np.clip(v - y0, 0, 1)[..., None]
@@ -36,19 +43,14 @@ def numpy_j1(ll, n):
     x1 = (x0 + 1) % w
     top = ll[y0, x0] * (1 - fx) + ll[y0, x1] * fx
     bot = ll[y0 + 1, x0] * (1 - fx) + ll[y0 + 1, x1] * fx
-    return np.where((d2 <= 1)[..., None], top * (1 - fy) + bot * fy, 0)
+    return np.where(disc[..., None], top * (1 - fy) + bot * fy, 0)
 
 
 def opencv_j1(cv2, ll, n):
     """Same maps as numpy_j1, built per call, then cv2.remap (bilinear, wrap)."""
     h, w, _ = ll.shape
-    c = (np.arange(n, dtype=np.float32) + 0.5) / n * 2 - 1
-    a, b = np.meshgrid(c, -c)
-    d2 = a * a + b * b
-    z = np.sqrt(np.maximum(1 - d2, 0))
-    x, y, zz = 2 * z * a, 2 * z * b, 1 - 2 * d2
-    mx = ((0.5 + np.arctan2(x, -zz) / (2 * np.pi)) % 1.0 * w - 0.5).astype(np.float32)
-    my = (np.arctan2(np.hypot(x, zz), y) / np.pi * h - 0.5).astype(np.float32)
+    u, v, _ = j1_maps(h, w, n)
+    mx, my = u.astype(np.float32), v.astype(np.float32)
     return cv2.remap(ll, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
 
 

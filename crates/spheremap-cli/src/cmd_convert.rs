@@ -119,27 +119,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "f64" => Precision::F64,
         p => bail!("precision: unknown value {p:?}; expected f32 or f64"),
     };
-    let dst_view = match (
-        vec3(&a.look),
-        a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some(),
-    ) {
-        (Some(l), _) => view::look_up(l, vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]))?,
-        (None, true) => view::yaw_pitch_roll(
+    let ypr = (a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some()).then(|| {
+        [
             a.yaw.unwrap_or(0.0),
             a.pitch.unwrap_or(0.0),
             a.roll.unwrap_or(0.0),
-        )?,
-        (None, false) => {
-            if a.up.is_some() {
-                bail!("up: --up needs --look");
-            }
-            view::IDENTITY
-        }
-    };
-    let src_view = match vec3(&a.from_look) {
-        Some(l) => view::look_up(l, vec3(&a.from_up).unwrap_or([0.0, 1.0, 0.0]))?,
-        None => view::IDENTITY,
-    };
+        ]
+    });
+    let rotation = view::conversion_rotation(
+        vec3(&a.look),
+        vec3(&a.up),
+        ypr,
+        vec3(&a.from_look),
+        vec3(&a.from_up),
+    )?;
     // Never overwrite an input.
     let outs = env_paths(&a.output);
     for i in env_paths(&a.input) {
@@ -168,7 +161,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         max_samples: a.max_samples,
         filter: Filter::parse(&a.filter)?,
         outside: Outside::parse(&a.outside)?,
-        rotation: view::between(&src_view, &dst_view),
+        rotation,
         seed: a.seed,
         precision,
     };

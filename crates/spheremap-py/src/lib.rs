@@ -420,29 +420,6 @@ fn texel_solid_angles<'py>(
         .into_any())
 }
 
-/// The view rotation (destination eye frame → source frame) from the Python keywords.
-#[allow(clippy::too_many_arguments)]
-fn rotation(
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    ypr: Option<[f64; 3]>,
-    src_look: Option<[f64; 3]>,
-    src_up: Option<[f64; 3]>,
-) -> spheremap::Result<[[f64; 3]; 3]> {
-    use spheremap::view;
-    let y = [0.0, 1.0, 0.0];
-    let dst = match (look, ypr) {
-        (Some(l), _) => view::look_up(l, up.unwrap_or(y))?,
-        (None, Some([a, b, c])) => view::yaw_pitch_roll(a, b, c)?,
-        (None, None) => view::IDENTITY,
-    };
-    let src = match src_look {
-        Some(l) => view::look_up(l, src_up.unwrap_or(y))?,
-        None => view::IDENTITY,
-    };
-    Ok(view::between(&src, &dst))
-}
-
 /// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
 /// Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
 #[pyfunction]
@@ -491,7 +468,8 @@ fn convert<'py>(
         max_samples,
         filter: rs::Filter::parse(filter).map_err(to_py)?,
         outside: rs::Outside::parse(outside).map_err(to_py)?,
-        rotation: rotation(look, up, ypr, src_look, src_up).map_err(to_py)?,
+        rotation: spheremap::view::conversion_rotation(look, up, ypr, src_look, src_up)
+            .map_err(to_py)?,
         seed,
         precision: match precision {
             "f32" => rs::Precision::F32,

@@ -333,17 +333,24 @@ impl Layout {
         let f = self.face_size(img.width, img.height)?;
         let c = img.channels;
         let mut out = Image::new(f, 6 * f, c);
+        self.for_each_texel(f, |stack_i, (x, y)| {
+            let (src, dst) = ((y * img.width + x) * c, stack_i * c);
+            out.data[dst..dst + c].copy_from_slice(&img.data[src..src + c]);
+        });
+        Ok(out)
+    }
+
+    /// Calls `f(i, (x, y))` for every texel of the face stack: `i` its index in the stack,
+    /// (x, y) its place in this layout's image.
+    fn for_each_texel(self, f: usize, mut each: impl FnMut(usize, (usize, usize))) {
         for (face, &(sx, sy, o)) in self.slots().iter().enumerate() {
             for row in 0..f {
                 for col in 0..f {
                     let (scol, srow) = o.apply(col, row, f);
-                    let src = ((sy * f + srow) * img.width + sx * f + scol) * c;
-                    let dst = ((face * f + row) * f + col) * c;
-                    out.data[dst..dst + c].copy_from_slice(&img.data[src..src + c]);
+                    each((face * f + row) * f + col, (sx * f + scol, sy * f + srow));
                 }
             }
         }
-        Ok(out)
     }
 
     /// Face stack → layout image; unused cells of a cross are 0 (alpha 0 when there is alpha).
@@ -361,16 +368,10 @@ impl Layout {
         let c = stack.channels;
         let (w, h) = self.dims(f);
         let mut out = Image::new(w, h, c);
-        for (face, &(sx, sy, o)) in self.slots().iter().enumerate() {
-            for row in 0..f {
-                for col in 0..f {
-                    let (scol, srow) = o.apply(col, row, f);
-                    let dst = ((sy * f + srow) * w + sx * f + scol) * c;
-                    let src = ((face * f + row) * f + col) * c;
-                    out.data[dst..dst + c].copy_from_slice(&stack.data[src..src + c]);
-                }
-            }
-        }
+        self.for_each_texel(f, |stack_i, (x, y)| {
+            let (src, dst) = (stack_i * c, (y * w + x) * c);
+            out.data[dst..dst + c].copy_from_slice(&stack.data[src..src + c]);
+        });
         Ok(out)
     }
 }

@@ -845,21 +845,11 @@ mod rows {
         src_frame: [[f32; 3]; 3],
     }
 
-    fn mul3(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-        let mut r = [[0.0; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                r[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-            }
-        }
-        r
-    }
-
     impl Plan {
         pub(super) fn new(s: &Src<f32>, d: &Dst<f32>, rot: &[[f64; 3]; 3], w: usize) -> Self {
-            let t = |f: &[[f64; 3]; 3]| [0, 1, 2].map(|i| [0, 1, 2].map(|j| f[j][i]));
+            use crate::view::{mul, transpose};
             let sphere_m = match d.m {
-                Mapping::Sphere(p) => mul3(rot, &t(&p.frame)),
+                Mapping::Sphere(p) => mul(rot, &transpose(&p.frame)),
                 _ => *rot,
             }
             .map(|r| r.map(|v| v as f32));

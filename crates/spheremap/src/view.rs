@@ -101,6 +101,38 @@ pub fn between(src: &Mat3, dst: &Mat3) -> Mat3 {
     mul(&transpose(src), dst)
 }
 
+/// The rotation a conversion applies (destination eye frame → source frame) from the options
+/// users give: the output's view as `look`/`up` or yaw/pitch/roll (not both; neither = the
+/// identity view), and the input's view as `src_look`/`src_up`.  `up` defaults to +Y.
+pub fn conversion_rotation(
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    yaw_pitch_roll_deg: Option<[f64; 3]>,
+    src_look: Option<[f64; 3]>,
+    src_up: Option<[f64; 3]>,
+) -> Result<Mat3> {
+    const Y: [f64; 3] = [0.0, 1.0, 0.0];
+    let dst = match (look, yaw_pitch_roll_deg) {
+        (Some(_), Some(_)) => {
+            return Err(Error::param(
+                "look",
+                "give look/up or yaw/pitch/roll, not both",
+            ))
+        }
+        (Some(l), None) => look_up(l, up.unwrap_or(Y))?,
+        (None, Some([a, b, c])) => yaw_pitch_roll(a, b, c)?,
+        (None, None) if up.is_some() => {
+            return Err(Error::param("up", "needs look (the direction of the view)"))
+        }
+        (None, None) => IDENTITY,
+    };
+    let src = match src_look {
+        Some(l) => look_up(l, src_up.unwrap_or(Y))?,
+        None => IDENTITY,
+    };
+    Ok(between(&src, &dst))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
