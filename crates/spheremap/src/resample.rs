@@ -89,7 +89,7 @@ impl Filter {
         }
     }
     /// Half-width of the support, in output texels.
-    fn radius(self) -> f64 {
+    pub(crate) fn radius(self) -> f64 {
         match self {
             Filter::Box => 0.5,
             Filter::Tent => 1.0,
@@ -97,7 +97,7 @@ impl Filter {
         }
     }
     #[inline]
-    fn weight(self, d: f64) -> f64 {
+    pub(crate) fn weight(self, d: f64) -> f64 {
         match self {
             Filter::Box => 1.0,
             Filter::Tent => (1.0 - d.abs()).max(0.0),
@@ -211,6 +211,46 @@ impl<'a> EnvMap<'a> {
     }
 }
 
+/// Bilinear lookups of directions in an environment map, with the map's wrap rules — what the
+/// conversion engine does for each sample, for callers with their own directions (a scene's
+/// environment, the generator's environment-map ray source).
+pub struct Sampler<'a> {
+    src: Src<'a, f32>,
+    channels: usize,
+}
+
+impl<'a> Sampler<'a> {
+    pub fn new(env: &EnvMap<'a>) -> Self {
+        Sampler {
+            src: Src::new(env),
+            channels: env.channels,
+        }
+    }
+
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The map's value in direction `d` (any length but 0) into `out[..channels]`.
+    #[inline]
+    pub fn sample(&self, d: [f32; 3], out: &mut [f32]) {
+        let p = self.src.position(d);
+        match self.channels {
+            1 => self.put::<1>(p, out),
+            2 => self.put::<2>(p, out),
+            3 => self.put::<3>(p, out),
+            _ => self.put::<4>(p, out),
+        }
+    }
+
+    #[inline]
+    fn put<const C: usize>(&self, p: [f32; 2], out: &mut [f32]) {
+        let mut acc = [0f32; C];
+        self.src.lookup(p, 1.0, &mut acc);
+        out[..C].copy_from_slice(&acc);
+    }
+}
+
 /// Shared progress and cancellation: workers add finished rows to `done` and stop early when
 /// `cancel` is set (the result is then an error).
 #[derive(Debug, Default)]
@@ -270,7 +310,7 @@ pub fn resample(
     Ok((out, report))
 }
 
-fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
+pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
     for i in 0..3 {
         for j in 0..3 {
             let d: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
@@ -529,21 +569,43 @@ impl<'a, T: Real> Src<'a, T> {
 }
 
 /// The destination side: canvas point → direction (in the source's frame), with the gutter.
-struct Dst<T: Real> {
-    m: Mapping,
+pub(crate) struct Dst<T: Real> {
+    pub(crate) m: Mapping,
     wf: T,
     hf: T,
     rot: [[T; 3]; 3],
-    outside: Outside,
+    pub(crate) outside: Outside,
     /// The density varies across the canvas (so samples must be weighted by it).
-    weighted: bool,
+    pub(crate) weighted: bool,
 }
 
 impl<T: Real> Dst<T> {
+    /// A `w`×`h` canvas of `m`; `rotation` takes its directions to the source's frame.
+    pub(crate) fn new(m: Mapping, w: usize, h: usize, rotation: &[[f64; 3]; 3], outside: Outside) -> Self {
+        Dst {
+            m,
+            wf: T::from_f64(w as f64),
+            hf: T::from_f64(h as f64),
+            rot: rotation.map(|r| r.map(T::from_f64)),
+            outside,
+            weighted: !matches!(m, Mapping::Sphere(_) | Mapping::Octahedral),
+        }
+    }
+
+    /// The sample weight's density factor at a canvas point (1 for equal-area mappings).
+    #[inline]
+    pub(crate) fn density(&self, px: T, py: T) -> f64 {
+        if self.weighted {
+            self.m.density([px / self.wf, py / self.hf]).to_f64()
+        } else {
+            1.0
+        }
+    }
+
     /// Canvas pixel position → (direction in source frame, counts as on the map).  Off-map
     /// points are mirrored across the rim (gutter) and flagged.
     #[inline(always)]
-    fn dir(&self, px: T, py: T) -> ([T; 3], bool) {
+    pub(crate) fn dir(&self, px: T, py: T) -> ([T; 3], bool) {
         let uv = [px / self.wf, py / self.hf];
         let (d, on) = match self.m.uv_to_dir(uv) {
             Some(d) => (d, true),
@@ -605,15 +667,7 @@ fn run<T: Real, const C: usize>(
 ) -> ResampleReport {
     let s = Src::<T>::new(src);
     let (w, h) = (out.width, out.height);
-    let rot = opts.rotation.map(|r| r.map(T::from_f64));
-    let d = Dst::<T> {
-        m: dst,
-        wf: T::from_f64(w as f64),
-        hf: T::from_f64(h as f64),
-        rot,
-        outside: opts.outside,
-        weighted: !matches!(dst, Mapping::Sphere(_) | Mapping::Octahedral),
-    };
+    let d = Dst::<T>::new(dst, w, h, &opts.rotation, opts.outside);
     if let Some(p) = progress {
         p.total.store(h, Ordering::Relaxed);
     }
@@ -723,17 +777,12 @@ fn row_filtered<T: Real, const C: usize>(
             (s.span(pl, pr, dl, dr), s.span(pt, pb, dt, db))
         };
         let support = 2.0 * radius;
-        let mut nx = base.max((lx * support).ceil() as usize);
-        let mut ny = base.max((ly * support).ceil() as usize);
-        while nx * ny < opts.samples as usize {
-            nx += 1;
-        }
-        if nx * ny > cap {
-            // Keep the aspect, shrink to the cap.
-            let k = (cap as f64 / (nx * ny) as f64).sqrt();
-            nx = ((nx as f64 * k).floor() as usize).max(1);
-            ny = ((ny as f64 * k).floor() as usize).max(1).min(cap / nx);
-        }
+        let (nx, ny) = strata(
+            base.max((lx * support).ceil() as usize),
+            base.max((ly * support).ceil() as usize),
+            opts.samples as usize,
+            cap,
+        );
         let mut acc = [T::ZERO; C];
         let mut wsum = T::ZERO;
         for j in 0..ny {
@@ -741,11 +790,8 @@ fn row_filtered<T: Real, const C: usize>(
                 let (jx, jy) = jitter(opts.seed, x as u64, y as u64, (j * nx + i) as u64);
                 let ox = -radius + (i as f64 + jx) / nx as f64 * support;
                 let oy = -radius + (j as f64 + jy) / ny as f64 * support;
-                let mut wgt = opts.filter.weight(ox) * opts.filter.weight(oy);
                 let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
-                if d.weighted {
-                    wgt *= d.m.density([sx / d.wf, sy / d.hf]).to_f64();
-                }
+                let wgt = opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy);
                 let (dir, on) = d.dir(sx, sy);
                 let wt = T::from_f64(wgt);
                 wsum = wsum + wt;
@@ -793,9 +839,23 @@ impl<T: Real> Src<'_, T> {
     }
 }
 
+/// The strata grid of one texel: at least `samples` in all, then kept within `cap` (the
+/// aspect kept).  Shared with the ray-traced generator, so `samples` means the same there.
+pub(crate) fn strata(mut nx: usize, mut ny: usize, samples: usize, cap: usize) -> (usize, usize) {
+    while nx * ny < samples {
+        nx += 1;
+    }
+    if nx * ny > cap {
+        let k = (cap as f64 / (nx * ny) as f64).sqrt();
+        nx = ((nx as f64 * k).floor() as usize).max(1);
+        ny = ((ny as f64 * k).floor() as usize).max(1).min(cap / nx);
+    }
+    (nx, ny)
+}
+
 /// Deterministic jitter in [0,1)² for (texel, sample): a 64-bit mix (SplitMix64 finalizer).
 #[inline]
-fn jitter(seed: u64, x: u64, y: u64, k: u64) -> (f64, f64) {
+pub(crate) fn jitter(seed: u64, x: u64, y: u64, k: u64) -> (f64, f64) {
     let mut z = seed
         ^ x.wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ y.wrapping_mul(0xC2B2_AE3D_27D4_EB4F)

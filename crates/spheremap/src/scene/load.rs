@@ -1,0 +1,285 @@
+//! Scene files: OBJ + MTL (tobj) and glTF 2.0 (gltf; .gltf with its buffers, or .glb).
+//!
+//! * OBJ/MTL: `Ke` → emission, `Kd` → diffuse (absent: 0.8 grey, or 0 when the material
+//!   emits), `map_Kd` → diffuse texture (sRGB-decoded, relative to the MTL's folder), `illum`
+//!   3, 5 or 7 (the MTL "reflection on" models) → a perfect mirror of colour `Ks` (1 when
+//!   absent).  Faces without a material get the default (diffuse 0.8 grey).  `vt` v is flipped
+//!   to the top-row convention.  A missing MTL file is an error (it names the file).
+//! * glTF: the default scene's nodes with their world transforms; `emissiveFactor` ×
+//!   `KHR_materials_emissive_strength` → emission; `baseColorFactor` × `baseColorTexture` →
+//!   diffuse, times (1 − metallic); metallic ≥ 0.99 with roughness ≤ 0.01 → a mirror of the
+//!   base colour.  `KHR_lights_punctual`: point and directional lights (colour × intensity);
+//!   spot lights are treated as point lights (cone ignored).  Triangle primitives only;
+//!   Draco-compressed files are not supported.
+
+use super::{Environment, Light, Material, Scene, SceneBuilder, TriangleInput};
+use crate::error::{Error, Result};
+use crate::image_io::{self, Image, ReadOptions};
+use std::path::Path;
+
+pub(super) fn load(path: &Path) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let trimmed = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    let json = trimmed.is_some_and(|i| bytes[i] == b'{');
+    let b = if bytes.starts_with(b"glTF") || json || ext == "gltf" || ext == "glb" {
+        load_gltf(path)?
+    } else if ext == "obj" || looks_like_obj(&bytes) {
+        load_obj(path)?
+    } else {
+        return Err(Error::unsupported(
+            format!("scene file {}", path.display()),
+            "expected an OBJ, glTF (.gltf) or GLB file",
+        ));
+    };
+    b.build(Environment::Constant([0.0; 3]), &path.display().to_string())
+}
+
+fn looks_like_obj(bytes: &[u8]) -> bool {
+    let head = &bytes[..bytes.len().min(4096)];
+    std::str::from_utf8(head)
+        .map(|s| s.lines().any(|l| l.starts_with("v ") || l.starts_with("f ")))
+        .unwrap_or(false)
+}
+
+fn load_obj(path: &Path) -> Result<SceneBuilder> {
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, materials) = tobj::load_obj(path, &opts)
+        .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
+    let mut b = SceneBuilder::new();
+    let default = b.add_material(Material {
+        name: "default".into(),
+        ..Material::default()
+    });
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mtls = match materials {
+        Ok(m) => m,
+        // tobj reports a file without mtllib as an error too.
+        Err(tobj::LoadError::OpenFileFailed) if !mentions_mtllib(path) => Vec::new(),
+        Err(e) => {
+            return Err(Error::data(path, format!("cannot read its MTL file: {e}")));
+        }
+    };
+    let mut ids = Vec::with_capacity(mtls.len());
+    for m in &mtls {
+        let emission = m.emissive.unwrap_or([0.0; 3]);
+        let emits = emission.iter().any(|&v| v > 0.0);
+        let mirror_model = matches!(m.illumination_model, Some(3 | 5 | 7));
+        let diffuse = m.diffuse.unwrap_or(if emits || mirror_model { [0.0; 3] } else { [0.8; 3] });
+        let diffuse_texture = match &m.diffuse_texture {
+            Some(name) => {
+                let tp = dir.join(name);
+                Some(b.add_texture(image_io::read_image(&tp, &ReadOptions::default())?))
+            }
+            None => None,
+        };
+        ids.push(b.add_material(Material {
+            name: m.name.clone(),
+            emission,
+            diffuse,
+            diffuse_texture,
+            mirror: if mirror_model {
+                m.specular.unwrap_or([1.0; 3])
+            } else {
+                [0.0; 3]
+            },
+        }));
+    }
+    for model in &models {
+        let mesh = &model.mesh;
+        let nv = mesh.positions.len() / 3;
+        let v3 = |a: &[f32], i: usize| [a[3 * i], a[3 * i + 1], a[3 * i + 2]];
+        let has_n = mesh.normals.len() == mesh.positions.len();
+        let has_uv = mesh.texcoords.len() == 2 * nv;
+        let mat = mesh
+            .material_id
+            .and_then(|i| ids.get(i).copied())
+            .unwrap_or(default);
+        for t in mesh.indices.chunks_exact(3) {
+            let i = [t[0], t[1], t[2]].map(|k| k as usize);
+            if i.iter().any(|&k| k >= nv) {
+                return Err(Error::data(
+                    path,
+                    format!("face index out of range in object {:?}", model.name),
+                ));
+            }
+            b.add_triangle(TriangleInput {
+                positions: i.map(|k| v3(&mesh.positions, k)),
+                normals: has_n.then(|| i.map(|k| v3(&mesh.normals, k))),
+                uvs: has_uv
+                    .then(|| i.map(|k| [mesh.texcoords[2 * k], 1.0 - mesh.texcoords[2 * k + 1]])),
+                material: mat,
+            });
+        }
+    }
+    Ok(b)
+}
+
+fn mentions_mtllib(path: &Path) -> bool {
+    std::fs::read_to_string(path)
+        .map(|s| s.lines().any(|l| l.trim_start().starts_with("mtllib")))
+        .unwrap_or(false)
+}
+
+fn load_gltf(path: &Path) -> Result<SceneBuilder> {
+    let (doc, buffers, images) =
+        gltf::import(path).map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    let mut b = SceneBuilder::new();
+    let default = b.add_material(Material {
+        name: "default".into(),
+        ..Material::default()
+    });
+    // Textures are converted once per image, on first use.
+    let mut texture_of_image: Vec<Option<usize>> = vec![None; images.len()];
+    let mut ids = Vec::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let base = pbr.base_color_factor();
+        let (metal, rough) = (pbr.metallic_factor(), pbr.roughness_factor());
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emission = m.emissive_factor().map(|v| v * strength);
+        let mut tex = None;
+        if let Some(info) = pbr.base_color_texture() {
+            let k = info.texture().source().index();
+            let data = images
+                .get(k)
+                .ok_or_else(|| Error::data(path, format!("texture image {k} is missing")))?;
+            tex = Some(match texture_of_image[k] {
+                Some(t) => t,
+                None => {
+                    let t = b.add_texture(gltf_image(path, data)?);
+                    texture_of_image[k] = Some(t);
+                    t
+                }
+            });
+        }
+        let rgb = [base[0], base[1], base[2]];
+        let mirror = metal >= 0.99 && rough <= 0.01;
+        ids.push(b.add_material(Material {
+            name: m.name().unwrap_or("").to_string(),
+            emission,
+            diffuse: if mirror {
+                [0.0; 3]
+            } else {
+                rgb.map(|v| v * (1.0 - metal))
+            },
+            diffuse_texture: if mirror { None } else { tex },
+            mirror: if mirror { rgb } else { [0.0; 3] },
+        }));
+    }
+    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => doc.nodes().collect(),
+    };
+    let mut stack: Vec<(gltf::Node, glam::Mat4)> =
+        roots.into_iter().map(|n| (n, glam::Mat4::IDENTITY)).collect();
+    while let Some((node, parent)) = stack.pop() {
+        let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
+        for child in node.children() {
+            stack.push((child, world));
+        }
+        if let Some(light) = node.light() {
+            let c = light.color().map(|v| v * light.intensity());
+            b.add_light(match light.kind() {
+                gltf::khr_lights_punctual::Kind::Directional => Light::Directional {
+                    direction: world
+                        .transform_vector3(glam::Vec3::NEG_Z)
+                        .normalize_or_zero()
+                        .to_array(),
+                    irradiance: c,
+                },
+                _ => Light::Point {
+                    position: world.transform_point3(glam::Vec3::ZERO).to_array(),
+                    intensity: c,
+                },
+            });
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        let nmat = glam::Mat3::from_mat4(world).inverse().transpose();
+        for prim in mesh.primitives() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                continue;
+            }
+            let reader = prim.reader(|bf| buffers.get(bf.index()).map(|d| &d.0[..]));
+            let Some(pos) = reader.read_positions() else {
+                continue;
+            };
+            let pos: Vec<[f32; 3]> = pos
+                .map(|p| world.transform_point3(p.into()).to_array())
+                .collect();
+            let nv = pos.len();
+            let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|ns| {
+                ns.map(|n| (nmat * glam::Vec3::from(n)).normalize_or_zero().to_array())
+                    .collect()
+            });
+            let uvs: Option<Vec<[f32; 2]>> =
+                reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+            let idx: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..nv as u32).collect(),
+            };
+            let tris: Vec<[u32; 3]> = idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            if tris.iter().flatten().any(|&i| i as usize >= nv) {
+                return Err(Error::data(path, "glTF index out of range"));
+            }
+            let mat = prim
+                .material()
+                .index()
+                .and_then(|i| ids.get(i).copied())
+                .unwrap_or(default);
+            let normals = normals.filter(|n| n.len() == nv);
+            let uvs = uvs.filter(|u| u.len() == nv);
+            b.add_mesh(&pos, normals.as_deref(), uvs.as_deref(), &tris, mat);
+        }
+    }
+    Ok(b)
+}
+
+/// A decoded glTF image as a linear float texture (8- and 16-bit data are sRGB).
+fn gltf_image(path: &Path, d: &gltf::image::Data) -> Result<Image> {
+    use gltf::image::Format as F;
+    let (ch, bytes) = match d.format {
+        F::R8 => (1, 1),
+        F::R8G8 => (2, 1),
+        F::R8G8B8 => (3, 1),
+        F::R8G8B8A8 => (4, 1),
+        F::R16 => (1, 2),
+        F::R16G16 => (2, 2),
+        F::R16G16B16 => (3, 2),
+        F::R16G16B16A16 => (4, 2),
+        F::R32G32B32FLOAT => (3, 4),
+        F::R32G32B32A32FLOAT => (4, 4),
+    };
+    let (w, h) = (d.width as usize, d.height as usize);
+    if d.pixels.len() != w * h * ch * bytes || w == 0 || h == 0 {
+        return Err(Error::data(path, "a texture image has the wrong size"));
+    }
+    let data: Vec<f32> = match bytes {
+        1 => d.pixels.iter().map(|&v| image_io::srgb_to_linear(v as f32 / 255.0)).collect(),
+        2 => d
+            .pixels
+            .chunks_exact(2)
+            .map(|c| image_io::srgb_to_linear(u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0))
+            .collect(),
+        _ => d
+            .pixels
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect(),
+    };
+    Ok(Image {
+        width: w,
+        height: h,
+        channels: ch,
+        data,
+    })
+}

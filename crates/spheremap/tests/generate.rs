@@ -1,0 +1,446 @@
+//! The ray-traced generator: analytic scenes with known answers, determinism, convergence,
+//! the environment-map and closure sources, the cube-face route, scene files.
+
+use spheremap::generate::{generate, EnvSource, FnSource, GenerateOptions, RaySource};
+use spheremap::image_io::Image;
+use spheremap::resample::{self, EnvMap, Outside, Precision, ResampleOptions};
+use spheremap::scene::{self, Environment, Light, Material, SceneBuilder, Shading, TriangleInput};
+use spheremap::Mapping;
+
+const SPHERE: Mapping = Mapping::Sphere(&spheremap::PRESETS[0]);
+
+/// The world direction of a canvas point of a sphere map made with `rot`.
+fn world_dir(rot: &[[f64; 3]; 3], n: usize, px: f64, py: f64) -> Option<[f64; 3]> {
+    let d = SPHERE.uv_to_dir([px / n as f64, py / n as f64])?;
+    Some([0, 1, 2].map(|i| rot[i][0] * d[0] + rot[i][1] * d[1] + rot[i][2] * d[2]))
+}
+
+fn opts(samples: u32) -> GenerateOptions {
+    GenerateOptions {
+        samples,
+        ..GenerateOptions::default()
+    }
+}
+
+fn views() -> Vec<[[f64; 3]; 3]> {
+    vec![
+        resample::IDENTITY,
+        spheremap::view::look_up([0.3, -0.5, -1.0], [0.0, 1.0, 0.0]).unwrap(),
+        spheremap::view::look_up([1.0, 0.2, 0.1], [0.1, 0.3, 1.0]).unwrap(),
+    ]
+}
+
+/// Inside the octant sphere, one ray per texel returns exactly its octant's colour.
+#[test]
+fn octant_sphere_one_ray_is_exact() {
+    let sc = scene::octant_sphere_scene(10.0, 6);
+    let n = 128;
+    for rot in views() {
+        let o = GenerateOptions {
+            rotation: rot,
+            ..opts(1)
+        };
+        let (img, rep) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
+        assert_eq!(rep.max_texel_samples, 1);
+        let mut checked = 0;
+        for y in 0..n {
+            for x in 0..n {
+                let Some(d) = world_dir(&rot, n, x as f64 + 0.5, y as f64 + 0.5) else {
+                    continue;
+                };
+                if d.iter().any(|v| v.abs() < 1e-4) {
+                    continue;
+                }
+                let want = scene::octant_colour(d.map(|v| v as f32));
+                assert_eq!(img.pixel(x, y), &want[..], "texel ({x},{y}) dir {d:?}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 12_000, "{checked}");
+        assert_eq!(rep.texels, checked as u64 + rep.texels - checked as u64);
+    }
+}
+
+/// With many rays, a texel whose whole footprint lies in one octant is exactly that colour;
+/// a texel across a boundary is a mixture of the two sides.
+#[test]
+fn octant_sphere_box_filter_is_exact_inside_and_mixes_at_edges() {
+    let sc = scene::octant_sphere_scene(10.0, 6);
+    let n = 96;
+    let rot = views()[1];
+    let o = GenerateOptions {
+        rotation: rot,
+        ..opts(16)
+    };
+    let (img, rep) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
+    assert!(rep.max_texel_samples > 16, "the rim must get more rays");
+    let (mut inside, mut mixed) = (0, 0);
+    for y in 0..n {
+        for x in 0..n {
+            // The octants seen at a 9×9 grid over the texel.
+            let mut seen = std::collections::HashSet::new();
+            let mut all_on = true;
+            for j in 0..9 {
+                for i in 0..9 {
+                    let (px, py) = (x as f64 + i as f64 / 8.0, y as f64 + j as f64 / 8.0);
+                    match world_dir(&rot, n, px, py) {
+                        Some(d) => {
+                            seen.insert(d.map(|v| v > 0.0));
+                        }
+                        None => all_on = false,
+                    }
+                }
+            }
+            if !all_on {
+                continue;
+            }
+            let px = img.pixel(x, y);
+            if seen.len() == 1 {
+                let d = world_dir(&rot, n, x as f64 + 0.5, y as f64 + 0.5).unwrap();
+                let want = scene::octant_colour(d.map(|v| v as f32));
+                for c in 0..3 {
+                    assert!((px[c] - want[c]).abs() < 1e-6, "({x},{y}) {px:?} {want:?}");
+                }
+                inside += 1;
+            } else {
+                // Each channel lies between ¼ and 1 and is not both-sided at once.
+                assert!(px.iter().all(|&v| (0.25 - 1e-6..=1.0 + 1e-6).contains(&v)));
+                mixed += 1;
+            }
+        }
+    }
+    assert!(inside > 5000 && mixed > 200, "{inside} {mixed}");
+}
+
+/// An emissive floor under the eye: a texel sees it exactly when its reflected direction
+/// points down — for the default view, exactly the lower half of the disc (R_y = 2 n_z b).
+#[test]
+fn emissive_floor_is_seen_by_the_lower_half() {
+    let floor = [0.9f32, 0.5, 0.1];
+    let sky = [0.1f32, 0.2, 0.7];
+    let sc = scene::floor_scene(-1.0, 1e5, floor, sky);
+    let n = 128;
+    for rot in views() {
+        for samples in [1, 16] {
+            let o = GenerateOptions {
+                rotation: rot,
+                ..opts(samples)
+            };
+            let (img, _) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
+            let mut counted = [0, 0];
+            for y in 0..n {
+                for x in 0..n {
+                    // The world directions' y over the texel (a 5×5 grid).
+                    let mut ys = Vec::new();
+                    for j in 0..5 {
+                        for i in 0..5 {
+                            let (px, py) = (x as f64 + i as f64 / 4.0, y as f64 + j as f64 / 4.0);
+                            if let Some(d) = world_dir(&rot, n, px, py) {
+                                ys.push(d[1]);
+                            }
+                        }
+                    }
+                    let Some(dc) = world_dir(&rot, n, x as f64 + 0.5, y as f64 + 0.5) else {
+                        continue;
+                    };
+                    let (lo, hi) = if samples == 1 {
+                        (dc[1], dc[1])
+                    } else if ys.len() == 25 {
+                        (ys.iter().cloned().fold(1.0, f64::min), ys.iter().cloned().fold(-1.0, f64::max))
+                    } else {
+                        continue;
+                    };
+                    let px = img.pixel(x, y);
+                    if hi < -1e-3 {
+                        assert_eq!(px, &floor[..], "({x},{y})");
+                        counted[0] += 1;
+                    } else if lo > 1e-3 {
+                        assert_eq!(px, &sky[..], "({x},{y})");
+                        counted[1] += 1;
+                    }
+                    if rot == resample::IDENTITY && samples == 1 {
+                        // Closed form: lower half ⇔ floor.
+                        assert_eq!(dc[1] < 0.0, y >= n / 2);
+                    }
+                }
+            }
+            assert!(counted[0] > 3000 && counted[1] > 3000, "{counted:?}");
+        }
+    }
+}
+
+#[test]
+fn deterministic_for_a_seed_and_parallel() {
+    let sc = scene::demo_scene();
+    let o = GenerateOptions {
+        pos: [0.0, 1.0, 0.0],
+        ..opts(9)
+    };
+    let a = generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0;
+    let b = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0);
+    assert_eq!(a, b);
+    let c = generate(SPHERE, 64, 64, &sc, &GenerateOptions { seed: 7, ..o }, None)
+        .unwrap()
+        .0;
+    assert_ne!(a, c);
+}
+
+fn rms(a: &Image, b: &Image) -> f64 {
+    let s: f64 = a.data.iter().zip(&b.data).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+    (s / a.data.len() as f64).sqrt()
+}
+
+/// The error against a many-ray reference shrinks as rays are added.
+#[test]
+fn converges_as_samples_grow() {
+    let sc = scene::octant_sphere_scene(10.0, 4);
+    let rot = views()[2];
+    let run = |s: u32, seed: u64| {
+        let o = GenerateOptions {
+            rotation: rot,
+            seed,
+            max_samples: 4096,
+            ..opts(s)
+        };
+        generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0
+    };
+    let reference = run(1024, 99);
+    let errs: Vec<f64> = [1, 4, 16, 64].iter().map(|&s| rms(&run(s, 1), &reference)).collect();
+    for w in errs.windows(2) {
+        assert!(w[1] < 0.8 * w[0], "{errs:?}");
+    }
+    assert!(errs[3] < 0.25 * errs[0], "{errs:?}");
+}
+
+#[test]
+fn outside_the_disc_gutter_or_black() {
+    let sc = scene::octant_sphere_scene(10.0, 4);
+    let n = 64;
+    for samples in [1, 4] {
+        let (g, _) = generate(SPHERE, n, n, &sc, &opts(samples), None).unwrap();
+        let o = GenerateOptions {
+            outside: Outside::Black,
+            ..opts(samples)
+        };
+        let (b, _) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
+        // Corners: black vs the mirrored map (never 0: every octant is at least ¼).
+        assert_eq!(b.pixel(0, 0), &[0.0; 3]);
+        assert!(g.pixel(0, 0).iter().all(|&v| v >= 0.25 - 1e-6), "{:?}", g.pixel(0, 0));
+        // The gutter texel just outside the rim on the +x axis mirrors the one just inside.
+        let y = n / 2;
+        let (inside, outside) = (g.pixel(n - 1 - 1, y), g.pixel(n - 1, y));
+        let _ = (inside, outside);
+        // Texels well inside the disc agree between the two.
+        assert_eq!(g.pixel(n / 2, n / 2), b.pixel(n / 2, n / 2));
+    }
+}
+
+/// The environment-map source gives what the conversion engine gives for one centre sample,
+/// and a closure source works.
+#[test]
+fn environment_and_closure_sources() {
+    // A smooth lat-long environment.
+    let (w, h) = (128, 64);
+    let mut ll = Image::new(w, h, 3);
+    for y in 0..h {
+        for x in 0..w {
+            let p = ll.pixel_mut(x, y);
+            // Smooth and periodic in u (no seam to land on either side of).
+            p[0] = 0.5 + 0.5 * (std::f32::consts::TAU * (x as f32 + 0.5) / w as f32).cos();
+            p[1] = y as f32 / h as f32;
+            p[2] = 0.5;
+        }
+    }
+    let lat = Mapping::parse("latlong", None).unwrap();
+    let env = EnvMap::new(lat, &ll, "env").unwrap();
+    let src = EnvSource::new(&env, resample::IDENTITY);
+    let (a, _) = generate(SPHERE, 64, 64, &src, &opts(1), None).unwrap();
+    let ro = ResampleOptions {
+        samples: 1,
+        ..ResampleOptions::default()
+    };
+    let (b, _) = resample::resample(&env, SPHERE, 64, 64, &ro, None).unwrap();
+    // Inside the disc (outside, the two gutters are made differently: from the source by the
+    // engine, from the finished map by the generator).
+    let mut worst = 0f32;
+    for y in 0..64 {
+        for x in 0..64 {
+            if SPHERE.uv_to_dir([(x as f64 + 0.5) / 64.0, (y as f64 + 0.5) / 64.0]).is_some() {
+                for c in 0..3 {
+                    worst = worst.max((a.pixel(x, y)[c] - b.pixel(x, y)[c]).abs());
+                }
+            }
+        }
+    }
+    assert!(worst < 1e-4, "{worst}");
+
+    let f = FnSource::new(1, |_o: [f32; 3], d: [f32; 3], out: &mut [f32]| out[0] = d[2]);
+    let (img, _) = generate(SPHERE, 32, 32, &f, &opts(1), None).unwrap();
+    // The centre texel reflects back toward the viewer: +Z.
+    assert!(img.pixel(16, 16)[0] > 0.99);
+}
+
+/// The seed's two routes: ray-trace the six cube faces at `pos`, then convert — against the
+/// direct generation.  They agree except where the cube faces' resolution shows (sharp
+/// edges are softened by the two resamplings).
+#[test]
+fn cube_face_route_matches_direct_generation() {
+    let sc = scene::demo_scene();
+    let pos = [0.0, 1.0, 0.0];
+    let n = 128;
+    let o = GenerateOptions {
+        pos,
+        ..opts(16)
+    };
+    let (direct, _) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
+    let cube = Mapping::parse("cube", None).unwrap();
+    let f = 128;
+    let (faces, _) = generate(cube, f, 6 * f, &sc, &o, None).unwrap();
+    let env = EnvMap::new(cube, &faces, "faces").unwrap();
+    let (two_step, _) =
+        resample::resample(&env, SPHERE, n, n, &ResampleOptions::default(), None).unwrap();
+    let psnr = psnr_in_disc(&direct, &two_step, n);
+    eprintln!("direct vs cube-face route: {psnr:.1} dB");
+    assert!(psnr > 30.0, "{psnr}");
+}
+
+fn psnr_in_disc(a: &Image, b: &Image, n: usize) -> f64 {
+    let (mut s, mut k, mut peak) = (0.0, 0, 0f64);
+    for y in 0..n {
+        for x in 0..n {
+            if SPHERE.uv_to_dir([(x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64]).is_none() {
+                continue;
+            }
+            for c in 0..3 {
+                let (p, q) = (a.pixel(x, y)[c] as f64, b.pixel(x, y)[c] as f64);
+                s += (p - q).powi(2);
+                peak = peak.max(p);
+                k += 1;
+            }
+        }
+    }
+    10.0 * (peak * peak / (s / k as f64)).log10()
+}
+
+#[test]
+fn f32_and_f64_directions_agree() {
+    let sc = scene::octant_sphere_scene(10.0, 4);
+    let a = generate(SPHERE, 64, 64, &sc, &opts(4), None).unwrap().0;
+    let o = GenerateOptions {
+        precision: Precision::F64,
+        ..opts(4)
+    };
+    let b = generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0;
+    let differ = a.data.iter().zip(&b.data).filter(|(x, y)| (*x - *y).abs() > 1e-5).count();
+    // Only rays within float rounding of an octant boundary may land differently.
+    assert!(differ < a.data.len() / 500, "{differ}");
+}
+
+/// Direct light: a diffuse floor under a point light: L = ρ/π · I / d² straight below it;
+/// a directional light with an occluder casts a shadow.
+#[test]
+fn direct_light_and_shadow() {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(Material {
+        diffuse: [0.5; 3],
+        ..Material::default()
+    });
+    let quad = |b: &mut SceneBuilder, y: f32, e: f32| {
+        let c = [[-e, y, -e], [e, y, -e], [e, y, e], [-e, y, e]];
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            b.add_triangle(TriangleInput {
+                positions: t.map(|i| c[i]),
+                material: m,
+                ..Default::default()
+            });
+        }
+    };
+    quad(&mut b, 0.0, 10.0);
+    b.add_light(Light::Point {
+        position: [0.0, 2.0, 0.0],
+        intensity: [8.0, 8.0, 8.0],
+    });
+    let mut sc = b.build(Environment::Constant([0.0; 3]), "test").unwrap();
+    sc.options.indirect_samples = 0;
+    let l = sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]);
+    let want = 0.5 / std::f32::consts::PI * 8.0 / 4.0;
+    assert!((l[0] - want).abs() < 1e-4 * want, "{l:?} {want}");
+    // Emission-only shading ignores the light.
+    sc.options.shading = Shading::Emission;
+    assert_eq!(sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]), [0.0; 3]);
+
+    // Sun from straight above, a small occluder at y = 1 over the origin.
+    let mut b = SceneBuilder::new();
+    let m2 = b.add_material(Material {
+        diffuse: [0.5; 3],
+        ..Material::default()
+    });
+    let _ = m2;
+    b.materials[0].diffuse = [0.5; 3];
+    quad(&mut b, 0.0, 10.0);
+    quad(&mut b, 1.0, 0.5);
+    b.add_light(Light::Directional {
+        direction: [0.0, -1.0, 0.0],
+        irradiance: [3.0; 3],
+    });
+    let mut sc = b.build(Environment::Constant([0.0; 3]), "test").unwrap();
+    sc.options.indirect_samples = 0;
+    let lit = sc.radiance([3.0, 2.0, 0.0], [0.0, -1.0, 0.0]);
+    let shadow = sc.radiance([0.0, 0.5, 0.0], [0.0, -1.0, 0.0]);
+    assert!((lit[0] - 0.5 / std::f32::consts::PI * 3.0).abs() < 1e-4, "{lit:?}");
+    assert_eq!(shadow, [0.0; 3]);
+}
+
+/// A mirror shows what it reflects (times its colour); the environment on a miss.
+#[test]
+fn mirror_and_environment() {
+    let mut b = SceneBuilder::new();
+    let mirror = b.add_material(Material {
+        diffuse: [0.0; 3],
+        mirror: [0.5, 0.25, 1.0],
+        ..Material::default()
+    });
+    let e = 5.0;
+    let c = [[-e, 0.0, -e], [e, 0.0, -e], [e, 0.0, e], [-e, 0.0, e]];
+    for t in [[0, 1, 2], [0, 2, 3]] {
+        b.add_triangle(TriangleInput {
+            positions: t.map(|i| c[i]),
+            material: mirror,
+            ..Default::default()
+        });
+    }
+    let sc = b.build(Environment::Constant([2.0, 2.0, 2.0]), "test").unwrap();
+    assert_eq!(sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]), [1.0, 0.5, 2.0]);
+    assert_eq!(sc.radiance([0.0, 1.0, 0.0], [0.0, 1.0, 0.0]), [2.0; 3]);
+}
+
+#[test]
+fn errors_are_named() {
+    let sc = scene::octant_sphere_scene(1.0, 1);
+    let e = generate(SPHERE, 16, 16, &sc, &opts(0), None).unwrap_err();
+    assert!(e.to_string().starts_with("samples:"), "{e}");
+    let o = GenerateOptions {
+        pos: [f32::NAN, 0.0, 0.0],
+        ..opts(1)
+    };
+    let e = generate(SPHERE, 16, 16, &sc, &o, None).unwrap_err();
+    assert!(e.to_string().starts_with("pos:"), "{e}");
+    let e = generate(SPHERE, 16, 8, &sc, &opts(1), None).unwrap_err();
+    assert!(e.to_string().starts_with("size:"), "{e}");
+    // A source that fails stops the run with its error.
+    struct Failing;
+    impl RaySource for Failing {
+        fn channels(&self) -> usize {
+            3
+        }
+        fn trace(&self, _: &[[f32; 3]], _: &[[f32; 3]], _: &mut [f32]) -> spheremap::Result<()> {
+            Err(spheremap::Error::param("fire_ray", "went wrong"))
+        }
+    }
+    let e = generate(SPHERE, 16, 16, &Failing, &opts(1), None).unwrap_err();
+    assert_eq!(e.to_string(), "fire_ray: went wrong");
+}
