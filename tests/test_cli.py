@@ -25,13 +25,17 @@ def test_demo_writes_chart_and_teapot(tmp_path):
     r = cli("demo", tmp_path / "d", "--size", 128)
     assert r.returncode == 0, r.stderr
     for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv",
-              "apartment_sphere.exr", "apartment_sphere.png"]:
+              "apartment_sphere.exr", "apartment_sphere.png", "raytraced_sphere.exr", "raytraced_sphere.png"]:
         assert (tmp_path / "d" / f).stat().st_size > 0
     # The demo's sphere map is the bundled HDRI seen from the demo camera (look = target - eye).
     demo = sm.read_image(tmp_path / "d" / "apartment_sphere.exr")
     hdri = sm.read_image("testdata/apartment.exr")
     want = sm.convert(hdri, "latlong", "sphere", size=128, look=(0, -12, -40), up=(0, 1, 0))
     np.testing.assert_allclose(demo, want, rtol=1e-3, atol=1e-3)
+    # The ray-traced built-in scene is what generate() makes of it.
+    traced = sm.read_image(tmp_path / "d" / "raytraced_sphere.exr")
+    want = sm.generate(128, sm.Scene.builtin("demo"), pos=(0, 1, 0), samples=16)
+    np.testing.assert_array_equal(traced, want)
     st = np.loadtxt(tmp_path / "d" / "teapot_texgen.csv", delimiter=",", skiprows=1)
     assert st.shape == (792, 2) and np.isfinite(st).all()
     assert not list((tmp_path / "d").glob(".*.tmp"))

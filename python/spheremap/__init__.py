@@ -44,6 +44,8 @@ __all__ = [
     "cube_to_layout",
     "CUBE_LAYOUTS",
     "FILTERS",
+    "Scene",
+    "generate",
     "NORMALIZE_MODES",
     "SINGULAR_MODES",
     "MATCAP_VARIANTS",
@@ -403,3 +405,170 @@ def cube_to_layout(faces, layout: str = "hcross") -> np.ndarray:
         raise ValueError(f"faces: expected (6, F, F, C) with C in 1..4, got shape {a.shape}")
     st = np.ascontiguousarray(a, dtype=np.float32).reshape(6 * a.shape[1], a.shape[2], a.shape[3])
     return _ext.stack_to_layout(st, layout)
+
+
+class Scene:
+    """A ray-traced scene (OBJ + MTL or glTF 2.0, or built in), usable as `generate`'s fire_ray.
+
+    Calling it, ``scene(origins, directions)``, returns the radiance along each ray: (K, 3)
+    float32 for (K, 3) origins and directions. What a ray returns is documented in the README
+    ("Ray-traced sphere maps"): emission + diffuse direct light from point and directional lights
+    with shadows + environment light + perfect mirrors; shading="emission" returns only the
+    emitted colour of the first surface hit (the environment on a miss).
+    """
+
+    def __init__(self, _inner):
+        self._inner = _inner
+
+    @classmethod
+    def load(cls, path, *, background=None, environment=None, environment_mapping: str = "latlong",
+             environment_preset: str | None = None, shading: str = "full", max_depth: int = 8,
+             indirect_samples: int = 1, seed: int = 0) -> "Scene":
+        """Loads an OBJ (+MTL) or glTF/GLB file. background: constant environment colour (RGB,
+        default black); environment: an environment map image in `environment_mapping` instead
+        (a cube as (6, F, F, C) faces in GL order)."""
+        import os
+        scene = cls(_ext.Scene.load(os.fspath(path)))
+        scene._configure(background, environment, environment_mapping, environment_preset,
+                         shading, max_depth, indirect_samples, seed)
+        return scene
+
+    @classmethod
+    def builtin(cls, name: str = "demo", **kwargs) -> "Scene":
+        """A built-in scene: "demo" (the demo's little world; view it from (0, 1, 0)) or
+        "octants" (inside a sphere whose octants glow in 8 colours). Keyword arguments as load."""
+        _choice(name, "name", ("demo", "octants"))
+        scene = cls(_ext.Scene.builtin(name))
+        if kwargs:
+            args = dict(background=None, environment=None, environment_mapping="latlong",
+                        environment_preset=None, shading="full", max_depth=8, indirect_samples=1,
+                        seed=0)
+            unknown = set(kwargs) - set(args)
+            if unknown:
+                raise TypeError(f"builtin() got unexpected keyword arguments {sorted(unknown)}")
+            args.update(kwargs)
+            scene._configure(**args)
+        return scene
+
+    def _configure(self, background, environment, environment_mapping, environment_preset,
+                   shading, max_depth, indirect_samples, seed):
+        _choice(shading, "shading", ("full", "emission"))
+        if background is not None and environment is not None:
+            raise ValueError("environment: give background or environment, not both")
+        if background is not None:
+            self.set_background(background)
+        if environment is not None:
+            self.set_environment(environment, environment_mapping, preset=environment_preset)
+        for v, n in ((max_depth, "max_depth"), (indirect_samples, "indirect_samples"), (seed, "seed")):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                raise ValueError(f"{n}: expected a non-negative integer, got {v!r}")
+        self._inner.set_options(shading, int(max_depth), int(indirect_samples), int(seed))
+
+    @property
+    def triangle_count(self) -> int:
+        return self._inner.triangle_count
+
+    @property
+    def light_count(self) -> int:
+        return self._inner.light_count
+
+    @property
+    def bounds(self):
+        """((min x, y, z), (max x, y, z)) of the geometry."""
+        return self._inner.bounds
+
+    def set_background(self, colour) -> None:
+        self._inner.set_background([float(x) for x in _vec3(colour, "background")])
+
+    def set_environment(self, image, mapping: str = "latlong", *, preset: str | None = None) -> None:
+        _choice(mapping, "mapping", MAPPINGS)
+        a = _floats(image, "environment")
+        if mapping == "cube":
+            if a.ndim == 3:
+                a = a[..., None]
+            if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2]:
+                raise ValueError(f"environment: a cube map is (6, F, F, C), got shape {a.shape}")
+            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+        elif a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+            raise ValueError(f"environment: expected (H, W, C) with C in 1..4, got shape {a.shape}")
+        self._inner.set_environment(np.ascontiguousarray(a, dtype=np.float32), mapping, preset)
+
+    def add_point_light(self, position, intensity) -> None:
+        self._inner.add_point_light(list(_vec3(position, "position")), list(_vec3(intensity, "intensity")))
+
+    def add_directional_light(self, direction, irradiance) -> None:
+        """direction: the way the light travels (e.g. (0, -1, 0) for a sun overhead)."""
+        self._inner.add_directional_light(list(_vec3(direction, "direction")),
+                                          list(_vec3(irradiance, "irradiance")))
+
+    def _rays(self, origins, directions):
+        o = np.ascontiguousarray(_floats(origins, "origins", last=(3,), ndim=2), dtype=np.float32)
+        d = np.ascontiguousarray(_floats(directions, "directions", last=(3,), ndim=2), dtype=np.float32)
+        if len(o) != len(d):
+            raise ValueError(f"origins: {len(o)} rays but directions has {len(d)}")
+        return o, d
+
+    def __call__(self, origins, directions) -> np.ndarray:
+        """Radiance along each ray: (K, 3) float32."""
+        return self._inner.trace(*self._rays(origins, directions))
+
+    def intersect(self, origins, directions) -> np.ndarray:
+        """Distance to the closest hit along each ray ((K,) float32, inf on a miss)."""
+        return self._inner.intersect(*self._rays(origins, directions))
+
+    def __repr__(self) -> str:
+        return f"<spheremap.Scene: {self.triangle_count} triangles, {self.light_count} lights>"
+
+
+def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, samples: int = 4,
+             max_samples: int = 1024, filter: str = "box", outside: str = "gutter", seed: int = 0,
+             precision: str = "f32", mapping: str = "sphere", preset: str | None = None) -> np.ndarray:
+    """A sphere map (or any mapping) made by firing rays from `pos` (the seed's gen_sphere_map).
+
+    fire_ray: a `Scene` (traced natively, in parallel), or a callable
+        ``fire_ray(origins, directions) -> colours`` that receives float32 (K, 3) arrays (one
+        batch of rays per output row, K in the thousands; it may be called from several threads
+        in turn, holding the GIL) and returns (K,) or (K, C) colours, C = 1..4. It is called once
+        first with a single ray to learn C. Its exceptions stop the run and are re-raised.
+    size: N (sphere N x N; latlong 2N x N; cube faces N x N, returned as (6, N, N, C)).
+    look, up: the view (world vectors of the eye's -Z and +Y; default looking down -Z, +Y up).
+    samples: 1 = exactly one ray through each texel centre; S > 1 = at least S rays per texel
+        over the filter's footprint, more where the footprint is stretched (the rim), up to
+        max_samples. filter: "box" (default), "tent", "gaussian"; outside: "gutter" or "black".
+    Deterministic for a seed. Ctrl-C cancels (KeyboardInterrupt).
+    """
+    _choice(mapping, "mapping", MAPPINGS)
+    _choice(filter, "filter", FILTERS)
+    _choice(outside, "outside", ("gutter", "black"))
+    _choice(precision, "precision", ("f32", "f64"))
+    size = _size_any(size, "size")
+    samples = _size_any(samples, "samples")
+    max_samples = _size_any(max_samples, "max_samples")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    if look is None and up is not None:
+        raise ValueError("up: needs look")
+    p = _vec3(pos, "pos")
+    common = (size, mapping, preset, p, _vec3(look, "look"), _vec3(up, "up"), samples, max_samples,
+              filter, outside, int(seed), precision)
+    if isinstance(fire_ray, Scene):
+        out = _ext.generate_scene(fire_ray._inner, *common)
+    elif callable(fire_ray):
+        def colours(o, d):
+            r = np.asarray(fire_ray(o, d), dtype=np.float32)
+            if r.ndim == 1:
+                r = r[:, None]
+            if r.ndim != 2 or r.shape[0] != len(o) or not 1 <= r.shape[1] <= 4:
+                raise ValueError(f"fire_ray: returned shape {r.shape} for {len(o)} rays; "
+                                 "expected (K,) or (K, C) with C in 1..4")
+            return np.ascontiguousarray(r)
+        probe = colours(np.asarray([p], np.float32), np.asarray([[0.0, 0.0, 1.0]], np.float32))
+        out = _ext.generate_callable(colours, probe.shape[1], *common)
+    else:
+        raise TypeError(f"fire_ray: expected a spheremap.Scene or a callable, got {type(fire_ray).__name__}")
+    if mapping == "cube":
+        f = out.shape[1]
+        out = out.reshape(6, f, f, out.shape[2])
+    return out

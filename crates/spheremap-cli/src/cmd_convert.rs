@@ -11,7 +11,6 @@ use spheremap::resample::{
 };
 use spheremap::view;
 use std::path::Path;
-use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
@@ -169,9 +168,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let progress = Progress::default();
     let (out, report) = std::thread::scope(|s| {
         let work = s.spawn(|| resample(&env, dst, w, h, &opts, Some(&progress)));
-        if !a.quiet && !a.json {
-            show_progress(&progress, &work);
-        }
+        crate::progress::watch(&progress, &work, !a.quiet && !a.json, "converting");
         work.join().expect("the conversion thread panicked")
     })?;
     let seconds = t0.elapsed().as_secs_f64();
@@ -206,31 +203,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// A progress bar on stderr for work that takes more than a moment.
-fn show_progress<T>(p: &Progress, work: &std::thread::ScopedJoinHandle<'_, T>) {
-    use indicatif::{ProgressBar, ProgressStyle};
-    let start = Instant::now();
-    let mut bar: Option<ProgressBar> = None;
-    while !work.is_finished() {
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        if bar.is_none() && start.elapsed().as_millis() > 400 {
-            let b = ProgressBar::new(p.total.load(Ordering::Relaxed).max(1) as u64);
-            b.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} converting [{bar:40}] {pos}/{len} rows, {eta} left",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
-            bar = Some(b);
-        }
-        if let Some(b) = &bar {
-            b.set_length(p.total.load(Ordering::Relaxed).max(1) as u64);
-            b.set_position(p.done.load(Ordering::Relaxed) as u64);
-        }
-    }
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
 }

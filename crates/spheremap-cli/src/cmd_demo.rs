@@ -16,7 +16,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let report = spheremap::demo::run(&a.outdir, a.size as usize)?;
     let _ = writeln!(
         o,
-        "spheremap demo: GL_SPHERE_MAP direction chart, texgen of the bundled teapot, and the bundled HDRI as a sphere map"
+        "spheremap demo: GL_SPHERE_MAP direction chart, texgen of the bundled teapot, the bundled HDRI as a sphere map, and a ray-traced scene"
     );
     let _ = writeln!(
         o,

@@ -8,8 +8,10 @@
 mod cmd_conventions;
 mod cmd_convert;
 mod cmd_demo;
+mod cmd_generate;
 mod cmd_info;
 mod cmd_texgen;
+pub mod progress;
 
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
@@ -37,6 +39,9 @@ enum Command {
     /// Convert an environment map between mappings (sphere, latlong, cube, angular,
     /// paraboloid, octahedral), footprint-filtered, for any view.
     Convert(Box<cmd_convert::Args>),
+    /// Make a sphere map (or any mapping) by firing rays: ray-trace a scene (OBJ/glTF) from a
+    /// point, or look up an environment map (six cube faces around the point).
+    Generate(Box<cmd_generate::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -67,20 +72,36 @@ where
             "spheremap: internal error (a bug; please report it with the command line): {info}"
         );
     }));
+    progress::INTERRUPTED.store(false, std::sync::atomic::Ordering::SeqCst);
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Texgen(a) => cmd_texgen::run(a),
         Command::Demo(a) => cmd_demo::run(a),
         Command::Conventions(a) => cmd_conventions::run(a),
         Command::Info(a) => cmd_info::run(a),
         Command::Convert(a) => cmd_convert::run(*a),
+        Command::Generate(a) => cmd_generate::run(*a),
     });
     std::panic::set_hook(previous_hook);
     match result {
         Ok(Ok(())) => 0,
         Ok(Err(e)) => {
-            eprintln!("spheremap: {e:#}");
+            eprintln!("spheremap: {}", one_line(&e));
             2
         }
         Err(_) => 2,
     }
+}
+
+/// The error and its causes on one line, without repeating a cause the message already
+/// quotes (the core's I/O errors include their OS error).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let t = cause.to_string();
+        if !msg.contains(&t) {
+            msg.push_str(": ");
+            msg.push_str(&t);
+        }
+    }
+    msg.replace('\n', " ")
 }

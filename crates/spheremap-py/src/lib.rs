@@ -15,6 +15,8 @@ use rayon::prelude::*;
 use spheremap::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
+mod generate;
+
 pyo3::create_exception!(
     _spheremap,
     Error,
@@ -46,6 +48,7 @@ fn to_py(e: spheremap::Error) -> PyErr {
             PyFileNotFoundError::new_err(msg)
         }
         E::Io { .. } => PyOSError::new_err(msg),
+        E::Cancelled { .. } => pyo3::exceptions::PyKeyboardInterrupt::new_err(msg),
     }
 }
 
@@ -448,7 +451,6 @@ fn convert<'py>(
     src_up: Option<[f64; 3]>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
-    use std::sync::atomic::Ordering;
     let sm = parse_mapping(src, src_preset)?;
     let dm = parse_mapping(dst, dst_preset)?;
     let shape = image.shape().to_vec();
@@ -490,23 +492,36 @@ fn convert<'py>(
         channels: c,
         data,
     };
+    let (env, opts) = (&env, &opts);
+    let (img, _report) = run_cancellable(py, &progress, "the conversion", |p| {
+        rs::resample(env, dm, dw, dh, opts, Some(p))
+    })?;
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([img.height, img.width, img.channels])?
+        .into_any())
+}
+
+/// Runs `work` on a worker thread with the GIL released, waking every 20 ms so Python sees
+/// Ctrl-C (which sets `progress.cancel`; the work stops and the KeyboardInterrupt is raised).
+/// A panic in the worker becomes an exception instead of killing the interpreter.
+fn run_cancellable<T: Send>(
+    py: Python<'_>,
+    progress: &spheremap::resample::Progress,
+    what: &str,
+    work: impl FnOnce(&spheremap::resample::Progress) -> spheremap::Result<T> + Send,
+) -> PyResult<T> {
+    use std::sync::atomic::Ordering;
     let mut interrupted: Option<PyErr> = None;
     let result = py.detach(|| {
         std::thread::scope(|s| {
-            // The worker reports on a channel, so the result is picked up at once; meanwhile
-            // this thread wakes every 20 ms to let Python see Ctrl-C.
             let (tx, rx) = std::sync::mpsc::channel();
-            let progress = &progress;
-            let (env, opts) = (&env, &opts);
             s.spawn(move || {
-                let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    rs::resample(env, dm, dw, dh, opts, Some(progress))
-                }));
+                let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(progress)));
                 let _ = tx.send(r);
             });
             loop {
                 match rx.recv_timeout(std::time::Duration::from_millis(20)) {
-                    Ok(r) => return r,
+                    Ok(r) => return Some(r),
                     Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                         if interrupted.is_none() {
                             if let Err(e) = Python::attach(|py| py.check_signals()) {
@@ -515,9 +530,7 @@ fn convert<'py>(
                             }
                         }
                     }
-                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                        return Err(Box::new("worker vanished") as Box<dyn std::any::Any + Send>)
-                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
                 }
             }
         })
@@ -525,12 +538,12 @@ fn convert<'py>(
     if let Some(e) = interrupted {
         return Err(e);
     }
-    let (img, _report) = result
-        .map_err(|_| PyValueError::new_err("internal error: the conversion thread panicked"))?
-        .map_err(to_py)?;
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([img.height, img.width, img.channels])?
-        .into_any())
+    match result {
+        Some(Ok(r)) => r.map_err(to_py),
+        _ => Err(PyValueError::new_err(format!(
+            "internal error: {what} panicked (a bug; please report it)"
+        ))),
+    }
 }
 
 /// Cube layout image (H, W, C) float32 -> face stack (6F, F, C), GL order.
@@ -636,9 +649,22 @@ fn write_image(
 }
 
 /// Runs the command line (one definition, in Rust) with `argv` (argv[0] = program name).
+/// Ctrl-C reaches the command as its cancel flag (it then exits 2 without writing).
 #[pyfunction]
 fn _cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
-    py.detach(|| spheremap_cli::main_with_args(argv))
+    use std::sync::atomic::Ordering;
+    py.detach(|| {
+        std::thread::scope(|s| {
+            let worker = s.spawn(|| spheremap_cli::main_with_args(argv));
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(20));
+                if Python::attach(|py| py.check_signals()).is_err() {
+                    spheremap_cli::progress::INTERRUPTED.store(true, Ordering::SeqCst);
+                }
+            }
+            worker.join().unwrap_or(2)
+        })
+    })
 }
 
 #[pymodule]
@@ -665,5 +691,8 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
+    m.add_class::<generate::Scene>()?;
+    m.add_function(wrap_pyfunction!(generate::generate_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(generate::generate_callable, m)?)?;
     Ok(())
 }

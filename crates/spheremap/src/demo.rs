@@ -90,6 +90,21 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         crate::image_io::write_image(&p, &map, &Default::default())?;
         files.push(p);
     }
+    // The built-in scene, ray-traced into the sphere map of an eye at (0, 1, 0) looking
+    // down -Z (16 rays per texel, more at the rim).
+    let scene = crate::scene::demo_scene();
+    let gopts = crate::generate::GenerateOptions {
+        samples: 16,
+        pos: [0.0, 1.0, 0.0],
+        ..Default::default()
+    };
+    let (traced, _) =
+        crate::generate::generate(sphere, chart_size, chart_size, &scene, &gopts, None)?;
+    for name in ["raytraced_sphere.exr", "raytraced_sphere.png"] {
+        let p = outdir.join(name);
+        crate::image_io::write_image(&p, &traced, &Default::default())?;
+        files.push(p);
+    }
     let nan_texcoords = st
         .chunks_exact(2)
         .filter(|p| p[0].is_nan() || p[1].is_nan())

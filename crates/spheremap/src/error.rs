@@ -20,6 +20,10 @@ pub enum Error {
     /// Valid input that this version does not handle (say, an unknown file format).
     #[error("{what} is not supported: {reason}")]
     Unsupported { what: String, reason: String },
+    /// The caller cancelled the work (Ctrl-C, or a `Progress::cancel` flag); nothing was
+    /// produced.
+    #[error("{what} was cancelled")]
+    Cancelled { what: String },
     /// Reading or writing a file failed.
     #[error("{}: {source}", path.display())]
     Io {
@@ -47,6 +51,9 @@ impl Error {
             what: what.into(),
             reason: reason.into(),
         }
+    }
+    pub fn cancelled(what: impl Into<String>) -> Self {
+        Error::Cancelled { what: what.into() }
     }
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {

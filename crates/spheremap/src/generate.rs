@@ -200,7 +200,7 @@ pub fn generate(
         Precision::F64 => run::<f64>(mapping, &mut out, source, opts, progress)?,
     };
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
-        return Err(Error::unsupported("the generation", "cancelled"));
+        return Err(Error::cancelled("the generation"));
     }
     if mapping.has_outside() {
         fill_outside(mapping, &mut out, opts.outside, opts.samples == 1);
@@ -385,7 +385,10 @@ fn footprint_strata<T: Real>(
     opts: &GenerateOptions,
 ) -> (usize, usize) {
     let unit = |px: f64, py: f64| {
-        let v = d.dir(T::from_f64(px), T::from_f64(py)).0.map(|a| a.to_f64());
+        let v = d
+            .dir(T::from_f64(px), T::from_f64(py))
+            .0
+            .map(|a| a.to_f64());
         let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         v.map(|a| a / l)
     };

@@ -305,7 +305,7 @@ pub fn resample(
         (Precision::F64, _) => run::<f64, 4>(src, dst, &mut out, opts, progress),
     };
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
-        return Err(Error::unsupported("the conversion", "cancelled"));
+        return Err(Error::cancelled("the conversion"));
     }
     Ok((out, report))
 }
@@ -581,7 +581,13 @@ pub(crate) struct Dst<T: Real> {
 
 impl<T: Real> Dst<T> {
     /// A `w`×`h` canvas of `m`; `rotation` takes its directions to the source's frame.
-    pub(crate) fn new(m: Mapping, w: usize, h: usize, rotation: &[[f64; 3]; 3], outside: Outside) -> Self {
+    pub(crate) fn new(
+        m: Mapping,
+        w: usize,
+        h: usize,
+        rotation: &[[f64; 3]; 3],
+        outside: Outside,
+    ) -> Self {
         Dst {
             m,
             wf: T::from_f64(w as f64),
@@ -846,9 +852,10 @@ pub(crate) fn strata(mut nx: usize, mut ny: usize, samples: usize, cap: usize) -
         nx += 1;
     }
     if nx * ny > cap {
+        // Keep the aspect and use as much of the cap as the grid allows.
         let k = (cap as f64 / (nx * ny) as f64).sqrt();
-        nx = ((nx as f64 * k).floor() as usize).max(1);
-        ny = ((ny as f64 * k).floor() as usize).max(1).min(cap / nx);
+        nx = ((nx as f64 * k).round() as usize).clamp(1, cap);
+        ny = (cap / nx).max(1);
     }
     (nx, ny)
 }

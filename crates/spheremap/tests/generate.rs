@@ -146,7 +146,10 @@ fn emissive_floor_is_seen_by_the_lower_half() {
                     let (lo, hi) = if samples == 1 {
                         (dc[1], dc[1])
                     } else if ys.len() == 25 {
-                        (ys.iter().cloned().fold(1.0, f64::min), ys.iter().cloned().fold(-1.0, f64::max))
+                        (
+                            ys.iter().cloned().fold(1.0, f64::min),
+                            ys.iter().cloned().fold(-1.0, f64::max),
+                        )
                     } else {
                         continue;
                     };
@@ -190,7 +193,12 @@ fn deterministic_for_a_seed_and_parallel() {
 }
 
 fn rms(a: &Image, b: &Image) -> f64 {
-    let s: f64 = a.data.iter().zip(&b.data).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+    let s: f64 = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| ((x - y) as f64).powi(2))
+        .sum();
     (s / a.data.len() as f64).sqrt()
 }
 
@@ -209,7 +217,10 @@ fn converges_as_samples_grow() {
         generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0
     };
     let reference = run(1024, 99);
-    let errs: Vec<f64> = [1, 4, 16, 64].iter().map(|&s| rms(&run(s, 1), &reference)).collect();
+    let errs: Vec<f64> = [1, 4, 16, 64]
+        .iter()
+        .map(|&s| rms(&run(s, 1), &reference))
+        .collect();
     for w in errs.windows(2) {
         assert!(w[1] < 0.8 * w[0], "{errs:?}");
     }
@@ -229,7 +240,11 @@ fn outside_the_disc_gutter_or_black() {
         let (b, _) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
         // Corners: black vs the mirrored map (never 0: every octant is at least ¼).
         assert_eq!(b.pixel(0, 0), &[0.0; 3]);
-        assert!(g.pixel(0, 0).iter().all(|&v| v >= 0.25 - 1e-6), "{:?}", g.pixel(0, 0));
+        assert!(
+            g.pixel(0, 0).iter().all(|&v| v >= 0.25 - 1e-6),
+            "{:?}",
+            g.pixel(0, 0)
+        );
         // The gutter texel just outside the rim on the +x axis mirrors the one just inside.
         let y = n / 2;
         let (inside, outside) = (g.pixel(n - 1 - 1, y), g.pixel(n - 1, y));
@@ -269,7 +284,10 @@ fn environment_and_closure_sources() {
     let mut worst = 0f32;
     for y in 0..64 {
         for x in 0..64 {
-            if SPHERE.uv_to_dir([(x as f64 + 0.5) / 64.0, (y as f64 + 0.5) / 64.0]).is_some() {
+            if SPHERE
+                .uv_to_dir([(x as f64 + 0.5) / 64.0, (y as f64 + 0.5) / 64.0])
+                .is_some()
+            {
                 for c in 0..3 {
                     worst = worst.max((a.pixel(x, y)[c] - b.pixel(x, y)[c]).abs());
                 }
@@ -278,7 +296,9 @@ fn environment_and_closure_sources() {
     }
     assert!(worst < 1e-4, "{worst}");
 
-    let f = FnSource::new(1, |_o: [f32; 3], d: [f32; 3], out: &mut [f32]| out[0] = d[2]);
+    let f = FnSource::new(1, |_o: [f32; 3], d: [f32; 3], out: &mut [f32]| {
+        out[0] = d[2]
+    });
     let (img, _) = generate(SPHERE, 32, 32, &f, &opts(1), None).unwrap();
     // The centre texel reflects back toward the viewer: +Z.
     assert!(img.pixel(16, 16)[0] > 0.99);
@@ -292,10 +312,7 @@ fn cube_face_route_matches_direct_generation() {
     let sc = scene::demo_scene();
     let pos = [0.0, 1.0, 0.0];
     let n = 128;
-    let o = GenerateOptions {
-        pos,
-        ..opts(16)
-    };
+    let o = GenerateOptions { pos, ..opts(16) };
     let (direct, _) = generate(SPHERE, n, n, &sc, &o, None).unwrap();
     let cube = Mapping::parse("cube", None).unwrap();
     let f = 128;
@@ -312,7 +329,10 @@ fn psnr_in_disc(a: &Image, b: &Image, n: usize) -> f64 {
     let (mut s, mut k, mut peak) = (0.0, 0, 0f64);
     for y in 0..n {
         for x in 0..n {
-            if SPHERE.uv_to_dir([(x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64]).is_none() {
+            if SPHERE
+                .uv_to_dir([(x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64])
+                .is_none()
+            {
                 continue;
             }
             for c in 0..3 {
@@ -335,7 +355,12 @@ fn f32_and_f64_directions_agree() {
         ..opts(4)
     };
     let b = generate(SPHERE, 64, 64, &sc, &o, None).unwrap().0;
-    let differ = a.data.iter().zip(&b.data).filter(|(x, y)| (*x - *y).abs() > 1e-5).count();
+    let differ = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| (*x - *y).abs() > 1e-5)
+        .count();
     // Only rays within float rounding of an octant boundary may land differently.
     assert!(differ < a.data.len() / 500, "{differ}");
 }
@@ -391,7 +416,10 @@ fn direct_light_and_shadow() {
     sc.options.indirect_samples = 0;
     let lit = sc.radiance([3.0, 2.0, 0.0], [0.0, -1.0, 0.0]);
     let shadow = sc.radiance([0.0, 0.5, 0.0], [0.0, -1.0, 0.0]);
-    assert!((lit[0] - 0.5 / std::f32::consts::PI * 3.0).abs() < 1e-4, "{lit:?}");
+    assert!(
+        (lit[0] - 0.5 / std::f32::consts::PI * 3.0).abs() < 1e-4,
+        "{lit:?}"
+    );
     assert_eq!(shadow, [0.0; 3]);
 }
 
@@ -413,8 +441,13 @@ fn mirror_and_environment() {
             ..Default::default()
         });
     }
-    let sc = b.build(Environment::Constant([2.0, 2.0, 2.0]), "test").unwrap();
-    assert_eq!(sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]), [1.0, 0.5, 2.0]);
+    let sc = b
+        .build(Environment::Constant([2.0, 2.0, 2.0]), "test")
+        .unwrap();
+    assert_eq!(
+        sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
+        [1.0, 0.5, 2.0]
+    );
     assert_eq!(sc.radiance([0.0, 1.0, 0.0], [0.0, 1.0, 0.0]), [2.0; 3]);
 }
 

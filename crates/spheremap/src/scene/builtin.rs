@@ -84,7 +84,13 @@ pub fn floor_scene(floor_y: f32, extent: f32, floor: [f32; 3], sky: [f32; 3]) ->
         diffuse: [0.0; 3],
         ..Material::default()
     });
-    add_quad(&mut b, [0.0, floor_y, 0.0], [extent, 0.0, 0.0], [0.0, 0.0, extent], m);
+    add_quad(
+        &mut b,
+        [0.0, floor_y, 0.0],
+        [extent, 0.0, 0.0],
+        [0.0, 0.0, extent],
+        m,
+    );
     b.build(Environment::Constant(sky), "floor scene")
         .expect("the built-in scene is valid")
 }
@@ -137,8 +143,8 @@ fn checker(squares: usize, px: usize, a: f32, b: f32) -> Image {
     img
 }
 
-/// The demo's world, seen from (0, 1, 0): a checkered floor, three glowing panels (red ahead,
-/// green to the left, blue to the right), a mirror ball and a white box, lit by a low sun and a
+/// The demo's world, seen from (0, 1, 0): a checkered floor, three glowing panels (red behind
+/// the eye, green to the left, blue to the right), a mirror ball and a white box behind, lit by a low sun and a
 /// warm point light under a pale blue sky.  Every material and light kind the tracer knows.
 pub fn demo_scene() -> Scene {
     let mut b = SceneBuilder::new();
@@ -171,14 +177,39 @@ pub fn demo_scene() -> Scene {
         diffuse: [0.75; 3],
         ..Material::default()
     });
-    add_quad_uv(&mut b, [0.0, 0.0, 0.0], [12.0, 0.0, 0.0], [0.0, 0.0, -12.0], floor, 6.0);
-    add_quad(&mut b, [0.0, 1.5, -6.0], [2.5, 0.0, 0.0], [0.0, 1.0, 0.0], red);
-    add_quad(&mut b, [-6.0, 1.5, 0.0], [0.0, 0.0, -2.0], [0.0, 1.0, 0.0], green);
-    add_quad(&mut b, [6.0, 1.5, 0.0], [0.0, 0.0, 2.0], [0.0, 1.0, 0.0], blue);
-    add_box(&mut b, [2.0, 0.6, -2.5], [0.6, 0.6, 0.6], white);
-    for (_, t) in octant_patches([-1.6, 0.8, -2.2], 0.8, 12) {
+    add_quad_uv(
+        &mut b,
+        [0.0, 0.0, 0.0],
+        [12.0, 0.0, 0.0],
+        [0.0, 0.0, -12.0],
+        floor,
+        6.0,
+    );
+    add_quad(
+        &mut b,
+        [0.0, 1.5, 6.0],
+        [2.5, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        red,
+    );
+    add_quad(
+        &mut b,
+        [-6.0, 1.5, 0.0],
+        [0.0, 0.0, -2.0],
+        [0.0, 1.0, 0.0],
+        green,
+    );
+    add_quad(
+        &mut b,
+        [6.0, 1.5, 0.0],
+        [0.0, 0.0, 2.0],
+        [0.0, 1.0, 0.0],
+        blue,
+    );
+    add_box(&mut b, [2.0, 0.6, 2.5], [0.6, 0.6, 0.6], white);
+    for (_, t) in octant_patches([-1.6, 0.8, 2.2], 0.8, 12) {
         let n = t.map(|p| {
-            let d = [p[0] + 1.6, p[1] - 0.8, p[2] + 2.2];
+            let d = [p[0] + 1.6, p[1] - 0.8, p[2] - 2.2];
             d.map(|v| v / 0.8)
         });
         b.add_triangle(TriangleInput {
@@ -189,7 +220,7 @@ pub fn demo_scene() -> Scene {
         });
     }
     b.add_light(Light::Directional {
-        direction: [0.4, -0.8, -0.45],
+        direction: [0.4, -0.8, 0.45],
         irradiance: [2.2, 2.0, 1.8],
     });
     b.add_light(Light::Point {

@@ -42,7 +42,10 @@ pub(super) fn load(path: &Path) -> Result<Scene> {
 fn looks_like_obj(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
     std::str::from_utf8(head)
-        .map(|s| s.lines().any(|l| l.starts_with("v ") || l.starts_with("f ")))
+        .map(|s| {
+            s.lines()
+                .any(|l| l.starts_with("v ") || l.starts_with("f "))
+        })
         .unwrap_or(false)
 }
 
@@ -74,7 +77,11 @@ fn load_obj(path: &Path) -> Result<SceneBuilder> {
         let emission = m.emissive.unwrap_or([0.0; 3]);
         let emits = emission.iter().any(|&v| v > 0.0);
         let mirror_model = matches!(m.illumination_model, Some(3 | 5 | 7));
-        let diffuse = m.diffuse.unwrap_or(if emits || mirror_model { [0.0; 3] } else { [0.8; 3] });
+        let diffuse = m.diffuse.unwrap_or(if emits || mirror_model {
+            [0.0; 3]
+        } else {
+            [0.8; 3]
+        });
         let diffuse_texture = match &m.diffuse_texture {
             Some(name) => {
                 let tp = dir.join(name);
@@ -180,8 +187,10 @@ fn load_gltf(path: &Path) -> Result<SceneBuilder> {
         Some(scene) => scene.nodes().collect(),
         None => doc.nodes().collect(),
     };
-    let mut stack: Vec<(gltf::Node, glam::Mat4)> =
-        roots.into_iter().map(|n| (n, glam::Mat4::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, glam::Mat4)> = roots
+        .into_iter()
+        .map(|n| (n, glam::Mat4::IDENTITY))
+        .collect();
     while let Some((node, parent)) = stack.pop() {
         let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
         for child in node.children() {
@@ -264,7 +273,11 @@ fn gltf_image(path: &Path, d: &gltf::image::Data) -> Result<Image> {
         return Err(Error::data(path, "a texture image has the wrong size"));
     }
     let data: Vec<f32> = match bytes {
-        1 => d.pixels.iter().map(|&v| image_io::srgb_to_linear(v as f32 / 255.0)).collect(),
+        1 => d
+            .pixels
+            .iter()
+            .map(|&v| image_io::srgb_to_linear(v as f32 / 255.0))
+            .collect(),
         2 => d
             .pixels
             .chunks_exact(2)

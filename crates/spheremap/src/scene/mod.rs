@@ -132,12 +132,13 @@ impl Default for ShadeOptions {
     }
 }
 
-/// A triangle as the intersector wants it.
+/// A triangle as the intersector wants it: a vertex, two edges and their cross product.
 #[derive(Clone, Copy, Debug)]
 struct Tri {
     v0: Vec3A,
     e1: Vec3A,
     e2: Vec3A,
+    n: Vec3A,
 }
 
 /// Barycentric tolerance of the intersector: triangles overlap their neighbours by this much
@@ -145,31 +146,37 @@ struct Tri {
 const EDGE_EPS: f32 = 2e-6;
 
 impl Tri {
-    /// Möller–Trumbore; `f32::INFINITY` on a miss.
+    fn new(v0: Vec3A, v1: Vec3A, v2: Vec3A) -> Self {
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        Tri {
+            v0,
+            e1,
+            e2,
+            n: e1.cross(e2),
+        }
+    }
+
+    /// Möller–Trumbore by Cramer's rule with the normal precomputed: for o + t·d = v0 + u·e1 +
+    /// v·e2 and s = o − v0, det = −d·n, t = s·n / det, and with q = d × s, u = −e2·q / det,
+    /// v = e1·q / det.  The distance is tested first (most candidates in a leaf lie beyond the
+    /// closest hit so far).  `f32::INFINITY` on a miss.
     #[inline(always)]
     fn intersect(&self, ray: &Ray) -> f32 {
-        let p = ray.direction.cross(self.e2);
-        let det = self.e1.dot(p);
-        if det == 0.0 || !det.is_finite() {
-            return f32::INFINITY;
-        }
-        let inv = 1.0 / det;
+        let det = -ray.direction.dot(self.n);
         let s = ray.origin - self.v0;
-        let u = s.dot(p) * inv;
-        if !(-EDGE_EPS..=1.0 + EDGE_EPS).contains(&u) {
+        let inv = 1.0 / det;
+        let t = s.dot(self.n) * inv;
+        // NaN (det = 0) fails both comparisons.
+        if !(t > ray.tmin && t < ray.tmax) {
             return f32::INFINITY;
         }
-        let q = s.cross(self.e1);
-        let v = ray.direction.dot(q) * inv;
-        if v < -EDGE_EPS || u + v > 1.0 + EDGE_EPS {
+        let q = ray.direction.cross(s);
+        let u = -self.e2.dot(q) * inv;
+        let v = self.e1.dot(q) * inv;
+        if u < -EDGE_EPS || v < -EDGE_EPS || u + v > 1.0 + EDGE_EPS {
             return f32::INFINITY;
         }
-        let t = self.e2.dot(q) * inv;
-        if t > ray.tmin && t < ray.tmax {
-            t
-        } else {
-            f32::INFINITY
-        }
+        t
     }
 
     fn barycentric(&self, o: Vec3A, d: Vec3A) -> (f32, f32) {
@@ -268,13 +275,20 @@ impl SceneBuilder {
             if t.material as usize >= self.materials.len() {
                 return Err(Error::data(
                     what,
-                    format!("triangle {i} names material {} of {}", t.material, self.materials.len()),
+                    format!(
+                        "triangle {i} names material {} of {}",
+                        t.material,
+                        self.materials.len()
+                    ),
                 ));
             }
         }
         for m in &self.materials {
             if m.diffuse_texture.is_some_and(|k| k >= self.textures.len()) {
-                return Err(Error::data(what, format!("material {:?}: no such texture", m.name)));
+                return Err(Error::data(
+                    what,
+                    format!("material {:?}: no such texture", m.name),
+                ));
             }
         }
         let prims: Vec<obvhs::triangle::Triangle> = self
@@ -282,7 +296,11 @@ impl SceneBuilder {
             .iter()
             .map(|t| {
                 let [a, b, c] = t.positions.map(Vec3A::from);
-                obvhs::triangle::Triangle { v0: a, v1: b, v2: c }
+                obvhs::triangle::Triangle {
+                    v0: a,
+                    v1: b,
+                    v2: c,
+                }
             })
             .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
@@ -296,11 +314,7 @@ impl SceneBuilder {
             .iter()
             .map(|&i| {
                 let t = &prims[i as usize];
-                Tri {
-                    v0: t.v0,
-                    e1: t.v1 - t.v0,
-                    e2: t.v2 - t.v0,
-                }
+                Tri::new(t.v0, t.v1, t.v2)
             })
             .collect();
         let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
@@ -320,7 +334,9 @@ impl SceneBuilder {
                 uvs: t.uvs.unwrap_or([[0.0; 2]; 3]),
             })
             .collect();
-        let extent = (hi - lo).max_element().max(hi.abs().max(lo.abs()).max_element());
+        let extent = (hi - lo)
+            .max_element()
+            .max(hi.abs().max(lo.abs()).max_element());
         Ok(Scene {
             tris,
             slot_to_tri: bvh.primitive_indices.clone(),
@@ -385,12 +401,13 @@ impl Scene {
     fn closest(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<Hit> {
         let ray = Self::ray(o, d, tmax);
         let mut hit = RayHit::none();
-        self.bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r))
-            .then(|| Hit {
-                slot: hit.primitive_id as usize,
-                t: hit.t,
-            })
+        let found = self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r));
+        found.then_some(Hit {
+            slot: hit.primitive_id as usize,
+            t: hit.t,
+        })
     }
 
     fn unoccluded(&self, o: Vec3A, d: Vec3A, tmax: f32) -> bool {
@@ -457,7 +474,7 @@ impl Scene {
         let tri = &self.tris[hit.slot];
         let (u, v) = tri.barycentric(o, d);
         let w = 1.0 - u - v;
-        let ng = tri.e1.cross(tri.e2).normalize_or_zero();
+        let ng = tri.n.normalize_or_zero();
         let ns = Vec3A::from(info.normals[0]) * w
             + Vec3A::from(info.normals[1]) * u
             + Vec3A::from(info.normals[2]) * v;
@@ -597,4 +614,3 @@ fn cosine_direction(n: Vec3A, r1: f32, r2: f32) -> Vec3A {
     let z = (1.0 - r1).max(0.0).sqrt();
     (Vec3A::from(b1) * x + Vec3A::from(b2) * y + n * z).normalize()
 }
-

@@ -1,0 +1,393 @@
+//! PyO3 glue for the ray-traced generator: the `Scene` class and `generate` with a scene or a
+//! Python callable as `fire_ray`.  No maths here.
+
+use super::{contiguous, parse_mapping, run_cancellable, to_py};
+use numpy::{
+    PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+use spheremap::generate::{GenerateOptions, RaySource};
+use spheremap::resample::{self as rs, Progress};
+use spheremap::scene::{self, Environment, Light, Shading};
+use std::sync::Mutex;
+
+/// A ray-traced scene (see the README): callable as `fire_ray(origins, directions)`.
+#[pyclass(module = "spheremap._spheremap", name = "Scene")]
+pub struct Scene {
+    inner: scene::Scene,
+}
+
+fn rgb(v: Vec<f32>, name: &str) -> PyResult<[f32; 3]> {
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|x| x.is_finite()) => Ok([*r, *g, *b]),
+        _ => Err(PyValueError::new_err(format!(
+            "{name}: expected 3 finite numbers"
+        ))),
+    }
+}
+
+#[pymethods]
+impl Scene {
+    /// Loads an OBJ (+MTL) or glTF 2.0 file.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Scene> {
+        let inner = py.detach(|| scene::Scene::load(&path)).map_err(to_py)?;
+        Ok(Scene { inner })
+    }
+
+    /// A built-in scene: "demo" or "octants".
+    #[staticmethod]
+    fn builtin(name: &str) -> PyResult<Scene> {
+        let inner = match name {
+            "demo" => scene::demo_scene(),
+            "octants" => scene::octant_sphere_scene(10.0, 16),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "name: unknown built-in scene {name:?}; expected 'demo' or 'octants'"
+                )))
+            }
+        };
+        Ok(Scene { inner })
+    }
+
+    #[getter]
+    fn triangle_count(&self) -> usize {
+        self.inner.triangle_count()
+    }
+
+    #[getter]
+    fn light_count(&self) -> usize {
+        self.inner.lights.len()
+    }
+
+    #[getter]
+    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        self.inner.bounds()
+    }
+
+    fn set_background(&mut self, colour: Vec<f32>) -> PyResult<()> {
+        self.inner.environment = Environment::Constant(rgb(colour, "background")?);
+        Ok(())
+    }
+
+    /// An environment map (H, W, C) float32 in `mapping` (cube: the (6F, F, C) face stack).
+    #[pyo3(signature = (image, mapping, preset=None))]
+    fn set_environment(
+        &mut self,
+        image: PyReadonlyArrayDyn<'_, f32>,
+        mapping: &str,
+        preset: Option<&str>,
+    ) -> PyResult<()> {
+        let m = parse_mapping(mapping, preset)?;
+        let shape = image.shape().to_vec();
+        let img = spheremap::image_io::Image {
+            height: shape[0],
+            width: shape[1],
+            channels: shape[2],
+            data: contiguous(&image, "environment")?.to_vec(),
+        };
+        rs::EnvMap::new(m, &img, "environment").map_err(to_py)?;
+        self.inner.environment = Environment::Map {
+            image: img,
+            mapping: m,
+            rotation: rs::IDENTITY,
+        };
+        Ok(())
+    }
+
+    fn add_point_light(&mut self, position: Vec<f32>, intensity: Vec<f32>) -> PyResult<()> {
+        self.inner.lights.push(Light::Point {
+            position: rgb(position, "position")?,
+            intensity: rgb(intensity, "intensity")?,
+        });
+        Ok(())
+    }
+
+    fn add_directional_light(&mut self, direction: Vec<f32>, irradiance: Vec<f32>) -> PyResult<()> {
+        let d = rgb(direction, "direction")?;
+        if d == [0.0; 3] {
+            return Err(PyValueError::new_err("direction: must not be zero"));
+        }
+        self.inner.lights.push(Light::Directional {
+            direction: d,
+            irradiance: rgb(irradiance, "irradiance")?,
+        });
+        Ok(())
+    }
+
+    fn set_options(
+        &mut self,
+        shading: &str,
+        max_depth: u32,
+        indirect_samples: u32,
+        seed: u64,
+    ) -> PyResult<()> {
+        self.inner.options.shading = match shading {
+            "full" => Shading::Full,
+            "emission" => Shading::Emission,
+            s => {
+                return Err(PyValueError::new_err(format!(
+                    "shading: unknown value {s:?}; expected 'full' or 'emission'"
+                )))
+            }
+        };
+        self.inner.options.max_depth = max_depth;
+        self.inner.options.indirect_samples = indirect_samples;
+        self.inner.options.seed = seed;
+        Ok(())
+    }
+
+    /// Radiance along rays: origins, directions (K, 3) float32 -> (K, 3) float32, in parallel.
+    fn trace<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (o, d) = rays(&origins, &directions)?;
+        let mut out = vec![0f32; d.len() * 3];
+        py.detach(|| {
+            out.par_chunks_mut(3 * 1024)
+                .zip(o.par_chunks(1024).zip(d.par_chunks(1024)))
+                .try_for_each(|(out, (o, d))| self.inner.trace(o, d, out))
+        })
+        .map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, out)
+            .reshape([d.len(), 3])?
+            .into_any())
+    }
+
+    /// Distance to the closest hit per ray (inf on a miss).
+    fn intersect<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f32>,
+        directions: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (o, d) = rays(&origins, &directions)?;
+        let t: Vec<f32> = py.detach(|| {
+            o.par_iter()
+                .zip(d.par_iter())
+                .with_min_len(1024)
+                .map(|(o, d)| self.inner.intersect(*o, *d).unwrap_or(f32::INFINITY))
+                .collect()
+        });
+        Ok(PyArray1::from_vec(py, t).into_any())
+    }
+}
+
+/// (K, 3) arrays as slices of 3-vectors.
+fn rays<'a>(
+    o: &'a PyReadonlyArray2<'_, f32>,
+    d: &'a PyReadonlyArray2<'_, f32>,
+) -> PyResult<(&'a [[f32; 3]], &'a [[f32; 3]])> {
+    let check = |a: &'a PyReadonlyArray2<'_, f32>, name: &str| -> PyResult<&'a [[f32; 3]]> {
+        if a.shape()[1] != 3 {
+            return Err(PyValueError::new_err(format!(
+                "{name}: expected shape (K, 3)"
+            )));
+        }
+        let s = a
+            .as_slice()
+            .map_err(|_| PyValueError::new_err(format!("{name}: array must be C-contiguous")))?;
+        // (K, 3) contiguous f32 is K [f32; 3] in place (no copy).
+        Ok(bytemuck::cast_slice(s))
+    };
+    let (o, d) = (check(o, "origins")?, check(d, "directions")?);
+    if o.len() != d.len() {
+        return Err(PyValueError::new_err(format!(
+            "origins: {} rays but directions has {}",
+            o.len(),
+            d.len()
+        )));
+    }
+    Ok((o, d))
+}
+
+/// A Python callable as the ray source: called with (K, 3) float32 origins and directions
+/// (one output row of rays per call, from worker threads that take the GIL in turn); it must
+/// return (K, C) float32 (the Python wrapper converts and checks).  The first exception it
+/// raises stops the run and is re-raised.
+struct CallableSource {
+    f: Py<PyAny>,
+    channels: usize,
+    error: Mutex<Option<PyErr>>,
+}
+
+impl RaySource for CallableSource {
+    fn channels(&self) -> usize {
+        self.channels
+    }
+    fn trace(
+        &self,
+        origins: &[[f32; 3]],
+        dirs: &[[f32; 3]],
+        out: &mut [f32],
+    ) -> spheremap::Result<()> {
+        let k = dirs.len();
+        let r: PyResult<()> = Python::attach(|py| {
+            let o = PyArray1::from_slice(py, origins.as_flattened()).reshape([k, 3])?;
+            let d = PyArray1::from_slice(py, dirs.as_flattened()).reshape([k, 3])?;
+            let res = self.f.call1(py, (o, d))?;
+            let arr: PyReadonlyArray2<f32> = res.extract(py)?;
+            if arr.shape() != [k, self.channels] {
+                return Err(PyValueError::new_err(format!(
+                    "fire_ray: returned shape {:?} for {k} rays; expected ({k}, {})",
+                    arr.shape(),
+                    self.channels
+                )));
+            }
+            out.copy_from_slice(arr.as_slice()?);
+            Ok(())
+        });
+        r.map_err(|e| {
+            let msg = e.to_string();
+            let mut slot = self.error.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert(e);
+            spheremap::Error::param("fire_ray", msg)
+        })
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn options(
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    pos: [f32; 3],
+    samples: u32,
+    max_samples: u32,
+    filter: &str,
+    outside: &str,
+    seed: u64,
+    precision: &str,
+) -> PyResult<GenerateOptions> {
+    Ok(GenerateOptions {
+        samples,
+        max_samples,
+        filter: rs::Filter::parse(filter).map_err(to_py)?,
+        outside: rs::Outside::parse(outside).map_err(to_py)?,
+        rotation: spheremap::view::conversion_rotation(look, up, None, None, None)
+            .map_err(to_py)?,
+        pos,
+        seed,
+        precision: match precision {
+            "f32" => rs::Precision::F32,
+            "f64" => rs::Precision::F64,
+            p => {
+                return Err(PyValueError::new_err(format!(
+                    "precision: unknown value {p:?}; expected 'f32' or 'f64'"
+                )))
+            }
+        },
+    })
+}
+
+fn run<'py>(
+    py: Python<'py>,
+    mapping: &str,
+    preset: Option<&str>,
+    size: usize,
+    source: &dyn RaySource,
+    opts: &GenerateOptions,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = parse_mapping(mapping, preset)?;
+    if size == 0 || size > 1 << 15 {
+        return Err(PyValueError::new_err(format!(
+            "size: {size} is out of range 1..=32768"
+        )));
+    }
+    let (w, h) = m.canvas(size);
+    let progress = Progress::default();
+    let (img, _) = run_cancellable(py, &progress, "the generation", |p| {
+        spheremap::generate::generate(m, w, h, source, opts, Some(p))
+    })?;
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([img.height, img.width, img.channels])?
+        .into_any())
+}
+
+#[pyfunction]
+#[pyo3(signature = (scene, size, mapping, preset, pos, look, up, samples, max_samples, filter,
+                    outside, seed, precision))]
+#[allow(clippy::too_many_arguments)]
+pub fn generate_scene<'py>(
+    py: Python<'py>,
+    scene: PyRef<'py, Scene>,
+    size: usize,
+    mapping: &str,
+    preset: Option<&str>,
+    pos: [f32; 3],
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    samples: u32,
+    max_samples: u32,
+    filter: &str,
+    outside: &str,
+    seed: u64,
+    precision: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let opts = options(
+        look,
+        up,
+        pos,
+        samples,
+        max_samples,
+        filter,
+        outside,
+        seed,
+        precision,
+    )?;
+    run(py, mapping, preset, size, &scene.inner, &opts)
+}
+
+#[pyfunction]
+#[pyo3(signature = (fire_ray, channels, size, mapping, preset, pos, look, up, samples,
+                    max_samples, filter, outside, seed, precision))]
+#[allow(clippy::too_many_arguments)]
+pub fn generate_callable<'py>(
+    py: Python<'py>,
+    fire_ray: Py<PyAny>,
+    channels: usize,
+    size: usize,
+    mapping: &str,
+    preset: Option<&str>,
+    pos: [f32; 3],
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    samples: u32,
+    max_samples: u32,
+    filter: &str,
+    outside: &str,
+    seed: u64,
+    precision: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let opts = options(
+        look,
+        up,
+        pos,
+        samples,
+        max_samples,
+        filter,
+        outside,
+        seed,
+        precision,
+    )?;
+    let source = CallableSource {
+        f: fire_ray,
+        channels,
+        error: Mutex::new(None),
+    };
+    let r = run(py, mapping, preset, size, &source, &opts);
+    // The callable's own exception, not its message wrapped.
+    if let Some(e) = source
+        .error
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .take()
+    {
+        return Err(e);
+    }
+    r
+}
