@@ -179,10 +179,13 @@ impl Scene {
 }
 
 /// (K, 3) arrays as slices of 3-vectors.
+/// Origins and directions as 3-vectors.
+type RayPair<'a> = (&'a [[f32; 3]], &'a [[f32; 3]]);
+
 fn rays<'a>(
     o: &'a PyReadonlyArray2<'_, f32>,
     d: &'a PyReadonlyArray2<'_, f32>,
-) -> PyResult<(&'a [[f32; 3]], &'a [[f32; 3]])> {
+) -> PyResult<RayPair<'a>> {
     let check = |a: &'a PyReadonlyArray2<'_, f32>, name: &str| -> PyResult<&'a [[f32; 3]]> {
         if a.shape()[1] != 3 {
             return Err(PyValueError::new_err(format!(
