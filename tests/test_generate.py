@@ -229,3 +229,46 @@ def test_cli_generate_errors(tmp_path):
         assert r.returncode == 2, (args, r.stderr)
         assert msg in r.stderr and r.stderr.count("\n") == 1, (args, r.stderr)
         assert not out.exists()
+
+
+def test_obj_diffuse_texture_under_a_sun(tmp_path):
+    # A 2x2 texture: top row red, green; bottom row blue, white (linear values via EXR).
+    tex = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 1, 1]]], np.float32)
+    sm.write_image(tmp_path / "tex.exr", tex)
+    (tmp_path / "q.mtl").write_text("newmtl t\nKd 1 1 1\nmap_Kd tex.exr\n")
+    (tmp_path / "q.obj").write_text(textwrap.dedent("""
+        mtllib q.mtl
+        v -1 0 -1
+        v 1 0 -1
+        v 1 0 1
+        v -1 0 1
+        vt 0 1
+        vt 1 1
+        vt 1 0
+        vt 0 0
+        usemtl t
+        f 1/1 2/2 3/3
+        f 1/1 3/3 4/4
+    """))
+    scene = sm.Scene.load(tmp_path / "q.obj", indirect_samples=0)
+    scene.add_directional_light((0, -1, 0), (np.pi, np.pi, np.pi))
+    # OBJ vt (0, 1) is the image's top-left: vertex 1 (-1, 0, -1). Texel centres sit a quarter
+    # of the quad in from each corner.
+    o = np.array([[-0.5, 1, -0.5], [0.5, 1, -0.5], [-0.5, 1, 0.5], [0.5, 1, 0.5]], np.float32)
+    d = np.tile(np.array([[0, -1, 0]], np.float32), (4, 1))
+    np.testing.assert_allclose(scene(o, d), tex.reshape(4, 3), atol=1e-5)
+
+
+def test_cli_ctrl_c_cancels_and_writes_nothing(tmp_path):
+    import signal
+    import time
+    out = tmp_path / "big.exr"
+    p = subprocess.Popen([sys.executable, "-m", "spheremap", "generate", "--scene", "builtin:demo",
+                          "--size", "2048", "--samples", "256", "-q", "-o", str(out)],
+                         stderr=subprocess.PIPE, text=True)
+    time.sleep(1.5)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 2, err
+    assert "cancelled" in err and err.count("\n") == 1, err
+    assert not out.exists() and not list(tmp_path.iterdir())
