@@ -16,13 +16,14 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _spheremap as _ext
-from ._spheremap import DataError, Error, UnsupportedError, __version__
+from ._spheremap import DataError, Error, LimitError, UnsupportedError, __version__
 
 __all__ = [
     "__version__",
     "Error",
     "DataError",
     "UnsupportedError",
+    "LimitError",
     "Preset",
     "sphere_texgen",
     "dir_to_sphere",
@@ -316,12 +317,36 @@ def _vec3(v, name: str):
     return tuple(float(x) for x in a)
 
 
+def _nonfinite(a: np.ndarray, policy: str, name: str) -> np.ndarray:
+    """Applies the NaN/Inf policy ("error", "zero", "keep") to an input array."""
+    _choice(policy, "nonfinite", ("error", "zero", "keep"))
+    if policy == "keep":
+        return a
+    bad = ~np.isfinite(a)
+    if not bad.any():
+        return a
+    if policy == "zero":
+        return np.where(bad, 0, a).astype(a.dtype)
+    first = np.unravel_index(int(np.argmax(bad.reshape(-1))), a.shape)
+    raise ValueError(f"{name}: {int(bad.sum())} NaN/Inf values (the first at index "
+                     f"{tuple(int(i) for i in first)}); pass nonfinite='zero' or 'keep'")
+
+
+def _max_memory(v):
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"max_memory: expected a positive number of bytes, got {v!r}")
+    return int(v)
+
+
 def convert(image, src: str, dst: str, *, size: int | None = None, samples: int = 4,
             max_samples: int = 1024, filter: str = "box", outside: str = "gutter",
             look=None, up=None, yaw: float | None = None, pitch: float | None = None,
             roll: float | None = None, src_look=None, src_up=None,
             src_preset: str | None = None, dst_preset: str | None = None,
-            seed: int = 0, precision: str = "f32") -> np.ndarray:
+            seed: int = 0, precision: str = "f32", nonfinite: str = "error",
+            max_memory: int | None = None) -> np.ndarray:
     """Converts an environment map between mappings (the engine of ``spheremap convert``).
 
     image: (H, W, C) float32/float64, C = 1..4 (an (H, W) array is one channel), in `src`'s
@@ -338,6 +363,10 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     look, up: the output's view (world vectors of the eye's -Z and +Y), or yaw/pitch/roll in
         degrees; src_look/src_up: the input's view when it was made for one.
     precision: "f32" (fast) or "f64" (reference).
+    nonfinite: NaN/Inf in `image`: "error" (ValueError naming the count and the first
+        location), "zero" (replaced by 0) or "keep".
+    max_memory: refuse (spheremap.LimitError) a job needing more bytes (default
+        $SPHEREMAP_MAX_MEMORY or 16 GiB).
 
     Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
     """
@@ -358,6 +387,8 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
             a = a[:, :, None]
         if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
             raise ValueError(f"image: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    a = _nonfinite(a, nonfinite, "image")
+    max_memory = _max_memory(max_memory)
     if size is not None:
         size = _size_any(size, "size")
     samples = _size_any(samples, "samples")
@@ -374,7 +405,7 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     out = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
                        filter, outside, int(seed), precision, src_preset, dst_preset,
                        _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),
-                       _vec3(src_up, "src_up"))
+                       _vec3(src_up, "src_up"), max_memory)
     if dst == "cube":
         f = out.shape[1]
         out = out.reshape(6, f, f, out.shape[2])
@@ -493,6 +524,7 @@ class Scene:
             a = a[:, :, None]
         if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
             raise ValueError(f"environment: expected (H, W, C) with C in 1..4, got shape {a.shape}")
+        a = _nonfinite(a, "error", "environment")
         self._inner.set_environment(np.ascontiguousarray(a, dtype=np.float32), mapping, preset)
 
     def add_point_light(self, position, intensity) -> None:
@@ -524,7 +556,8 @@ class Scene:
 
 def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, samples: int = 4,
              max_samples: int = 1024, filter: str = "box", outside: str = "gutter", seed: int = 0,
-             precision: str = "f32", mapping: str = "sphere", preset: str | None = None) -> np.ndarray:
+             precision: str = "f32", mapping: str = "sphere", preset: str | None = None,
+             max_memory: int | None = None) -> np.ndarray:
     """A sphere map (or any mapping) made by firing rays from `pos` (the seed's gen_sphere_map).
 
     fire_ray: a `Scene` (traced natively, in parallel), or a callable
@@ -537,7 +570,8 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
     samples: 1 = exactly one ray through each texel centre; S > 1 = at least S rays per texel
         over the filter's footprint, more where the footprint is stretched (the rim), up to
         max_samples. filter: "box" (default), "tent", "gaussian"; outside: "gutter" or "black".
-    Deterministic for a seed. Ctrl-C cancels (KeyboardInterrupt).
+    Deterministic for a seed. Ctrl-C cancels (KeyboardInterrupt). max_memory: refuse
+    (spheremap.LimitError) a job needing more bytes (default $SPHEREMAP_MAX_MEMORY or 16 GiB).
     """
     _choice(mapping, "mapping", MAPPINGS)
     _choice(filter, "filter", FILTERS)
@@ -552,7 +586,7 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
         raise ValueError("up: needs look")
     p = _vec3(pos, "pos")
     common = (size, mapping, preset, p, _vec3(look, "look"), _vec3(up, "up"), samples, max_samples,
-              filter, outside, int(seed), precision)
+              filter, outside, int(seed), precision, _max_memory(max_memory))
     if isinstance(fire_ray, Scene):
         out = _ext.generate_scene(fire_ray._inner, *common)
     elif callable(fire_ray):

@@ -4,7 +4,7 @@
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{default_size, env_paths, read_env, same_file, write_env};
-use spheremap::image_io::{ReadOptions, WriteOptions};
+use spheremap::image_io::{check_nonfinite, NonFinite, ReadOptions, WriteOptions};
 use spheremap::mapping::Mapping;
 use spheremap::resample::{
     resample, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
@@ -93,6 +93,14 @@ pub struct Args {
     /// 16-bit PNG output.
     #[arg(long)]
     png16: bool,
+    /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
+    /// $SPHEREMAP_MAX_MEMORY or 16G).
+    #[arg(long)]
+    max_memory: Option<String>,
+    /// NaN/Inf values in the input: error (default; names the count and the first pixel),
+    /// zero (replace them with 0) or keep.
+    #[arg(long, default_value = "error")]
+    nonfinite: String,
     /// Allow the output to overwrite an input file.
     #[arg(long)]
     force: bool,
@@ -145,7 +153,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         linear: a.linear,
         ..Default::default()
     };
-    let img = read_env(&a.input, src, from_layout, &ropts)?;
+    let nonfinite = NonFinite::parse(&a.nonfinite)?;
+    let max_memory = crate::max_memory(&a.max_memory)?;
+    let mut img = read_env(&a.input, src, from_layout, &ropts)?;
+    check_nonfinite(&mut img, nonfinite, &a.input)?;
     let env = EnvMap::new(src, &img, &a.input)?;
     let n = match a.size {
         Some(n) => n,
@@ -163,6 +174,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         rotation,
         seed: a.seed,
         precision,
+        max_memory,
     };
     let t0 = Instant::now();
     let progress = Progress::default();

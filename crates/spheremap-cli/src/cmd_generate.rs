@@ -5,7 +5,7 @@ use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{env_paths, read_env, same_file, write_env};
 use spheremap::generate::{generate, EnvSource, GenerateOptions, GenerateReport, RaySource};
-use spheremap::image_io::{Image, ReadOptions, WriteOptions};
+use spheremap::image_io::{check_nonfinite, Image, NonFinite, ReadOptions, WriteOptions};
 use spheremap::mapping::Mapping;
 use spheremap::resample::{EnvMap, Filter, Outside, Precision, Progress, IDENTITY};
 use spheremap::scene::{self, Environment, Light, Scene, Shading};
@@ -108,6 +108,14 @@ pub struct Args {
     /// 16-bit PNG output.
     #[arg(long)]
     png16: bool,
+    /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
+    /// $SPHEREMAP_MAX_MEMORY or 16G).
+    #[arg(long)]
+    max_memory: Option<String>,
+    /// NaN/Inf values in --env: error (default; names the count and the first pixel),
+    /// zero (replace them with 0) or keep.
+    #[arg(long, default_value = "error")]
+    nonfinite: String,
     /// Allow the output to overwrite an input file.
     #[arg(long)]
     force: bool,
@@ -173,7 +181,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             let m = Mapping::parse(&a.env_format, a.env_preset.as_deref())
                 .context("--env-format/--env-preset")?;
             let l = a.env_layout.as_deref().map(Layout::parse).transpose()?;
-            let img = read_env(e, m, l, &ReadOptions::default())?;
+            let mut img = read_env(e, m, l, &ReadOptions::default())?;
+            check_nonfinite(&mut img, NonFinite::parse(&a.nonfinite)?, e)?;
             EnvMap::new(m, &img, e)?;
             Some((img, m))
         }
@@ -239,6 +248,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pos,
         seed: a.seed,
         precision,
+        max_memory: crate::max_memory(&a.max_memory)?,
     };
     let wopts = WriteOptions {
         linear: false,

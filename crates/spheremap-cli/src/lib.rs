@@ -68,6 +68,9 @@ where
     // A panic is a bug: report it in one line (the hook), never as a backtrace.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|info| {
+        if spheremap::error::panic_is_guarded() {
+            return; // a parser's panic the core turns into an error
+        }
         eprintln!(
             "spheremap: internal error (a bug; please report it with the command line): {info}"
         );
@@ -104,4 +107,14 @@ fn one_line(e: &anyhow::Error) -> String {
         }
     }
     msg.replace('\n', " ")
+}
+
+/// `--max-memory` (None: the core's default).
+pub(crate) fn max_memory(flag: &Option<String>) -> anyhow::Result<u64> {
+    match flag {
+        None => Ok(spheremap::error::default_max_memory()),
+        Some(s) => spheremap::error::parse_bytes(s).ok_or_else(|| {
+            anyhow::anyhow!("max-memory: cannot read {s:?}; expected bytes or a size like 512M, 8G")
+        }),
+    }
 }

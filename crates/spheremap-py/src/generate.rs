@@ -265,6 +265,7 @@ fn options(
     outside: &str,
     seed: u64,
     precision: &str,
+    max_memory: Option<u64>,
 ) -> PyResult<GenerateOptions> {
     Ok(GenerateOptions {
         samples,
@@ -275,6 +276,7 @@ fn options(
             .map_err(to_py)?,
         pos,
         seed,
+        max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
         precision: match precision {
             "f32" => rs::Precision::F32,
             "f64" => rs::Precision::F64,
@@ -313,7 +315,7 @@ fn run<'py>(
 
 #[pyfunction]
 #[pyo3(signature = (scene, size, mapping, preset, pos, look, up, samples, max_samples, filter,
-                    outside, seed, precision))]
+                    outside, seed, precision, max_memory=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate_scene<'py>(
     py: Python<'py>,
@@ -330,6 +332,7 @@ pub fn generate_scene<'py>(
     outside: &str,
     seed: u64,
     precision: &str,
+    max_memory: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = options(
         look,
@@ -340,14 +343,14 @@ pub fn generate_scene<'py>(
         filter,
         outside,
         seed,
-        precision,
+        precision, max_memory,
     )?;
     run(py, mapping, preset, size, &scene.inner, &opts)
 }
 
 #[pyfunction]
 #[pyo3(signature = (fire_ray, channels, size, mapping, preset, pos, look, up, samples,
-                    max_samples, filter, outside, seed, precision))]
+                    max_samples, filter, outside, seed, precision, max_memory=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate_callable<'py>(
     py: Python<'py>,
@@ -365,6 +368,7 @@ pub fn generate_callable<'py>(
     outside: &str,
     seed: u64,
     precision: &str,
+    max_memory: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = options(
         look,
@@ -375,7 +379,7 @@ pub fn generate_callable<'py>(
         filter,
         outside,
         seed,
-        precision,
+        precision, max_memory,
     )?;
     let source = CallableSource {
         f: fire_ray,

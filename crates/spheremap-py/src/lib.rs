@@ -31,6 +31,12 @@ pyo3::create_exception!(
 );
 pyo3::create_exception!(
     _spheremap,
+    LimitError,
+    Error,
+    "The input or the job is over a configured limit (dimensions, memory)."
+);
+pyo3::create_exception!(
+    _spheremap,
     UnsupportedError,
     Error,
     "Valid input that spheremap does not handle."
@@ -49,6 +55,7 @@ fn to_py(e: spheremap::Error) -> PyErr {
         }
         E::Io { .. } => PyOSError::new_err(msg),
         E::Cancelled { .. } => pyo3::exceptions::PyKeyboardInterrupt::new_err(msg),
+        E::Limit { .. } => LimitError::new_err(msg),
     }
 }
 
@@ -428,7 +435,7 @@ fn texel_solid_angles<'py>(
 #[pyfunction]
 #[pyo3(signature = (image, src, dst, size, samples, max_samples, filter, outside, seed, precision,
                     src_preset=None, dst_preset=None, look=None, up=None, ypr=None,
-                    src_look=None, src_up=None))]
+                    src_look=None, src_up=None, max_memory=None))]
 #[allow(clippy::too_many_arguments)]
 fn convert<'py>(
     py: Python<'py>,
@@ -449,6 +456,7 @@ fn convert<'py>(
     ypr: Option<[f64; 3]>,
     src_look: Option<[f64; 3]>,
     src_up: Option<[f64; 3]>,
+    max_memory: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
     let sm = parse_mapping(src, src_preset)?;
@@ -473,6 +481,7 @@ fn convert<'py>(
         rotation: spheremap::view::conversion_rotation(look, up, ypr, src_look, src_up)
             .map_err(to_py)?,
         seed,
+        max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
         precision: match precision {
             "f32" => rs::Precision::F32,
             "f64" => rs::Precision::F64,
@@ -669,10 +678,19 @@ fn _cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
 
 #[pymodule]
 fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // Panics the core catches inside third-party parsers (guard_parser) are errors, not
+    // messages: keep the default hook quiet for them.
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !spheremap::error::panic_is_guarded() {
+            previous(info)
+        }
+    }));
     m.add("__version__", spheremap::VERSION)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
+    m.add("LimitError", m.py().get_type::<LimitError>())?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
     m.add_function(wrap_pyfunction!(dir_to_sphere, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_to_dir, m)?)?;

@@ -20,6 +20,10 @@ pub enum Error {
     /// Valid input that this version does not handle (say, an unknown file format).
     #[error("{what} is not supported: {reason}")]
     Unsupported { what: String, reason: String },
+    /// The input or the job is over a configured limit (image dimensions in a header, the
+    /// memory a job would need); `what` names the file or parameter.
+    #[error("{what}: {reason}")]
+    Limit { what: String, reason: String },
     /// The caller cancelled the work (Ctrl-C, or a `Progress::cancel` flag); nothing was
     /// produced.
     #[error("{what} was cancelled")]
@@ -52,6 +56,12 @@ impl Error {
             reason: reason.into(),
         }
     }
+    pub fn limit(what: impl Into<String>, reason: impl Into<String>) -> Self {
+        Error::Limit {
+            what: what.into(),
+            reason: reason.into(),
+        }
+    }
     pub fn cancelled(what: impl Into<String>) -> Self {
         Error::Cancelled { what: what.into() }
     }
@@ -64,3 +74,73 @@ impl Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The memory a job may allocate unless told otherwise: `SPHEREMAP_MAX_MEMORY` (bytes, or with
+/// a K/M/G/T suffix, powers of 1024) or else 16 GiB.
+pub fn default_max_memory() -> u64 {
+    std::env::var("SPHEREMAP_MAX_MEMORY")
+        .ok()
+        .and_then(|s| parse_bytes(&s))
+        .unwrap_or(16 << 30)
+}
+
+/// "8G", "512M", "1000000" → bytes.
+pub fn parse_bytes(s: &str) -> Option<u64> {
+    let s = s.trim();
+    let (num, shift) = match s.char_indices().last()? {
+        (i, 'k' | 'K') => (&s[..i], 10),
+        (i, 'm' | 'M') => (&s[..i], 20),
+        (i, 'g' | 'G') => (&s[..i], 30),
+        (i, 't' | 'T') => (&s[..i], 40),
+        _ => (s, 0),
+    };
+    let v: f64 = num.trim().parse().ok()?;
+    (v.is_finite() && v >= 0.0 && v * 2f64.powi(shift) < 1.8e19).then(|| (v * 2f64.powi(shift)) as u64)
+}
+
+/// Refuses a job whose estimated allocation `bytes` is over `cap`.
+pub fn check_memory(what: &str, bytes: u128, cap: u64) -> Result<()> {
+    if bytes > cap as u128 {
+        let gib = |b: f64| b / (1u64 << 30) as f64;
+        return Err(Error::limit(
+            what,
+            format!(
+                "the job needs about {:.1} GiB, over the memory limit of {:.1} GiB \
+                 (--max-memory / max_memory= / SPHEREMAP_MAX_MEMORY raise it)",
+                gib(bytes as f64),
+                gib(cap as f64)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+thread_local! {
+    static GUARDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs third-party parsing code that may panic on malformed input (the `gltf` crate has
+/// `unwrap`s and `unreachable!`s that a crafted file reaches — found by our fuzzer) and turns a
+/// panic into [`Error::InvalidData`] about `path`.  While it runs, [`panic_is_guarded`] is true
+/// on this thread so panic hooks (the CLI's, the Python module's) can stay quiet.
+pub fn guard_parser<T>(path: &std::path::Path, what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    GUARDED.with(|g| g.set(true));
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    GUARDED.with(|g| g.set(false));
+    match r {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(Error::data(path, format!("malformed {what} ({msg})")))
+        }
+    }
+}
+
+/// True while [`guard_parser`] runs on this thread (for panic hooks).
+pub fn panic_is_guarded() -> bool {
+    GUARDED.with(|g| g.get())
+}

@@ -134,6 +134,8 @@ pub struct GenerateOptions {
     pub seed: u64,
     /// Arithmetic of the sample directions (rays are f32 either way).
     pub precision: Precision,
+    /// Refuse a job whose estimated allocation is over this many bytes.
+    pub max_memory: u64,
 }
 
 impl Default for GenerateOptions {
@@ -147,6 +149,7 @@ impl Default for GenerateOptions {
             pos: [0.0; 3],
             seed: 0,
             precision: Precision::F32,
+            max_memory: crate::error::default_max_memory(),
         }
     }
 }
@@ -194,6 +197,12 @@ pub fn generate(
         return Err(Error::param("pos", "must be finite"));
     }
     resample::check_rotation(&opts.rotation)?;
+    // The output, its copy for the gutter, and an encoder's buffer.
+    crate::error::check_memory(
+        "size",
+        3 * (width as u128 * height as u128 * c as u128 * 4),
+        opts.max_memory,
+    )?;
     let mut out = Image::new(width, height, c);
     let report = match opts.precision {
         Precision::F32 => run::<f32>(mapping, &mut out, source, opts, progress)?,

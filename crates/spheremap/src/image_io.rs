@@ -141,8 +141,8 @@ impl Limits {
             ));
         }
         if w > self.max_width || h > self.max_height || w.saturating_mul(h) > self.max_pixels {
-            return Err(Error::data(
-                path,
+            return Err(Error::limit(
+                path.display().to_string(),
                 format!(
                     "the header claims {w}x{h} pixels, over the limit ({}x{}, {} pixels in all)",
                     self.max_width, self.max_height, self.max_pixels
@@ -207,6 +207,17 @@ pub fn decode(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
             "not an image spheremap reads (expected OpenEXR, Radiance HDR, PFM, PNG, JPEG or WebP)",
         )
     })?;
+    // The JPEG decoder fills a cut-off file with grey instead of failing: a complete JPEG has
+    // its end-of-image marker (FF D9) near the end (some writers pad after it).
+    if format == Format::Jpeg {
+        let tail = &bytes[bytes.len().saturating_sub(4096)..];
+        if !tail.windows(2).any(|w| w == [0xFF, 0xD9]) {
+            return Err(Error::data(
+                path,
+                "cannot decode JPEG: the file is truncated (no end-of-image marker)",
+            ));
+        }
+    }
     match format {
         Format::Exr => decode_exr(path, bytes, &opts.limits),
         Format::Pfm => decode_pfm(path, bytes, &opts.limits),
@@ -728,4 +739,63 @@ pub fn guess_mapping(img: &Image) -> (&'static str, &'static str) {
         );
     }
     ("unknown", "no recognised aspect ratio")
+}
+
+/// What to do with NaN/Inf pixel values in an input.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NonFinite {
+    /// Refuse the input, naming the count and the first location (default: a NaN spreads
+    /// through every filter that touches it).
+    #[default]
+    Error,
+    /// Replace them with 0.
+    Zero,
+    /// Keep them as they are.
+    Keep,
+}
+
+impl NonFinite {
+    pub fn parse(name: &str) -> Result<NonFinite> {
+        match name {
+            "error" => Ok(NonFinite::Error),
+            "zero" => Ok(NonFinite::Zero),
+            "keep" => Ok(NonFinite::Keep),
+            other => Err(Error::param(
+                "nonfinite",
+                format!("unknown value {other:?}; expected error, zero or keep"),
+            )),
+        }
+    }
+}
+
+/// Count of NaN/Inf values and the (x, y) of the first pixel holding one.
+pub fn find_nonfinite(img: &Image) -> Option<(usize, usize, usize)> {
+    let c = img.channels.max(1);
+    let first = img.data.iter().position(|v| !v.is_finite())?;
+    let count = img.data.iter().filter(|v| !v.is_finite()).count();
+    let px = first / c;
+    Some((count, px % img.width.max(1), px / img.width.max(1)))
+}
+
+/// Applies the policy to an input named `what`.
+pub fn check_nonfinite(img: &mut Image, policy: NonFinite, what: &str) -> Result<()> {
+    if policy == NonFinite::Keep {
+        return Ok(());
+    }
+    let Some((count, x, y)) = find_nonfinite(img) else {
+        return Ok(());
+    };
+    match policy {
+        NonFinite::Error => Err(Error::data(
+            what,
+            format!(
+                "{count} NaN/Inf values (the first at pixel x={x}, y={y}); \
+                 --nonfinite zero replaces them, --nonfinite keep keeps them"
+            ),
+        )),
+        _ => {
+            img.data.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+            Ok(())
+        }
+    }
 }

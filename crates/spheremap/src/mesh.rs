@@ -30,7 +30,8 @@ pub fn load_mesh(path: &Path) -> Result<Mesh> {
         .unwrap_or("")
         .to_ascii_lowercase();
     let mesh = if bytes.starts_with(b"glTF") || ext == "gltf" || ext == "glb" {
-        load_gltf(path)?
+        crate::scene::precheck_gltf(path, &bytes)?;
+        crate::error::guard_parser(path, "glTF", || load_gltf(path))?
     } else if ext == "obj" || looks_like_obj(&bytes) {
         load_obj(path)?
     } else {

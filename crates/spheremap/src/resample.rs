@@ -158,6 +158,9 @@ pub struct ResampleOptions {
     pub rotation: [[f64; 3]; 3],
     pub seed: u64,
     pub precision: Precision,
+    /// Refuse a job whose estimated allocation is over this many bytes
+    /// ([`crate::error::default_max_memory`]).
+    pub max_memory: u64,
 }
 
 /// The default sample count (adaptive, at least 4 per texel).
@@ -175,6 +178,7 @@ impl Default for ResampleOptions {
             rotation: IDENTITY,
             seed: 0,
             precision: Precision::F32,
+            max_memory: crate::error::default_max_memory(),
         }
     }
 }
@@ -293,6 +297,12 @@ pub fn resample(
         ));
     }
     check_rotation(&opts.rotation)?;
+    // The output, and as much again for whoever encodes it.
+    crate::error::check_memory(
+        "size",
+        2 * (width as u128 * height as u128 * src.channels as u128 * 4),
+        opts.max_memory,
+    )?;
     let mut out = Image::new(width, height, src.channels);
     let report = match (opts.precision, src.channels) {
         (Precision::F32, 1) => run::<f32, 1>(src, dst, &mut out, opts, progress),

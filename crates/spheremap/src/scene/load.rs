@@ -27,7 +27,8 @@ pub(super) fn load(path: &Path) -> Result<Scene> {
     let trimmed = bytes.iter().position(|b| !b.is_ascii_whitespace());
     let json = trimmed.is_some_and(|i| bytes[i] == b'{');
     let b = if bytes.starts_with(b"glTF") || json || ext == "gltf" || ext == "glb" {
-        load_gltf(path)?
+        precheck_gltf(path, &bytes)?;
+        crate::error::guard_parser(path, "glTF", || load_gltf(path))?
     } else if ext == "obj" || looks_like_obj(&bytes) {
         load_obj(path)?
     } else {
@@ -49,21 +50,78 @@ fn looks_like_obj(bytes: &[u8]) -> bool {
         .unwrap_or(false)
 }
 
-fn load_obj(path: &Path) -> Result<SceneBuilder> {
-    let opts = tobj::LoadOptions {
+/// A scene from bytes in memory (glTF JSON with embedded data: URIs, GLB, or OBJ without
+/// MTL); `name` is used in messages.  What the fuzzers drive.
+pub(super) fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
+    let trimmed = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    let b = if bytes.starts_with(b"glTF") || trimmed.is_some_and(|i| bytes[i] == b'{') {
+        precheck_gltf(Path::new(name), bytes)?;
+        crate::error::guard_parser(Path::new(name), "glTF", || {
+            let (doc, buffers, images) = gltf::import_slice(bytes)
+                .map_err(|e| Error::data(name, format!("cannot read glTF: {e}")))?;
+            from_gltf(Path::new(name), doc, buffers, images)
+        })?
+    } else {
+        let mut reader = std::io::Cursor::new(bytes);
+        let (models, materials) = tobj::load_obj_buf(&mut reader, &obj_options(), |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .map_err(|e| Error::data(name, format!("cannot read OBJ: {e}")))?;
+        from_obj(Path::new(name), models, materials.unwrap_or_default(), Path::new("."))?
+    };
+    b.build(Environment::Constant([0.0; 3]), name)
+}
+
+/// Checks what the `gltf` crate's own validation indexes without checking (gltf-json 1.4.1
+/// panics on a POSITION accessor index out of range — found by our fuzzer), so a malformed
+/// file gets a precise error.  The full validation runs afterwards in `gltf::import`, and the
+/// reading under [`crate::error::guard_parser`] (the crate has more panics on files that pass
+/// its validation: an index accessor of floats reaches an `unreachable!`).
+pub(crate) fn precheck_gltf(path: &Path, bytes: &[u8]) -> Result<()> {
+    let glb;
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        glb = gltf::Glb::from_slice(bytes)
+            .map_err(|e| Error::data(path, format!("cannot read GLB: {e}")))?;
+        &glb.json
+    } else {
+        bytes
+    };
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
+        .map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    let n = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, p) in mesh.primitives.iter().enumerate() {
+            let bad = p.attributes.values().any(|i| i.value() >= n)
+                || p.indices.is_some_and(|i| i.value() >= n)
+                || p.targets.iter().flatten().any(|t| {
+                    [t.positions, t.normals, t.tangents]
+                        .iter()
+                        .flatten()
+                        .any(|i| i.value() >= n)
+                });
+            if bad {
+                return Err(Error::data(
+                    path,
+                    format!("cannot read glTF: mesh {m} primitive {k} names an accessor beyond the {n} there are"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn obj_options() -> tobj::LoadOptions {
+    tobj::LoadOptions {
         single_index: true,
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
-    };
-    let (models, materials) = tobj::load_obj(path, &opts)
+    }
+}
+
+fn load_obj(path: &Path) -> Result<SceneBuilder> {
+    let (models, materials) = tobj::load_obj(path, &obj_options())
         .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
-    let mut b = SceneBuilder::new();
-    let default = b.add_material(Material {
-        name: "default".into(),
-        ..Material::default()
-    });
-    let dir = path.parent().unwrap_or(Path::new("."));
     let mtls = match materials {
         Ok(m) => m,
         // tobj reports a file without mtllib as an error too.
@@ -72,6 +130,20 @@ fn load_obj(path: &Path) -> Result<SceneBuilder> {
             return Err(Error::data(path, format!("cannot read its MTL file: {e}")));
         }
     };
+    from_obj(path, models, mtls, path.parent().unwrap_or(Path::new(".")))
+}
+
+fn from_obj(
+    path: &Path,
+    models: Vec<tobj::Model>,
+    mtls: Vec<tobj::Material>,
+    dir: &Path,
+) -> Result<SceneBuilder> {
+    let mut b = SceneBuilder::new();
+    let default = b.add_material(Material {
+        name: "default".into(),
+        ..Material::default()
+    });
     let mut ids = Vec::with_capacity(mtls.len());
     for m in &mtls {
         let emission = m.emissive.unwrap_or([0.0; 3]);
@@ -140,6 +212,15 @@ fn mentions_mtllib(path: &Path) -> bool {
 fn load_gltf(path: &Path) -> Result<SceneBuilder> {
     let (doc, buffers, images) =
         gltf::import(path).map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    from_gltf(path, doc, buffers, images)
+}
+
+fn from_gltf(
+    path: &Path,
+    doc: gltf::Document,
+    buffers: Vec<gltf::buffer::Data>,
+    images: Vec<gltf::image::Data>,
+) -> Result<SceneBuilder> {
     let mut b = SceneBuilder::new();
     let default = b.add_material(Material {
         name: "default".into(),

@@ -40,6 +40,7 @@ mod builtin;
 mod load;
 
 pub use builtin::{demo_scene, floor_scene, octant_colour, octant_sphere_scene};
+pub(crate) use load::precheck_gltf;
 
 use crate::error::{Error, Result};
 use crate::generate::RaySource;
@@ -140,6 +141,9 @@ struct Tri {
     e2: Vec3A,
     n: Vec3A,
 }
+
+/// The largest vertex coordinate a scene may have.
+pub const MAX_COORDINATE: f32 = 1e15;
 
 /// Barycentric tolerance of the intersector: triangles overlap their neighbours by this much
 /// (relative) so rays through shared edges cannot slip between them.
@@ -272,6 +276,14 @@ impl SceneBuilder {
                     format!("triangle {i} has a non-finite vertex"),
                 ));
             }
+            // Beyond this, f32 tracing is meaningless and the BVH builder's arithmetic
+            // overflows (found by the fuzzer: obvhs panics on coordinates near 1e33).
+            if t.positions.iter().flatten().any(|v| v.abs() > MAX_COORDINATE) {
+                return Err(Error::limit(
+                    what,
+                    format!("triangle {i} has a vertex coordinate beyond ±{MAX_COORDINATE:e}"),
+                ));
+            }
             if t.material as usize >= self.materials.len() {
                 return Err(Error::data(
                     what,
@@ -303,11 +315,14 @@ impl SceneBuilder {
                 }
             })
             .collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
-            &prims,
-            obvhs::BvhBuildParams::medium_build(),
-            &mut std::time::Duration::default(),
-        );
+        // Any other panic of the builder on strange geometry becomes an error.
+        let bvh = crate::error::guard_parser(std::path::Path::new(what), "scene geometry", || {
+            Ok(obvhs::cwbvh::builder::build_cwbvh_from_tris(
+                &prims,
+                obvhs::BvhBuildParams::medium_build(),
+                &mut std::time::Duration::default(),
+            ))
+        })?;
         // Triangles in the BVH's leaf order, so traversal reads them sequentially.
         let tris = bvh
             .primitive_indices
@@ -380,6 +395,12 @@ impl Scene {
     /// the environment is black until set.
     pub fn load(path: &Path) -> Result<Scene> {
         load::load(path)
+    }
+
+    /// A scene from bytes: glTF JSON (buffers as data: URIs), GLB, or OBJ (no MTL); `name`
+    /// is used in messages.
+    pub fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
+        load::load_bytes(name, bytes)
     }
 
     pub fn triangle_count(&self) -> usize {
