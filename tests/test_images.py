@@ -55,7 +55,7 @@ def test_errors(tmp_path):
     (tmp_path / "bad.exr").write_bytes(b"v/1\x01garbage")
     with pytest.raises(sm.DataError, match="bad.exr"):
         sm.read_image(tmp_path / "bad.exr")
-    with pytest.raises(sm.DataError, match="over the limit"):
+    with pytest.raises(sm.LimitError, match="over the limit"):
         sm.read_image("testdata/apartment.exr", max_pixels=1000)
     with pytest.raises(ValueError, match="^array"):
         sm.write_image(tmp_path / "x.png", np.zeros((4, 4, 5), np.float32))

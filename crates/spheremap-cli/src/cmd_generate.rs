@@ -317,6 +317,7 @@ fn summary(
             "size": a.size, "width": w, "height": h,
             "samples": a.samples, "filter": a.filter, "outside": a.outside,
             "triangles": scene.map(|s| s.triangle_count()),
+            "degenerate_triangles": scene.map(|s| s.degenerate_count()),
             "lights": scene.map(|s| s.lights.len()),
             "rays": r.rays, "texels_traced": r.texels, "rays_per_texel": rays_per_texel,
             "max_texel_samples": r.max_texel_samples,
@@ -324,6 +325,9 @@ fn summary(
         });
         crate::out(&format!("{v}\n"));
     } else if !a.quiet {
+        if let Some(n) = scene.map(|s| s.degenerate_count()).filter(|&n| n > 0) {
+            eprintln!("note: {n} degenerate (zero-area) triangles in the scene are ignored");
+        }
         eprintln!(
             "{} -> {} ({} {}, {w}x{h}): {} rays ({rays_per_texel:.1}/texel), {seconds:.3} s, {:.2} Mrays/s",
             a.scene.as_deref().or(a.env.as_deref()).unwrap_or(""),

@@ -11,6 +11,10 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Exit 1 (after printing) when the file has NaN/Inf values or its extension disagrees with
+    /// its content — for scripts that sweep folders.
+    #[arg(long)]
+    check: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -83,6 +87,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     crate::out(&o);
+    if a.check {
+        let mut problems = Vec::new();
+        if i.nan_count + i.inf_count > 0 {
+            problems.push(format!("{} NaN/Inf values", i.nan_count + i.inf_count));
+        }
+        if let Some(m) = mismatch {
+            problems.push(format!("named {m} but holds {}", i.format.name()));
+        }
+        if !problems.is_empty() {
+            return Err(crate::FoundProblem(format!(
+                "{}: {}",
+                a.file.display(),
+                problems.join("; ")
+            ))
+            .into());
+        }
+    }
     Ok(())
 }
 

@@ -2,8 +2,9 @@
 //! else.  Used by the `spheremap` binary and by the Python package's console script, so both
 //! run one CLI definition.
 //!
-//! Exit codes: 0 success, 2 bad input or failure (one line on stderr naming the file or
-//! argument and the cause), clap's own codes for usage errors (2) and `--help` (0).
+//! Exit codes: 0 success, 1 "ran fine, found a problem" (`info --check`), 2 bad input or
+//! failure (one line on stderr naming the file or argument and the cause), clap's own codes for
+//! usage errors (2) and `--help` (0).
 
 mod cmd_conventions;
 mod cmd_convert;
@@ -87,6 +88,10 @@ where
     std::panic::set_hook(previous_hook);
     match result {
         Ok(Ok(())) => 0,
+        Ok(Err(e)) if e.downcast_ref::<FoundProblem>().is_some() => {
+            eprintln!("spheremap: {e}");
+            1
+        }
         Ok(Err(e)) => {
             eprintln!("spheremap: {}", one_line(&e));
             2
@@ -108,6 +113,18 @@ fn one_line(e: &anyhow::Error) -> String {
     }
     msg.replace('\n', " ")
 }
+
+/// "Ran fine, found a problem" (`info --check`): exit code 1, not 2.
+#[derive(Debug)]
+pub(crate) struct FoundProblem(pub String);
+
+impl std::fmt::Display for FoundProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for FoundProblem {}
 
 /// `--max-memory` (None: the core's default).
 pub(crate) fn max_memory(flag: &Option<String>) -> anyhow::Result<u64> {

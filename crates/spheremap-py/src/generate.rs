@@ -343,7 +343,8 @@ pub fn generate_scene<'py>(
         filter,
         outside,
         seed,
-        precision, max_memory,
+        precision,
+        max_memory,
     )?;
     run(py, mapping, preset, size, &scene.inner, &opts)
 }
@@ -379,7 +380,8 @@ pub fn generate_callable<'py>(
         filter,
         outside,
         seed,
-        precision, max_memory,
+        precision,
+        max_memory,
     )?;
     let source = CallableSource {
         f: fire_ray,

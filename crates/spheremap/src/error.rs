@@ -95,7 +95,8 @@ pub fn parse_bytes(s: &str) -> Option<u64> {
         _ => (s, 0),
     };
     let v: f64 = num.trim().parse().ok()?;
-    (v.is_finite() && v >= 0.0 && v * 2f64.powi(shift) < 1.8e19).then(|| (v * 2f64.powi(shift)) as u64)
+    (v.is_finite() && v >= 0.0 && v * 2f64.powi(shift) < 1.8e19)
+        .then(|| (v * 2f64.powi(shift)) as u64)
 }
 
 /// Refuses a job whose estimated allocation `bytes` is over `cap`.
@@ -123,7 +124,11 @@ thread_local! {
 /// `unwrap`s and `unreachable!`s that a crafted file reaches — found by our fuzzer) and turns a
 /// panic into [`Error::InvalidData`] about `path`.  While it runs, [`panic_is_guarded`] is true
 /// on this thread so panic hooks (the CLI's, the Python module's) can stay quiet.
-pub fn guard_parser<T>(path: &std::path::Path, what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+pub fn guard_parser<T>(
+    path: &std::path::Path,
+    what: &str,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
     GUARDED.with(|g| g.set(true));
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
     GUARDED.with(|g| g.set(false));
@@ -135,7 +140,10 @@ pub fn guard_parser<T>(path: &std::path::Path, what: &str, f: impl FnOnce() -> R
                 .map(|s| s.to_string())
                 .or_else(|| p.downcast_ref::<String>().cloned())
                 .unwrap_or_default();
-            Err(Error::data(path, format!("malformed {what} ({msg})")))
+            Err(Error::data(
+                path,
+                format!("malformed {what} file (the reader stopped: {msg})"),
+            ))
         }
     }
 }

@@ -195,7 +195,7 @@ pub fn linear_to_srgb(v: f32) -> f32 {
 
 /// Reads an image file (format by content).
 pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<Image> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_file(path)?;
     decode(path, &bytes, opts)
 }
 
@@ -635,7 +635,7 @@ pub struct Inspection {
 
 /// Reads a file and describes it.
 pub fn inspect(path: &Path, opts: &ReadOptions) -> Result<Inspection> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_file(path)?;
     let img = decode(path, &bytes, opts)?;
     let format = Format::sniff(&bytes).expect("decoded, so sniffed");
     let ext = Format::from_extension(path);
@@ -794,7 +794,10 @@ pub fn check_nonfinite(img: &mut Image, policy: NonFinite, what: &str) -> Result
             ),
         )),
         _ => {
-            img.data.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+            img.data
+                .iter_mut()
+                .filter(|v| !v.is_finite())
+                .for_each(|v| *v = 0.0);
             Ok(())
         }
     }

@@ -11,6 +11,23 @@ use std::path::{Path, PathBuf};
 
 /// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which
 /// is renamed to `path` only when `fill` succeeded.
+/// Reads a whole input file.  Only regular files: a device or FIFO (`/dev/zero` named by a
+/// careless MTL or a script) would be read forever.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(Error::data(
+            path,
+            if meta.is_dir() {
+                "is a directory, not a file"
+            } else {
+                "not a regular file"
+            },
+        ));
+    }
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
 pub fn atomic_write(
     path: &Path,
     fill: impl FnOnce(&mut std::fs::File) -> Result<()>,

@@ -23,7 +23,7 @@ pub struct Mesh {
 /// Loads a mesh, choosing the reader from the file's content (glTF JSON, GLB magic) or else
 /// its extension.
 pub fn load_mesh(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_file(path)?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -47,10 +47,12 @@ pub fn load_mesh(path: &Path) -> Result<Mesh> {
 /// Parses OBJ text (no MTL) from memory; `name` is used in messages.
 pub fn parse_obj(name: &str, text: &str) -> Result<Mesh> {
     let mut reader = std::io::Cursor::new(text.as_bytes());
-    let (models, _) = tobj::load_obj_buf(&mut reader, &obj_options(), |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| Error::data(name, format!("cannot parse OBJ: {e}")))?;
+    let (models, _) = crate::error::guard_parser(Path::new(name), "OBJ", || {
+        tobj::load_obj_buf(&mut reader, &obj_options(), |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .map_err(|e| Error::data(name, format!("cannot parse OBJ: {e}")))
+    })?;
     let mesh = from_obj_models(name, models)?;
     validate(Path::new(name), &mesh)?;
     Ok(mesh)
@@ -76,8 +78,11 @@ fn obj_options() -> tobj::LoadOptions {
 }
 
 fn load_obj(path: &Path) -> Result<Mesh> {
-    let (models, _materials) = tobj::load_obj(path, &obj_options())
-        .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
+    // tobj panics on some malformed MTL lines ("Kd 1 2"): guarded.
+    let (models, _materials) = crate::error::guard_parser(path, "OBJ/MTL", || {
+        tobj::load_obj(path, &obj_options())
+            .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))
+    })?;
     from_obj_models(&path.display().to_string(), models)
 }
 

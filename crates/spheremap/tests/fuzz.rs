@@ -39,9 +39,42 @@ impl Rng {
 }
 
 const TOKENS: &[&str] = &[
-    "nan", "inf", "-inf", "1e309", "-0", "0", "1", "-1", "4294967296", ",", " ", "\n", "lookat:",
-    "identity", "f ", "v ", "vt ", "vn ", "usemtl ", "mtllib ", "/", "//", "-2147483648", "{", "}",
-    "\"", ":", "[", "]", "null", "1e-45", "65536", "hcross", "cube", "sphere", "latlong",
+    "nan",
+    "inf",
+    "-inf",
+    "1e309",
+    "-0",
+    "0",
+    "1",
+    "-1",
+    "4294967296",
+    ",",
+    " ",
+    "\n",
+    "lookat:",
+    "identity",
+    "f ",
+    "v ",
+    "vt ",
+    "vn ",
+    "usemtl ",
+    "mtllib ",
+    "/",
+    "//",
+    "-2147483648",
+    "{",
+    "}",
+    "\"",
+    ":",
+    "[",
+    "]",
+    "null",
+    "1e-45",
+    "65536",
+    "hcross",
+    "cube",
+    "sphere",
+    "latlong",
 ];
 
 fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
@@ -59,8 +92,20 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
             }
             2 if n >= 4 => {
                 let i = rng.below(n - 3);
-                let v: u32 = [0, 1, 0xffff_ffff, 0x7fff_ffff, 0x8000_0000, 65_536, 0x10_0000][rng.below(7)];
-                let b = if rng.below(2) == 0 { v.to_le_bytes() } else { v.to_be_bytes() };
+                let v: u32 = [
+                    0,
+                    1,
+                    0xffff_ffff,
+                    0x7fff_ffff,
+                    0x8000_0000,
+                    65_536,
+                    0x10_0000,
+                ][rng.below(7)];
+                let b = if rng.below(2) == 0 {
+                    v.to_le_bytes()
+                } else {
+                    v.to_be_bytes()
+                };
                 d[i..i + 4].copy_from_slice(&b);
             }
             3 => {
@@ -136,7 +181,11 @@ fn fuzz(t: &Target, budget: Duration, seed: u64) -> (u64, Vec<String>) {
             }
         }
     }
-    let mut rng = Rng(seed ^ t.name.len() as u64 * 0x1234_5678);
+    let name_hash = t
+        .name
+        .bytes()
+        .fold(0u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64));
+    let mut rng = Rng(seed ^ name_hash.wrapping_mul(0x1234_5678_9ABC));
     let start = Instant::now();
     let mut i = 0usize;
     loop {
@@ -163,7 +212,11 @@ fn fuzz(t: &Target, budget: Duration, seed: u64) -> (u64, Vec<String>) {
             let p = crash_dir().join(format!("{}-{why}-{h:016x}.bin", t.name));
             let _ = std::fs::create_dir_all(crash_dir());
             let _ = std::fs::write(&p, &data);
-            failures.push(format!("{why} ({:.1} s): {}", dt.as_secs_f64(), p.display()));
+            failures.push(format!(
+                "{why} ({:.1} s): {}",
+                dt.as_secs_f64(),
+                p.display()
+            ));
             if failures.len() > 20 {
                 break;
             }
@@ -193,11 +246,17 @@ fn run_image(data: &[u8]) {
     }
 }
 
+/// OBJ, or OBJ + MTL when the input holds a line `#MTL` (the MTL follows it).
 fn run_obj(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
     let _ = spheremap::mesh::parse_obj("fuzz.obj", &text);
-    if let Ok(s) = Scene::load_bytes("fuzz.obj", data) {
-        let _ = s.intersect([0.0; 3], [0.0, 0.0, -1.0]);
+    let split = data.windows(6).position(|w| w == b"\n#MTL\n");
+    let (obj, mtl) = match split {
+        Some(i) => (&data[..i], Some(&data[i + 6..])),
+        None => (data, None),
+    };
+    if let Ok(s) = Scene::load_obj_bytes("fuzz.obj", obj, mtl) {
+        let _ = s.radiance([0.0; 3], [0.0, 0.0, -1.0]);
     }
 }
 
@@ -231,7 +290,10 @@ fn image_seeds() -> Vec<Vec<u8>> {
         *v = (i as f32 * 0.37).sin().abs() * 2.0;
     }
     let mut grey = Image::new(4, 4, 1);
-    grey.data.iter_mut().enumerate().for_each(|(i, v)| *v = i as f32 / 16.0);
+    grey.data
+        .iter_mut()
+        .enumerate()
+        .for_each(|(i, v)| *v = i as f32 / 16.0);
     let mut seeds = Vec::new();
     for (f, o) in [
         (Format::Exr, WriteOptions::default()),
@@ -269,6 +331,9 @@ fn image_seeds() -> Vec<Vec<u8>> {
 const OBJ_SEED: &str = "v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nv 1 1 -1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\n\
 f 1/1/1 2/2/1 3/3/1\nf 2 4 3\ng g\nusemtl m\nf -1 -2 -3\n";
 
+const MTL_SEED: &str = "newmtl m\nKe 1 0.5 0\nKd 0.2 0.3 0.4\nKs 1 1 1\nillum 3\n\
+newmtl n\nKd 0.5 0.5 0.5\nd 1\nNs 10\n";
+
 const GLTF_SEED: &str = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
 "nodes":[{"mesh":0,"translation":[0,0,-2]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},
 "indices":1,"material":0}]}],"materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1]},
@@ -289,7 +354,10 @@ fn targets() -> Vec<Target> {
         Target {
             name: "obj",
             text: true,
-            seeds: vec![OBJ_SEED.as_bytes().to_vec()],
+            seeds: vec![
+                OBJ_SEED.as_bytes().to_vec(),
+                format!("mtllib m.mtl\n{OBJ_SEED}\n#MTL\n{MTL_SEED}").into_bytes(),
+            ],
             run: run_obj,
         },
         Target {
@@ -353,8 +421,22 @@ fn fuzz_every_parser() {
 /// The seeds are valid inputs (so mutations start deep inside each parser).
 #[test]
 fn fuzz_seeds_parse() {
-    assert_eq!(Scene::load_bytes("seed.gltf", GLTF_SEED.as_bytes()).unwrap().triangle_count(), 1);
-    assert_eq!(Scene::load_bytes("seed.obj", OBJ_SEED.as_bytes()).unwrap().triangle_count(), 3);
+    assert_eq!(
+        Scene::load_bytes("seed.gltf", GLTF_SEED.as_bytes())
+            .unwrap()
+            .triangle_count(),
+        1
+    );
+    assert_eq!(
+        Scene::load_bytes("seed.obj", OBJ_SEED.as_bytes())
+            .unwrap()
+            .triangle_count(),
+        3
+    );
+    let with_mtl = format!("mtllib m.mtl\n{OBJ_SEED}");
+    let s =
+        Scene::load_obj_bytes("seed.obj", with_mtl.as_bytes(), Some(MTL_SEED.as_bytes())).unwrap();
+    assert_eq!(s.materials.len(), 3);
     let opts = ReadOptions::default();
     let seeds = image_seeds();
     assert!(seeds.len() >= 14);

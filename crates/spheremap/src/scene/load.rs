@@ -18,7 +18,7 @@ use crate::image_io::{self, Image, ReadOptions};
 use std::path::Path;
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::read_file(path)?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -62,14 +62,31 @@ pub(super) fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
             from_gltf(Path::new(name), doc, buffers, images)
         })?
     } else {
-        let mut reader = std::io::Cursor::new(bytes);
-        let (models, materials) = tobj::load_obj_buf(&mut reader, &obj_options(), |_| {
-            Err(tobj::LoadError::OpenFileFailed)
-        })
-        .map_err(|e| Error::data(name, format!("cannot read OBJ: {e}")))?;
-        from_obj(Path::new(name), models, materials.unwrap_or_default(), Path::new("."))?
+        return load_obj_bytes(name, bytes, None);
     };
     b.build(Environment::Constant([0.0; 3]), name)
+}
+
+/// An OBJ in memory with the text of its MTL file (any `mtllib` resolves to it); texture
+/// names are looked up relative to the working directory.
+pub(super) fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Result<Scene> {
+    let mut reader = std::io::Cursor::new(obj);
+    let (models, materials) = crate::error::guard_parser(Path::new(name), "OBJ/MTL", || {
+        tobj::load_obj_buf(&mut reader, &obj_options(), |_| match mtl {
+            Some(m) => tobj::load_mtl_buf(&mut std::io::Cursor::new(m)),
+            None => Err(tobj::LoadError::OpenFileFailed),
+        })
+        .map_err(|e| Error::data(name, format!("cannot read OBJ: {e}")))
+    })?;
+    let mtls = match (materials, mtl) {
+        (Ok(m), _) => m,
+        (Err(_), None) => Vec::new(),
+        (Err(e), Some(_)) => {
+            return Err(Error::data(name, format!("cannot read its MTL: {e}")));
+        }
+    };
+    from_obj(Path::new(name), models, mtls, Path::new("."))?
+        .build(Environment::Constant([0.0; 3]), name)
 }
 
 /// Checks what the `gltf` crate's own validation indexes without checking (gltf-json 1.4.1
@@ -88,6 +105,25 @@ pub(crate) fn precheck_gltf(path: &Path, bytes: &[u8]) -> Result<()> {
     };
     let root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
         .map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    // External buffers and images are read by the gltf crate itself: make sure each is a
+    // regular file (a device would be read forever).
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
+    for uri in uris {
+        if uri.starts_with("data:") || uri.contains("://") {
+            continue;
+        }
+        let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
+            return Err(Error::data(
+                path,
+                format!("cannot read glTF: {uri:?} is not a regular file"),
+            ));
+        }
+    }
     let n = root.accessors.len();
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (k, p) in mesh.primitives.iter().enumerate() {
@@ -120,8 +156,11 @@ fn obj_options() -> tobj::LoadOptions {
 }
 
 fn load_obj(path: &Path) -> Result<SceneBuilder> {
-    let (models, materials) = tobj::load_obj(path, &obj_options())
-        .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))?;
+    // tobj panics on some malformed MTL lines ("Kd 1 2", found by the fuzzer): guarded.
+    let (models, materials) = crate::error::guard_parser(path, "OBJ/MTL", || {
+        tobj::load_obj(path, &obj_options())
+            .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))
+    })?;
     let mtls = match materials {
         Ok(m) => m,
         // tobj reports a file without mtllib as an error too.

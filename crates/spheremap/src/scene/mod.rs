@@ -278,7 +278,11 @@ impl SceneBuilder {
             }
             // Beyond this, f32 tracing is meaningless and the BVH builder's arithmetic
             // overflows (found by the fuzzer: obvhs panics on coordinates near 1e33).
-            if t.positions.iter().flatten().any(|v| v.abs() > MAX_COORDINATE) {
+            if t.positions
+                .iter()
+                .flatten()
+                .any(|v| v.abs() > MAX_COORDINATE)
+            {
                 return Err(Error::limit(
                     what,
                     format!("triangle {i} has a vertex coordinate beyond ±{MAX_COORDINATE:e}"),
@@ -352,6 +356,15 @@ impl SceneBuilder {
         let extent = (hi - lo)
             .max_element()
             .max(hi.abs().max(lo.abs()).max_element());
+        // Zero-area triangles are kept (they are never hit) and counted for the report.
+        let degenerate = self
+            .tris
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = t.positions.map(Vec3::from);
+                (b - a).cross(c - a).length_squared() == 0.0
+            })
+            .count();
         Ok(Scene {
             tris,
             slot_to_tri: bvh.primitive_indices.clone(),
@@ -364,6 +377,7 @@ impl SceneBuilder {
             options: ShadeOptions::default(),
             eps: (extent * 1e-5).max(1e-6),
             bounds: (lo.to_array(), hi.to_array()),
+            degenerate,
         })
     }
 }
@@ -382,6 +396,7 @@ pub struct Scene {
     /// Offset of secondary ray origins along the normal (scene-size relative).
     eps: f32,
     bounds: ([f32; 3], [f32; 3]),
+    degenerate: usize,
 }
 
 /// A hit: BVH slot, distance, barycentrics.
@@ -403,8 +418,18 @@ impl Scene {
         load::load_bytes(name, bytes)
     }
 
+    /// A scene from OBJ text in memory and, optionally, the text of its MTL file.
+    pub fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Result<Scene> {
+        load::load_obj_bytes(name, obj, mtl)
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.info.len()
+    }
+
+    /// Triangles of zero area (kept, never hit; reported by the front ends).
+    pub fn degenerate_count(&self) -> usize {
+        self.degenerate
     }
 
     /// The axis-aligned bounds of the geometry (min, max).
