@@ -198,3 +198,11 @@ def test_degenerate_triangles_reported(tmp_path):
     assert r.returncode == 0, r.stderr
     import json
     assert json.loads(r.stdout)["degenerate_triangles"] == 2
+
+
+def test_pixel_limit_from_the_environment(tmp_path):
+    import os
+    env = dict(os.environ, SPHEREMAP_MAX_PIXELS="1000")
+    r = subprocess.run([sys.executable, "-m", "spheremap", "info", "testdata/apartment.exr"],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 2 and "over the limit" in r.stderr and "1000 pixels" in r.stderr

@@ -122,12 +122,18 @@ pub struct Limits {
 }
 
 impl Default for Limits {
-    /// 65,536 on a side and 2²⁸ pixels (4 GiB as float RGBA).
+    /// 65,536 on a side and 2²⁸ pixels (4 GiB as float RGBA); `SPHEREMAP_MAX_PIXELS` (a
+    /// pixel count) overrides the total for every front end.
     fn default() -> Self {
+        let max_pixels = std::env::var("SPHEREMAP_MAX_PIXELS")
+            .ok()
+            .and_then(|s| s.trim().parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or(1 << 28);
         Limits {
             max_width: 1 << 16,
             max_height: 1 << 16,
-            max_pixels: 1 << 28,
+            max_pixels,
         }
     }
 }
