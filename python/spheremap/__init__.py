@@ -332,6 +332,12 @@ def _nonfinite(a: np.ndarray, policy: str, name: str) -> np.ndarray:
                      f"{tuple(int(i) for i in first)}); pass nonfinite='zero' or 'keep'")
 
 
+def _seed(v) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+        raise ValueError(f"seed: expected a non-negative integer, got {v!r}")
+    return int(v)
+
+
 def _max_memory(v):
     if v is None:
         return None
@@ -393,8 +399,7 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
         size = _size_any(size, "size")
     samples = _size_any(samples, "samples")
     max_samples = _size_any(max_samples, "max_samples")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    seed = _seed(seed)
     if look is None and up is not None:
         raise ValueError("up: needs look")
     if look is not None and (yaw, pitch, roll) != (None, None, None):
@@ -580,15 +585,14 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
     size = _size_any(size, "size")
     samples = _size_any(samples, "samples")
     max_samples = _size_any(max_samples, "max_samples")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    seed = _seed(seed)
     if look is None and up is not None:
         raise ValueError("up: needs look")
     p = _vec3(pos, "pos")
     common = (size, mapping, preset, p, _vec3(look, "look"), _vec3(up, "up"), samples, max_samples,
-              filter, outside, int(seed), precision, _max_memory(max_memory))
+              filter, outside, seed, precision, _max_memory(max_memory))
     if isinstance(fire_ray, Scene):
-        out = _ext.generate_scene(fire_ray._inner, *common)
+        out = _ext.generate(fire_ray._inner, 3, *common)
     elif callable(fire_ray):
         def colours(o, d):
             r = np.asarray(fire_ray(o, d), dtype=np.float32)
@@ -599,7 +603,7 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
                                  "expected (K,) or (K, C) with C in 1..4")
             return np.ascontiguousarray(r)
         probe = colours(np.asarray([p], np.float32), np.asarray([[0.0, 0.0, 1.0]], np.float32))
-        out = _ext.generate_callable(colours, probe.shape[1], *common)
+        out = _ext.generate(colours, probe.shape[1], *common)
     else:
         raise TypeError(f"fire_ray: expected a spheremap.Scene or a callable, got {type(fire_ray).__name__}")
     if mapping == "cube":

@@ -1,10 +1,11 @@
 //! `spheremap convert`: any environment mapping to any other (thin layer over
 //! `spheremap::resample` and `spheremap::envio`).
 
+use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{default_size, env_paths, read_env, same_file, write_env};
-use spheremap::image_io::{check_nonfinite, NonFinite, ReadOptions, WriteOptions};
+use spheremap::image_io::{check_nonfinite, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::resample::{
     resample, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
@@ -87,33 +88,8 @@ pub struct Args {
     /// Read/write LDR files as linear values (no sRGB transfer).
     #[arg(long)]
     linear: bool,
-    /// EXR output as half floats.
-    #[arg(long)]
-    half: bool,
-    /// 16-bit PNG output.
-    #[arg(long)]
-    png16: bool,
-    /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
-    /// $SPHEREMAP_MAX_MEMORY or 16G).
-    #[arg(long)]
-    max_memory: Option<String>,
-    /// NaN/Inf values in the input: error (default; names the count and the first pixel),
-    /// zero (replace them with 0) or keep.
-    #[arg(long, default_value = "error")]
-    nonfinite: String,
-    /// Allow the output to overwrite an input file.
-    #[arg(long)]
-    force: bool,
-    /// No progress bar.
-    #[arg(long, short)]
-    quiet: bool,
-    /// Print a JSON summary.
-    #[arg(long)]
-    json: bool,
-}
-
-fn vec3(v: &Option<Vec<f64>>) -> Option<[f64; 3]> {
-    v.as_ref().map(|v| [v[0], v[1], v[2]])
+    #[command(flatten)]
+    job: crate::job::JobFlags,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -121,11 +97,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
     let from_layout = a.from_layout.as_deref().map(Layout::parse).transpose()?;
-    let precision = match a.precision.as_str() {
-        "f32" => Precision::F32,
-        "f64" => Precision::F64,
-        p => bail!("precision: unknown value {p:?}; expected f32 or f64"),
-    };
+    let precision = Precision::parse(&a.precision)?;
     let ypr = (a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some()).then(|| {
         [
             a.yaw.unwrap_or(0.0),
@@ -144,7 +116,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let outs = env_paths(&a.output);
     for i in env_paths(&a.input) {
         for o in &outs {
-            if !a.force && same_file(Path::new(&i), Path::new(o)) {
+            if !a.job.force && same_file(Path::new(&i), Path::new(o)) {
                 bail!("{o}: the output would overwrite the input (use --force to allow)");
             }
         }
@@ -153,8 +125,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         linear: a.linear,
         ..Default::default()
     };
-    let nonfinite = NonFinite::parse(&a.nonfinite)?;
-    let max_memory = crate::max_memory(&a.max_memory)?;
+    let nonfinite = a.job.nonfinite()?;
+    let max_memory = a.job.max_memory()?;
     let mut img = read_env(&a.input, src, from_layout, &ropts)?;
     check_nonfinite(&mut img, nonfinite, &a.input)?;
     let env = EnvMap::new(src, &img, &a.input)?;
@@ -180,17 +152,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let progress = Progress::default();
     let (out, report) = std::thread::scope(|s| {
         let work = s.spawn(|| resample(&env, dst, w, h, &opts, Some(&progress)));
-        crate::progress::watch(&progress, &work, !a.quiet && !a.json, "converting");
+        crate::progress::watch(&progress, &work, a.job.show_progress(), "converting");
         work.join().expect("the conversion thread panicked")
     })?;
     let seconds = t0.elapsed().as_secs_f64();
-    let wopts = WriteOptions {
-        linear: a.linear,
-        png16: a.png16,
-        half: a.half,
-    };
+    let wopts = a.job.write_options(a.linear);
     let written = write_env(&a.output, dst, &out, layout, &wopts)?;
-    if a.json {
+    if a.job.json {
         let v = serde_json::json!({
             "input": a.input, "output": written,
             "from": src.name(), "from_preset": src.preset_name(),
@@ -201,7 +169,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "seconds": seconds,
         });
         crate::out(&format!("{v}\n"));
-    } else if !a.quiet {
+    } else if !a.job.quiet {
         eprintln!(
             "{} ({} {}) -> {} ({} {}, {w}x{h}): {:.1} lookups/texel, {:.3} s",
             a.input,

@@ -1,11 +1,12 @@
 //! `spheremap generate`: sphere maps (or any mapping) by ray tracing a scene, or by firing rays
 //! into an environment map (thin layer over `spheremap::generate` and `spheremap::scene`).
 
+use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{env_paths, read_env, same_file, write_env};
 use spheremap::generate::{generate, EnvSource, GenerateOptions, GenerateReport, RaySource};
-use spheremap::image_io::{check_nonfinite, Image, NonFinite, ReadOptions, WriteOptions};
+use spheremap::image_io::{check_nonfinite, Image, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::resample::{EnvMap, Filter, Outside, Precision, Progress, IDENTITY};
 use spheremap::scene::{self, Environment, Light, Scene, Shading};
@@ -102,33 +103,8 @@ pub struct Args {
     /// Output file (.exr .hdr .pfm .png .jpg), or a {face} pattern with --to cube.
     #[arg(short = 'o', long)]
     output: String,
-    /// EXR output as half floats.
-    #[arg(long)]
-    half: bool,
-    /// 16-bit PNG output.
-    #[arg(long)]
-    png16: bool,
-    /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
-    /// $SPHEREMAP_MAX_MEMORY or 16G).
-    #[arg(long)]
-    max_memory: Option<String>,
-    /// NaN/Inf values in --env: error (default; names the count and the first pixel),
-    /// zero (replace them with 0) or keep.
-    #[arg(long, default_value = "error")]
-    nonfinite: String,
-    /// Allow the output to overwrite an input file.
-    #[arg(long)]
-    force: bool,
-    /// No progress bar.
-    #[arg(long, short)]
-    quiet: bool,
-    /// Print a JSON summary.
-    #[arg(long)]
-    json: bool,
-}
-
-fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
-    v.as_ref().map(|v| [v[0], v[1], v[2]])
+    #[command(flatten)]
+    job: crate::job::JobFlags,
 }
 
 /// Loads --scene (a file or builtin:NAME).
@@ -146,11 +122,7 @@ fn load_scene(name: &str) -> anyhow::Result<Scene> {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
-    let precision = match a.precision.as_str() {
-        "f32" => Precision::F32,
-        "f64" => Precision::F64,
-        p => bail!("precision: unknown value {p:?}; expected f32 or f64"),
-    };
+    let precision = Precision::parse(&a.precision)?;
     let shading = match a.shading.as_str() {
         "full" => Shading::Full,
         "emission" => Shading::Emission,
@@ -171,7 +143,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     for o in env_paths(&a.output) {
         for i in &inputs {
-            if !a.force && same_file(Path::new(i), Path::new(&o)) {
+            if !a.job.force && same_file(Path::new(i), Path::new(&o)) {
                 bail!("{o}: the output would overwrite the input (use --force to allow)");
             }
         }
@@ -182,7 +154,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .context("--env-format/--env-preset")?;
             let l = a.env_layout.as_deref().map(Layout::parse).transpose()?;
             let mut img = read_env(e, m, l, &ReadOptions::default())?;
-            check_nonfinite(&mut img, NonFinite::parse(&a.nonfinite)?, e)?;
+            check_nonfinite(&mut img, a.job.nonfinite()?, e)?;
             EnvMap::new(m, &img, e)?;
             Some((img, m))
         }
@@ -248,14 +220,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pos,
         seed: a.seed,
         precision,
-        max_memory: crate::max_memory(&a.max_memory)?,
+        max_memory: a.job.max_memory()?,
     };
-    let wopts = WriteOptions {
-        linear: false,
-        png16: a.png16,
-        half: a.half,
-    };
-    let show = !a.quiet && !a.json;
+    let wopts = a.job.write_options(false);
+    let show = a.job.show_progress();
     let t0 = Instant::now();
     let (w, h) = dst.canvas(a.size);
     let (out, report) = run_generate(dst, w, h, source, &opts, show, "ray tracing")?;
@@ -310,7 +278,7 @@ fn summary(
     scene: Option<&Scene>,
 ) {
     let rays_per_texel = r.rays as f64 / r.texels.max(1) as f64;
-    if a.json {
+    if a.job.json {
         let v = serde_json::json!({
             "scene": a.scene, "env": a.env, "output": written,
             "to": dst.name(), "preset": dst.preset_name(),
@@ -324,7 +292,7 @@ fn summary(
             "seconds": seconds, "rays_per_second": r.rays as f64 / seconds.max(1e-9),
         });
         crate::out(&format!("{v}\n"));
-    } else if !a.quiet {
+    } else if !a.job.quiet {
         if let Some(n) = scene.map(|s| s.degenerate_count()).filter(|&n| n > 0) {
             eprintln!("note: {n} degenerate (zero-area) triangles in the scene are ignored");
         }

@@ -12,6 +12,7 @@ mod cmd_demo;
 mod cmd_generate;
 mod cmd_info;
 mod cmd_texgen;
+mod job;
 pub mod progress;
 
 use clap::{Parser, Subcommand};
@@ -125,13 +126,3 @@ impl std::fmt::Display for FoundProblem {
 }
 
 impl std::error::Error for FoundProblem {}
-
-/// `--max-memory` (None: the core's default).
-pub(crate) fn max_memory(flag: &Option<String>) -> anyhow::Result<u64> {
-    match flag {
-        None => Ok(spheremap::error::default_max_memory()),
-        Some(s) => spheremap::error::parse_bytes(s).ok_or_else(|| {
-            anyhow::anyhow!("max-memory: cannot read {s:?}; expected bytes or a size like 512M, 8G")
-        }),
-    }
-}

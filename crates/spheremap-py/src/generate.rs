@@ -277,15 +277,7 @@ fn options(
         pos,
         seed,
         max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
-        precision: match precision {
-            "f32" => rs::Precision::F32,
-            "f64" => rs::Precision::F64,
-            p => {
-                return Err(PyValueError::new_err(format!(
-                    "precision: unknown value {p:?}; expected 'f32' or 'f64'"
-                )))
-            }
-        },
+        precision: rs::Precision::parse(precision).map_err(to_py)?,
     })
 }
 
@@ -313,49 +305,14 @@ fn run<'py>(
         .into_any())
 }
 
+/// Generates with `source`: a `Scene` (traced natively) or a callable with `channels` outputs.
 #[pyfunction]
-#[pyo3(signature = (scene, size, mapping, preset, pos, look, up, samples, max_samples, filter,
-                    outside, seed, precision, max_memory=None))]
-#[allow(clippy::too_many_arguments)]
-pub fn generate_scene<'py>(
-    py: Python<'py>,
-    scene: PyRef<'py, Scene>,
-    size: usize,
-    mapping: &str,
-    preset: Option<&str>,
-    pos: [f32; 3],
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    samples: u32,
-    max_samples: u32,
-    filter: &str,
-    outside: &str,
-    seed: u64,
-    precision: &str,
-    max_memory: Option<u64>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let opts = options(
-        look,
-        up,
-        pos,
-        samples,
-        max_samples,
-        filter,
-        outside,
-        seed,
-        precision,
-        max_memory,
-    )?;
-    run(py, mapping, preset, size, &scene.inner, &opts)
-}
-
-#[pyfunction]
-#[pyo3(signature = (fire_ray, channels, size, mapping, preset, pos, look, up, samples,
+#[pyo3(signature = (source, channels, size, mapping, preset, pos, look, up, samples,
                     max_samples, filter, outside, seed, precision, max_memory=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn generate_callable<'py>(
+pub fn generate<'py>(
     py: Python<'py>,
-    fire_ray: Py<PyAny>,
+    source: Bound<'py, PyAny>,
     channels: usize,
     size: usize,
     mapping: &str,
@@ -383,14 +340,17 @@ pub fn generate_callable<'py>(
         precision,
         max_memory,
     )?;
-    let source = CallableSource {
-        f: fire_ray,
+    if let Ok(scene) = source.cast::<Scene>() {
+        return run(py, mapping, preset, size, &scene.borrow().inner, &opts);
+    }
+    let callable = CallableSource {
+        f: source.unbind(),
         channels,
         error: Mutex::new(None),
     };
-    let r = run(py, mapping, preset, size, &source, &opts);
+    let r = run(py, mapping, preset, size, &callable, &opts);
     // The callable's own exception, not its message wrapped.
-    if let Some(e) = source
+    if let Some(e) = callable
         .error
         .lock()
         .unwrap_or_else(|p| p.into_inner())

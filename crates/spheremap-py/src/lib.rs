@@ -482,15 +482,7 @@ fn convert<'py>(
             .map_err(to_py)?,
         seed,
         max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
-        precision: match precision {
-            "f32" => rs::Precision::F32,
-            "f64" => rs::Precision::F64,
-            p => {
-                return Err(PyValueError::new_err(format!(
-                    "precision: unknown value {p:?}; expected 'f32' or 'f64'"
-                )))
-            }
-        },
+        precision: rs::Precision::parse(precision).map_err(to_py)?,
     };
     let (dw, dh) = dm.canvas(n);
     let progress = Progress::default();
@@ -710,7 +702,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
     m.add_class::<generate::Scene>()?;
-    m.add_function(wrap_pyfunction!(generate::generate_scene, m)?)?;
-    m.add_function(wrap_pyfunction!(generate::generate_callable, m)?)?;
+    m.add_function(wrap_pyfunction!(generate::generate, m)?)?;
     Ok(())
 }

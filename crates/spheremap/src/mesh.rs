@@ -58,7 +58,7 @@ pub fn parse_obj(name: &str, text: &str) -> Result<Mesh> {
     Ok(mesh)
 }
 
-fn looks_like_obj(bytes: &[u8]) -> bool {
+pub(crate) fn looks_like_obj(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
     std::str::from_utf8(head)
         .map(|s| {
@@ -68,7 +68,7 @@ fn looks_like_obj(bytes: &[u8]) -> bool {
         .unwrap_or(false)
 }
 
-fn obj_options() -> tobj::LoadOptions {
+pub(crate) fn obj_options() -> tobj::LoadOptions {
     tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -77,12 +77,24 @@ fn obj_options() -> tobj::LoadOptions {
     }
 }
 
-fn load_obj(path: &Path) -> Result<Mesh> {
-    // tobj panics on some malformed MTL lines ("Kd 1 2"): guarded.
-    let (models, _materials) = crate::error::guard_parser(path, "OBJ/MTL", || {
+/// What tobj reads from an OBJ file and its MTL files (the materials' own error kept apart:
+/// a missing MTL is the caller's call).
+pub(crate) type ObjContents = (
+    Vec<tobj::Model>,
+    std::result::Result<Vec<tobj::Material>, tobj::LoadError>,
+);
+
+/// Reads an OBJ file (and its MTL files) with tobj, which panics on some malformed MTL lines
+/// ("Kd 1 2", found by the fuzzer): guarded.
+pub(crate) fn read_obj_file(path: &Path) -> Result<ObjContents> {
+    crate::error::guard_parser(path, "OBJ/MTL", || {
         tobj::load_obj(path, &obj_options())
             .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))
-    })?;
+    })
+}
+
+fn load_obj(path: &Path) -> Result<Mesh> {
+    let (models, _materials) = read_obj_file(path)?;
     from_obj_models(&path.display().to_string(), models)
 }
 
@@ -121,24 +133,39 @@ fn from_obj_models(name: &str, models: Vec<tobj::Model>) -> Result<Mesh> {
     Ok(mesh)
 }
 
-fn load_gltf(path: &Path) -> Result<Mesh> {
-    let (doc, buffers, _images) =
-        gltf::import(path).map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
-    let mut mesh = Mesh::default();
-    let mut all_have_normals = true;
+/// Every node of the default scene (or of the first, or all nodes when there is none) with
+/// its world transform.  Node graphs are trees by the glTF spec; each node is visited once, so
+/// a malformed file with a cycle or a shared child cannot make this loop or explode.
+pub(crate) fn gltf_world_nodes(doc: &gltf::Document) -> Vec<(gltf::Node<'_>, glam::Mat4)> {
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => doc.nodes().collect(),
     };
+    let mut seen = vec![false; doc.nodes().len()];
+    let mut out = Vec::new();
     let mut stack: Vec<(gltf::Node, glam::Mat4)> = roots
         .into_iter()
         .map(|n| (n, glam::Mat4::IDENTITY))
         .collect();
     while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            continue;
+        }
         let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
         for child in node.children() {
             stack.push((child, world));
         }
+        out.push((node, world));
+    }
+    out
+}
+
+fn load_gltf(path: &Path) -> Result<Mesh> {
+    let (doc, buffers, _images) =
+        gltf::import(path).map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    let mut mesh = Mesh::default();
+    let mut all_have_normals = true;
+    for (node, world) in gltf_world_nodes(&doc) {
         let Some(m) = node.mesh() else { continue };
         let nmat = glam::Mat3::from_mat4(world).inverse().transpose();
         for prim in m.primitives() {

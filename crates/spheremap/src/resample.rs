@@ -143,6 +143,19 @@ pub enum Precision {
     F64,
 }
 
+impl Precision {
+    pub fn parse(name: &str) -> Result<Precision> {
+        match name {
+            "f32" => Ok(Precision::F32),
+            "f64" => Ok(Precision::F64),
+            other => Err(Error::param(
+                "precision",
+                format!("unknown value {other:?}; expected f32 or f64"),
+            )),
+        }
+    }
+}
+
 /// Options of [`resample`].
 #[derive(Clone, Copy, Debug)]
 pub struct ResampleOptions {

@@ -29,7 +29,7 @@ pub(super) fn load(path: &Path) -> Result<Scene> {
     let b = if bytes.starts_with(b"glTF") || json || ext == "gltf" || ext == "glb" {
         precheck_gltf(path, &bytes)?;
         crate::error::guard_parser(path, "glTF", || load_gltf(path))?
-    } else if ext == "obj" || looks_like_obj(&bytes) {
+    } else if ext == "obj" || crate::mesh::looks_like_obj(&bytes) {
         load_obj(path)?
     } else {
         return Err(Error::unsupported(
@@ -38,16 +38,6 @@ pub(super) fn load(path: &Path) -> Result<Scene> {
         ));
     };
     b.build(Environment::Constant([0.0; 3]), &path.display().to_string())
-}
-
-fn looks_like_obj(bytes: &[u8]) -> bool {
-    let head = &bytes[..bytes.len().min(4096)];
-    std::str::from_utf8(head)
-        .map(|s| {
-            s.lines()
-                .any(|l| l.starts_with("v ") || l.starts_with("f "))
-        })
-        .unwrap_or(false)
 }
 
 /// A scene from bytes in memory (glTF JSON with embedded data: URIs, GLB, or OBJ without
@@ -72,7 +62,7 @@ pub(super) fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
 pub(super) fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Result<Scene> {
     let mut reader = std::io::Cursor::new(obj);
     let (models, materials) = crate::error::guard_parser(Path::new(name), "OBJ/MTL", || {
-        tobj::load_obj_buf(&mut reader, &obj_options(), |_| match mtl {
+        tobj::load_obj_buf(&mut reader, &crate::mesh::obj_options(), |_| match mtl {
             Some(m) => tobj::load_mtl_buf(&mut std::io::Cursor::new(m)),
             None => Err(tobj::LoadError::OpenFileFailed),
         })
@@ -146,21 +136,8 @@ pub(crate) fn precheck_gltf(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-fn obj_options() -> tobj::LoadOptions {
-    tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-    }
-}
-
 fn load_obj(path: &Path) -> Result<SceneBuilder> {
-    // tobj panics on some malformed MTL lines ("Kd 1 2", found by the fuzzer): guarded.
-    let (models, materials) = crate::error::guard_parser(path, "OBJ/MTL", || {
-        tobj::load_obj(path, &obj_options())
-            .map_err(|e| Error::data(path, format!("cannot read OBJ: {e}")))
-    })?;
+    let (models, materials) = crate::mesh::read_obj_file(path)?;
     let mtls = match materials {
         Ok(m) => m,
         // tobj reports a file without mtllib as an error too.
@@ -303,19 +280,7 @@ fn from_gltf(
             mirror: if mirror { rgb } else { [0.0; 3] },
         }));
     }
-    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        None => doc.nodes().collect(),
-    };
-    let mut stack: Vec<(gltf::Node, glam::Mat4)> = roots
-        .into_iter()
-        .map(|n| (n, glam::Mat4::IDENTITY))
-        .collect();
-    while let Some((node, parent)) = stack.pop() {
-        let world = parent * glam::Mat4::from_cols_array_2d(&node.transform().matrix());
-        for child in node.children() {
-            stack.push((child, world));
-        }
+    for (node, world) in crate::mesh::gltf_world_nodes(&doc) {
         if let Some(light) = node.light() {
             let c = light.color().map(|v| v * light.intensity());
             b.add_light(match light.kind() {

@@ -1,0 +1,67 @@
+//! Flags shared by the commands that make a map (`convert`, `generate`): output encoding,
+//! limits, NaN policy, overwrite, progress and summary.
+
+use spheremap::image_io::{NonFinite, WriteOptions};
+
+#[derive(clap::Args, Debug)]
+pub struct JobFlags {
+    /// EXR output as half floats.
+    #[arg(long)]
+    pub half: bool,
+    /// 16-bit PNG output.
+    #[arg(long)]
+    pub png16: bool,
+    /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
+    /// $SPHEREMAP_MAX_MEMORY or 16G).
+    #[arg(long)]
+    pub max_memory: Option<String>,
+    /// NaN/Inf values in input images: error (default; names the count and the first pixel),
+    /// zero (replace them with 0) or keep.
+    #[arg(long, default_value = "error")]
+    pub nonfinite: String,
+    /// Allow the output to overwrite an input file.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Print a JSON summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl JobFlags {
+    pub fn write_options(&self, linear: bool) -> WriteOptions {
+        WriteOptions {
+            linear,
+            png16: self.png16,
+            half: self.half,
+        }
+    }
+
+    /// `--max-memory` (absent: the core's default).
+    pub fn max_memory(&self) -> anyhow::Result<u64> {
+        match &self.max_memory {
+            None => Ok(spheremap::error::default_max_memory()),
+            Some(s) => spheremap::error::parse_bytes(s).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "max-memory: cannot read {s:?}; expected bytes or a size like 512M, 8G"
+                )
+            }),
+        }
+    }
+
+    pub fn nonfinite(&self) -> anyhow::Result<NonFinite> {
+        Ok(NonFinite::parse(&self.nonfinite)?)
+    }
+
+    /// Whether to show a progress bar.
+    pub fn show_progress(&self) -> bool {
+        !self.quiet && !self.json
+    }
+}
+
+/// A `num_args = 3` flag as an array.
+pub fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
+    v.as_ref().map(|v| [v[0], v[1], v[2]])
+}
