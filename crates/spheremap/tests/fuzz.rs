@@ -38,6 +38,39 @@ impl Rng {
     }
 }
 
+const NUMBERS: &[&str] = &[
+    "0",
+    "1",
+    "2",
+    "3",
+    "4",
+    "5",
+    "6",
+    "7",
+    "8",
+    "12",
+    "36",
+    "42",
+    "255",
+    "5120",
+    "5121",
+    "5122",
+    "5123",
+    "5125",
+    "5126",
+    "34962",
+    "34963",
+    "65535",
+    "65536",
+    "2147483647",
+    "4294967295",
+    "18446744073709551615",
+    "1e9",
+    "0.5",
+    "1e38",
+    "99999999999",
+];
+
 const TOKENS: &[&str] = &[
     "nan",
     "inf",
@@ -77,11 +110,26 @@ const TOKENS: &[&str] = &[
     "latlong",
 ];
 
-fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
+/// How a target's inputs are mutated.
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    Binary,
+    Text,
+    /// Mostly number swaps, which keep JSON valid so the reader goes past the parser.
+    Json,
+}
+
+fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], mode: Mode) -> Vec<u8> {
     let mut d = seeds[rng.below(seeds.len())].clone();
+    let numbers_only = mode == Mode::Json && rng.below(4) != 0;
     for _ in 0..1 + rng.below(4) {
         let n = d.len();
-        match rng.below(if text { 10 } else { 9 }) {
+        let op = match mode {
+            _ if numbers_only => 10,
+            Mode::Binary => rng.below(9),
+            _ => rng.below(12),
+        };
+        match op {
             0 if n > 0 => {
                 let i = rng.below(n);
                 d[i] ^= 1 << rng.below(8);
@@ -145,6 +193,16 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
                 let t = TOKENS[rng.below(TOKENS.len())].as_bytes().to_vec();
                 d.splice(i..i, t);
             }
+            // Structure-preserving: replace a number with another (indices, counts, offsets
+            // and sizes of a glTF stay syntactically valid, so the reader goes deep).
+            10 | 11 if n > 0 => {
+                let start = rng.below(n);
+                if let Some(a) = (start..n).find(|&k| d[k].is_ascii_digit()) {
+                    let b = (a..n).find(|&k| !d[k].is_ascii_digit()).unwrap_or(n);
+                    let v = NUMBERS[rng.below(NUMBERS.len())].as_bytes().to_vec();
+                    d.splice(a..b, v);
+                }
+            }
             _ => {}
         }
     }
@@ -153,7 +211,7 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], text: bool) -> Vec<u8> {
 
 struct Target {
     name: &'static str,
-    text: bool,
+    mode: Mode,
     seeds: Vec<Vec<u8>>,
     run: fn(&[u8]),
 }
@@ -193,7 +251,7 @@ fn fuzz(t: &Target, budget: Duration, seed: u64) -> (u64, Vec<String>) {
         let data = if i < seeds.len() {
             seeds[i].clone()
         } else {
-            mutate(&mut rng, &seeds, t.text)
+            mutate(&mut rng, &seeds, t.mode)
         };
         i += 1;
         let t0 = Instant::now();
@@ -347,13 +405,13 @@ fn targets() -> Vec<Target> {
     vec![
         Target {
             name: "image",
-            text: false,
+            mode: Mode::Binary,
             seeds: image_seeds(),
             run: run_image,
         },
         Target {
             name: "obj",
-            text: true,
+            mode: Mode::Text,
             seeds: vec![
                 OBJ_SEED.as_bytes().to_vec(),
                 format!("mtllib m.mtl\n{OBJ_SEED}\n#MTL\n{MTL_SEED}").into_bytes(),
@@ -362,13 +420,13 @@ fn targets() -> Vec<Target> {
         },
         Target {
             name: "gltf",
-            text: true,
+            mode: Mode::Json,
             seeds: vec![GLTF_SEED.as_bytes().to_vec()],
             run: run_gltf,
         },
         Target {
             name: "text",
-            text: true,
+            mode: Mode::Text,
             seeds: [
                 "identity",
                 "1 0 0 0, 0 1 0 0, 0 0 1 0, 0 0 0 1",
