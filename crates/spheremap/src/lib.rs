@@ -25,6 +25,7 @@ pub mod cube;
 pub mod demo;
 pub mod envio;
 pub mod error;
+pub mod fisheye;
 pub mod generate;
 pub mod image_io;
 pub mod io;
