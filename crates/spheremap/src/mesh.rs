@@ -160,6 +160,56 @@ pub(crate) fn gltf_world_nodes(doc: &gltf::Document) -> Vec<(gltf::Node<'_>, gla
     out
 }
 
+/// One triangle primitive of a glTF mesh, in world space (normals by the inverse transpose);
+/// normals and texture coordinates only when the file gives one per vertex.
+pub(crate) struct GltfPrimitive {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Option<Vec<[f32; 3]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Reads a primitive placed by `world`; `None` for non-triangle primitives or ones without
+/// positions; an error for an index out of range.
+pub(crate) fn read_gltf_primitive(
+    path: &Path,
+    prim: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    world: glam::Mat4,
+) -> Result<Option<GltfPrimitive>> {
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        return Ok(None);
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let Some(pos) = reader.read_positions() else {
+        return Ok(None);
+    };
+    let positions: Vec<[f32; 3]> = pos
+        .map(|p| world.transform_point3(p.into()).to_array())
+        .collect();
+    let nv = positions.len();
+    let nmat = glam::Mat3::from_mat4(world).inverse().transpose();
+    let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|ns| {
+        ns.map(|n| (nmat * glam::Vec3::from(n)).normalize_or_zero().to_array())
+            .collect()
+    });
+    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+    let idx: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..nv as u32).collect(),
+    };
+    let triangles: Vec<[u32; 3]> = idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    if triangles.iter().flatten().any(|&i| i as usize >= nv) {
+        return Err(Error::data(path, "glTF index out of range"));
+    }
+    Ok(Some(GltfPrimitive {
+        normals: normals.filter(|n| n.len() == nv),
+        uvs: uvs.filter(|u| u.len() == nv),
+        positions,
+        triangles,
+    }))
+}
+
 fn load_gltf(path: &Path) -> Result<Mesh> {
     let (doc, buffers, _images) =
         gltf::import(path).map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
@@ -167,40 +217,18 @@ fn load_gltf(path: &Path) -> Result<Mesh> {
     let mut all_have_normals = true;
     for (node, world) in gltf_world_nodes(&doc) {
         let Some(m) = node.mesh() else { continue };
-        let nmat = glam::Mat3::from_mat4(world).inverse().transpose();
         for prim in m.primitives() {
-            if prim.mode() != gltf::mesh::Mode::Triangles {
-                continue;
-            }
-            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let Some(pos) = reader.read_positions() else {
+            let Some(p) = read_gltf_primitive(path, &prim, &buffers, world)? else {
                 continue;
             };
             let base = mesh.positions.len() as u32;
-            let pos: Vec<[f32; 3]> = pos
-                .map(|p| world.transform_point3(p.into()).into())
-                .collect();
-            let nv = pos.len();
-            match reader.read_normals() {
-                Some(ns) => {
-                    mesh.normals.extend(ns.map(|n| {
-                        <[f32; 3]>::from((nmat * glam::Vec3::from(n)).normalize_or_zero())
-                    }))
-                }
+            match p.normals {
+                Some(ns) => mesh.normals.extend(ns),
                 None => all_have_normals = false,
             }
-            mesh.positions.extend(pos);
-            let idx: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..nv as u32).collect(),
-            };
-            for tri in idx.chunks_exact(3) {
-                if tri.iter().any(|&i| i as usize >= nv) {
-                    return Err(Error::data(path, "glTF index out of range"));
-                }
-                mesh.triangles
-                    .push([base + tri[0], base + tri[1], base + tri[2]]);
-            }
+            mesh.positions.extend(p.positions);
+            mesh.triangles
+                .extend(p.triangles.iter().map(|t| t.map(|i| base + i)));
         }
     }
     if all_have_normals && mesh.normals.len() == mesh.positions.len() && !mesh.positions.is_empty()

@@ -298,41 +298,22 @@ fn from_gltf(
             });
         }
         let Some(mesh) = node.mesh() else { continue };
-        let nmat = glam::Mat3::from_mat4(world).inverse().transpose();
         for prim in mesh.primitives() {
-            if prim.mode() != gltf::mesh::Mode::Triangles {
-                continue;
-            }
-            let reader = prim.reader(|bf| buffers.get(bf.index()).map(|d| &d.0[..]));
-            let Some(pos) = reader.read_positions() else {
+            let Some(p) = crate::mesh::read_gltf_primitive(path, &prim, &buffers, world)? else {
                 continue;
             };
-            let pos: Vec<[f32; 3]> = pos
-                .map(|p| world.transform_point3(p.into()).to_array())
-                .collect();
-            let nv = pos.len();
-            let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|ns| {
-                ns.map(|n| (nmat * glam::Vec3::from(n)).normalize_or_zero().to_array())
-                    .collect()
-            });
-            let uvs: Option<Vec<[f32; 2]>> =
-                reader.read_tex_coords(0).map(|t| t.into_f32().collect());
-            let idx: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..nv as u32).collect(),
-            };
-            let tris: Vec<[u32; 3]> = idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-            if tris.iter().flatten().any(|&i| i as usize >= nv) {
-                return Err(Error::data(path, "glTF index out of range"));
-            }
             let mat = prim
                 .material()
                 .index()
                 .and_then(|i| ids.get(i).copied())
                 .unwrap_or(default);
-            let normals = normals.filter(|n| n.len() == nv);
-            let uvs = uvs.filter(|u| u.len() == nv);
-            b.add_mesh(&pos, normals.as_deref(), uvs.as_deref(), &tris, mat);
+            b.add_mesh(
+                &p.positions,
+                p.normals.as_deref(),
+                p.uvs.as_deref(),
+                &p.triangles,
+                mat,
+            );
         }
     }
     Ok(b)
