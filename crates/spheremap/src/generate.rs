@@ -117,6 +117,9 @@ impl RaySource for EnvSource<'_> {
     }
 }
 
+/// The most values a ray source may return per ray.
+pub const MAX_CHANNELS: usize = 8;
+
 /// Options of [`generate`].
 #[derive(Clone, Copy, Debug)]
 pub struct GenerateOptions {
@@ -187,10 +190,10 @@ pub fn generate(
         }
     }
     let c = source.channels();
-    if !(1..=4).contains(&c) {
+    if !(1..=MAX_CHANNELS).contains(&c) {
         return Err(Error::param(
             "fire_ray",
-            format!("returns {c} channels; 1 to 4 are supported"),
+            format!("returns {c} channels; 1 to {MAX_CHANNELS} are supported"),
         ));
     }
     if opts.pos.iter().any(|v| !v.is_finite()) {
@@ -241,7 +244,7 @@ pub fn row_spans(mapping: Mapping, w: usize, h: usize, y: usize) -> Vec<(usize, 
 }
 
 /// Whether the texel centre lies on the map (inside the disc for disc mappings).
-fn centre_on_map(m: Mapping, w: usize, h: usize, x: usize, y: usize) -> bool {
+pub(crate) fn centre_on_map(m: Mapping, w: usize, h: usize, x: usize, y: usize) -> bool {
     m.uv_to_dir([(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64])
         .is_some()
 }
@@ -426,7 +429,7 @@ fn footprint_strata<T: Real>(
 
 /// Texels wholly off a disc mapping (never traced): the engine's gutter — the value at the
 /// radially mirrored canvas point, looked up bilinearly in the finished map — or 0.
-fn fill_outside(m: Mapping, out: &mut Image, outside: Outside, centres_only: bool) {
+pub(crate) fn fill_outside(m: Mapping, out: &mut Image, outside: Outside, centres_only: bool) {
     let (w, h, c) = (out.width, out.height, out.channels);
     let traced: Vec<bool> = (0..h)
         .flat_map(|y| {

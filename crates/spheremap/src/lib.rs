@@ -19,6 +19,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod angular;
+pub mod camera;
 pub mod chart;
 pub mod conventions;
 pub mod cube;
@@ -36,6 +37,7 @@ pub mod mesh;
 pub mod octahedral;
 pub mod paraboloid;
 pub mod parse;
+pub mod photo;
 mod quad;
 pub mod real;
 pub mod resample;

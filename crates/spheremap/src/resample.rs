@@ -256,7 +256,11 @@ impl<'a> Sampler<'a> {
             1 => self.put::<1>(p, out),
             2 => self.put::<2>(p, out),
             3 => self.put::<3>(p, out),
-            _ => self.put::<4>(p, out),
+            4 => self.put::<4>(p, out),
+            5 => self.put::<5>(p, out),
+            6 => self.put::<6>(p, out),
+            7 => self.put::<7>(p, out),
+            _ => self.put::<8>(p, out),
         }
     }
 

@@ -211,10 +211,43 @@ pub struct TriangleInput {
     pub material: u32,
 }
 
+/// An analytic sphere (exact, unlike a tessellated one: a mirror ball for photo tests, a
+/// camera body that occludes).  Its shading normal is the true normal; it has no texture
+/// coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub centre: [f32; 3],
+    pub radius: f32,
+    pub material: u32,
+}
+
+impl Sphere {
+    /// The nearest positive distance along the unit ray `o + t d` (`INFINITY` on a miss).
+    /// Uses the geometric form (`h` = the ray's closest approach) which keeps its precision
+    /// when the sphere is far from the origin of the ray.
+    fn intersect(&self, o: Vec3A, d: Vec3A, tmax: f32) -> f32 {
+        let oc = o - Vec3A::from(self.centre);
+        let b = oc.dot(d);
+        let h = oc - d * b;
+        let disc = self.radius * self.radius - h.length_squared();
+        if disc < 0.0 {
+            return f32::INFINITY;
+        }
+        let q = disc.sqrt();
+        for t in [-b - q, -b + q] {
+            if t > 0.0 && t < tmax {
+                return t;
+            }
+        }
+        f32::INFINITY
+    }
+}
+
 /// Collects geometry, materials, textures and lights; [`SceneBuilder::build`] makes the BVH.
 #[derive(Clone, Debug, Default)]
 pub struct SceneBuilder {
     tris: Vec<TriangleInput>,
+    spheres: Vec<Sphere>,
     pub materials: Vec<Material>,
     pub textures: Vec<Image>,
     pub lights: Vec<Light>,
@@ -237,6 +270,14 @@ impl SceneBuilder {
     }
     pub fn add_triangle(&mut self, t: TriangleInput) {
         self.tris.push(t);
+    }
+    /// An analytic sphere.
+    pub fn add_sphere(&mut self, centre: [f32; 3], radius: f32, material: u32) {
+        self.spheres.push(Sphere {
+            centre,
+            radius,
+            material,
+        });
     }
     /// An indexed mesh; `normals` and `uvs` per vertex when given.
     pub fn add_mesh(
@@ -263,8 +304,29 @@ impl SceneBuilder {
 
     /// Checks the data and builds the BVH (`what` names the source in errors).
     pub fn build(self, environment: Environment, what: &str) -> Result<Scene> {
-        if self.tris.is_empty() {
+        if self.tris.is_empty() && self.spheres.is_empty() {
             return Err(Error::data(what, "the scene has no triangles"));
+        }
+        for (i, s) in self.spheres.iter().enumerate() {
+            let ok = s.centre.iter().all(|v| v.abs() <= MAX_COORDINATE)
+                && s.radius > 0.0
+                && s.radius <= MAX_COORDINATE;
+            if !ok {
+                return Err(Error::data(
+                    what,
+                    format!("sphere {i}: centre must be finite and radius positive"),
+                ));
+            }
+            if s.material as usize >= self.materials.len() {
+                return Err(Error::data(
+                    what,
+                    format!(
+                        "sphere {i} names material {} of {}",
+                        s.material,
+                        self.materials.len()
+                    ),
+                ));
+            }
         }
         if self.materials.is_empty() {
             return Err(Error::data(what, "the scene has no materials"));
@@ -319,17 +381,29 @@ impl SceneBuilder {
                 }
             })
             .collect();
-        // Any other panic of the builder on strange geometry becomes an error.
-        let bvh = crate::error::guard_parser(std::path::Path::new(what), "scene geometry", || {
-            Ok(obvhs::cwbvh::builder::build_cwbvh_from_tris(
-                &prims,
-                obvhs::BvhBuildParams::medium_build(),
-                &mut std::time::Duration::default(),
-            ))
-        })?;
+        // Any other panic of the builder on strange geometry becomes an error.  A scene of
+        // spheres only has no BVH.
+        let bvh = if prims.is_empty() {
+            None
+        } else {
+            Some(crate::error::guard_parser(
+                std::path::Path::new(what),
+                "scene geometry",
+                || {
+                    Ok(obvhs::cwbvh::builder::build_cwbvh_from_tris(
+                        &prims,
+                        obvhs::BvhBuildParams::medium_build(),
+                        &mut std::time::Duration::default(),
+                    ))
+                },
+            )?)
+        };
+        let order = bvh
+            .as_ref()
+            .map(|b| b.primitive_indices.clone())
+            .unwrap_or_default();
         // Triangles in the BVH's leaf order, so traversal reads them sequentially.
-        let tris = bvh
-            .primitive_indices
+        let tris = order
             .iter()
             .map(|&i| {
                 let t = &prims[i as usize];
@@ -340,6 +414,10 @@ impl SceneBuilder {
         for p in self.tris.iter().flat_map(|t| t.positions) {
             lo = lo.min(Vec3::from(p));
             hi = hi.max(Vec3::from(p));
+        }
+        for s in &self.spheres {
+            lo = lo.min(Vec3::from(s.centre) - s.radius);
+            hi = hi.max(Vec3::from(s.centre) + s.radius);
         }
         let info = self
             .tris
@@ -367,9 +445,10 @@ impl SceneBuilder {
             .count();
         Ok(Scene {
             tris,
-            slot_to_tri: bvh.primitive_indices.clone(),
+            slot_to_tri: order,
             info,
             bvh,
+            spheres: self.spheres,
             materials: self.materials,
             textures: self.textures,
             lights: self.lights,
@@ -387,7 +466,8 @@ pub struct Scene {
     tris: Vec<Tri>,
     slot_to_tri: Vec<u32>,
     info: Vec<TriInfo>,
-    bvh: CwBvh,
+    bvh: Option<CwBvh>,
+    spheres: Vec<Sphere>,
     pub materials: Vec<Material>,
     pub textures: Vec<Image>,
     pub lights: Vec<Light>,
@@ -399,9 +479,18 @@ pub struct Scene {
     degenerate: usize,
 }
 
-/// A hit: BVH slot, distance, barycentrics.
+/// What a ray hit.
+#[derive(Clone, Copy)]
+enum Prim {
+    /// A triangle's BVH slot.
+    Tri(usize),
+    /// An index into `spheres`.
+    Sphere(usize),
+}
+
+/// A hit: the primitive and the distance.
 struct Hit {
-    slot: usize,
+    prim: Prim,
     t: f32,
 }
 
@@ -445,21 +534,73 @@ impl Scene {
     }
 
     fn closest(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<Hit> {
-        let ray = Self::ray(o, d, tmax);
-        let mut hit = RayHit::none();
-        let found = self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r));
-        found.then_some(Hit {
-            slot: hit.primitive_id as usize,
-            t: hit.t,
-        })
+        let mut best: Option<Hit> = None;
+        if let Some(bvh) = &self.bvh {
+            let ray = Self::ray(o, d, tmax);
+            let mut hit = RayHit::none();
+            if bvh.ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r)) {
+                best = Some(Hit {
+                    prim: Prim::Tri(hit.primitive_id as usize),
+                    t: hit.t,
+                });
+            }
+        }
+        // Spheres are few (a ball, a camera): a plain loop.
+        for (i, s) in self.spheres.iter().enumerate() {
+            let t = s.intersect(o, d, best.as_ref().map_or(tmax, |h| h.t));
+            if t.is_finite() {
+                best = Some(Hit {
+                    prim: Prim::Sphere(i),
+                    t,
+                });
+            }
+        }
+        best
     }
 
     fn unoccluded(&self, o: Vec3A, d: Vec3A, tmax: f32) -> bool {
-        let ray = Self::ray(o, d, tmax);
-        self.bvh
-            .ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+        if self
+            .spheres
+            .iter()
+            .any(|s| s.intersect(o, d, tmax).is_finite())
+        {
+            return false;
+        }
+        self.bvh.as_ref().is_none_or(|bvh| {
+            bvh.ray_traverse_miss(Self::ray(o, d, tmax), |r, id| self.tris[id].intersect(r))
+        })
+    }
+
+    fn material_of(&self, prim: Prim) -> &Material {
+        let m = match prim {
+            Prim::Tri(slot) => self.info[self.slot_to_tri[slot] as usize].material,
+            Prim::Sphere(i) => self.spheres[i].material,
+        };
+        &self.materials[m as usize]
+    }
+
+    /// At a hit: the geometric normal, the shading normal (may face either way) and the
+    /// texture coordinates.
+    fn surface(&self, hit: &Hit, o: Vec3A, d: Vec3A) -> (Vec3A, Vec3A, [f32; 2]) {
+        match hit.prim {
+            Prim::Sphere(i) => {
+                let s = &self.spheres[i];
+                let n = ((o + d * hit.t - Vec3A::from(s.centre)) / s.radius).normalize_or_zero();
+                (n, n, [0.0; 2])
+            }
+            Prim::Tri(slot) => {
+                let info = &self.info[self.slot_to_tri[slot] as usize];
+                let tri = &self.tris[slot];
+                let (u, v) = tri.barycentric(o, d);
+                let w = 1.0 - u - v;
+                let ns = Vec3A::from(info.normals[0]) * w
+                    + Vec3A::from(info.normals[1]) * u
+                    + Vec3A::from(info.normals[2]) * v;
+                let uv =
+                    [0, 1].map(|c| w * info.uvs[0][c] + u * info.uvs[1][c] + v * info.uvs[2][c]);
+                (tri.n.normalize_or_zero(), ns, uv)
+            }
+        }
     }
 
     /// The closest hit's distance along a ray (`None` on a miss): for tests and tools.
@@ -510,20 +651,12 @@ impl Scene {
         let Some(hit) = self.closest(o, d, f32::INFINITY) else {
             return Vec3::from(self.environment_radiance(d));
         };
-        let tri_id = self.slot_to_tri[hit.slot] as usize;
-        let info = &self.info[tri_id];
-        let m = &self.materials[info.material as usize];
+        let m = self.material_of(hit.prim);
         let mut l = Vec3::from(m.emission);
         if self.options.shading == Shading::Emission {
             return l;
         }
-        let tri = &self.tris[hit.slot];
-        let (u, v) = tri.barycentric(o, d);
-        let w = 1.0 - u - v;
-        let ng = tri.n.normalize_or_zero();
-        let ns = Vec3A::from(info.normals[0]) * w
-            + Vec3A::from(info.normals[1]) * u
-            + Vec3A::from(info.normals[2]) * v;
+        let (ng, ns, uv) = self.surface(&hit, o, d);
         let mut n = if ns.length_squared() > 1e-12 {
             ns.normalize()
         } else {
@@ -538,7 +671,6 @@ impl Scene {
         let p = hit_point + side * self.eps;
         let mut albedo = Vec3::from(m.diffuse);
         if let Some(k) = m.diffuse_texture {
-            let uv = [0, 1].map(|c| w * info.uvs[0][c] + u * info.uvs[1][c] + v * info.uvs[2][c]);
             albedo *= Vec3::from(sample_texture(&self.textures[k], uv));
         }
         if albedo.max_element() > 0.0 {
@@ -578,10 +710,7 @@ impl Scene {
                     let (r1, r2) = ray_random(self.options.seed, o, d, depth, i);
                     let q = cosine_direction(n, r1, r2);
                     sum += match self.closest(p, q, f32::INFINITY) {
-                        Some(h) => {
-                            let t = self.slot_to_tri[h.slot] as usize;
-                            Vec3::from(self.materials[self.info[t].material as usize].emission)
-                        }
+                        Some(h) => Vec3::from(self.material_of(h.prim).emission),
                         None => Vec3::from(self.environment_radiance(q)),
                     };
                 }
