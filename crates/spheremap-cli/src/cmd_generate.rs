@@ -4,39 +4,20 @@
 use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{env_paths, read_env, same_file, write_env};
-use spheremap::generate::{generate, EnvSource, GenerateOptions, GenerateReport, RaySource};
-use spheremap::image_io::{check_nonfinite, Image, ReadOptions};
+use spheremap::envio::{env_paths, write_env};
+use spheremap::generate::{generate, GenerateOptions, GenerateReport, RaySource};
+use spheremap::image_io::Image;
 use spheremap::mapping::Mapping;
-use spheremap::resample::{EnvMap, Filter, Outside, Precision, Progress, IDENTITY};
-use spheremap::scene::{self, Environment, Light, Scene, Shading};
+use spheremap::resample::{Filter, Outside, Precision, Progress, IDENTITY};
+use spheremap::scene::Scene;
 use spheremap::view;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Scene file: OBJ (+MTL) or glTF 2.0 (.gltf/.glb); or a built-in scene: builtin:demo,
-    /// builtin:octants (inside a sphere whose octants glow in 8 colours).
-    #[arg(long)]
-    scene: Option<String>,
-    /// Environment map: what rays leaving the scene see (and the light it casts); without
-    /// --scene, the rays look it up directly (e.g. six cube faces taken around the point:
-    /// 'faces_{face}.exr' --env-format cube).
-    #[arg(long)]
-    env: Option<String>,
-    /// Mapping of --env: sphere, latlong (default), cube, angular, paraboloid, octahedral.
-    #[arg(long, default_value = "latlong")]
-    env_format: String,
-    /// Preset of --env's mapping.
-    #[arg(long)]
-    env_preset: Option<String>,
-    /// Cube layout of --env (default: from its shape).
-    #[arg(long)]
-    env_layout: Option<String>,
-    /// Constant environment colour (linear RGB) when there is no --env; default black.
-    #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
-    background: Option<Vec<f32>>,
+    #[command(flatten)]
+    world: crate::scene_args::SceneArgs,
     /// The point the rays start from (world coordinates).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     pos: Option<Vec<f32>>,
@@ -46,22 +27,6 @@ pub struct Args {
     /// World direction of the eye's +Y (with --look; default 0 1 0).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     up: Option<Vec<f64>>,
-    /// A point light: position and intensity (repeatable).
-    #[arg(long, num_args = 6, value_names = ["X", "Y", "Z", "R", "G", "B"], allow_negative_numbers = true, action = clap::ArgAction::Append)]
-    point_light: Vec<f32>,
-    /// A directional light: the direction the light travels and its irradiance (repeatable).
-    #[arg(long, num_args = 6, value_names = ["DX", "DY", "DZ", "R", "G", "B"], allow_negative_numbers = true, action = clap::ArgAction::Append)]
-    sun: Vec<f32>,
-    /// full (emission, lights with shadows, environment light, mirrors; default) or emission
-    /// (the emitted colour of the first surface hit only).
-    #[arg(long, default_value = "full")]
-    shading: String,
-    /// Mirror bounces followed at most.
-    #[arg(long, default_value_t = 8)]
-    max_depth: u32,
-    /// Cosine rays per diffuse hit for environment and emitter light (0 = none).
-    #[arg(long, default_value_t = 1)]
-    indirect_samples: u32,
     /// Output mapping (default sphere: the GL sphere map of the view).
     #[arg(long, default_value = "sphere")]
     to: String,
@@ -107,110 +72,19 @@ pub struct Args {
     job: crate::job::JobFlags,
 }
 
-/// Loads --scene (a file or builtin:NAME).
-fn load_scene(name: &str) -> anyhow::Result<Scene> {
-    Ok(match name {
-        "builtin:demo" => scene::demo_scene(),
-        "builtin:octants" => scene::octant_sphere_scene(10.0, 16),
-        n if n.starts_with("builtin:") => {
-            bail!("--scene: unknown built-in scene {n:?}; expected builtin:demo or builtin:octants")
-        }
-        path => Scene::load(Path::new(path))?,
-    })
-}
-
 pub fn run(a: Args) -> anyhow::Result<()> {
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
     let precision = Precision::parse(&a.precision)?;
-    let shading = match a.shading.as_str() {
-        "full" => Shading::Full,
-        "emission" => Shading::Emission,
-        s => bail!("shading: unknown value {s:?}; expected full or emission"),
-    };
     if a.size == 0 || a.size > 1 << 15 {
         bail!("size: {} is out of range 1..=32768", a.size);
     }
-    if a.scene.is_none() && a.env.is_none() {
-        bail!("give --scene FILE (or builtin:demo) and/or --env MAP to fire rays into");
-    }
     let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
     let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
-    // Never overwrite an input.
-    let mut inputs: Vec<String> = a.scene.iter().cloned().collect();
-    if let Some(e) = &a.env {
-        inputs.extend(env_paths(e));
-    }
-    for o in env_paths(&a.output) {
-        for i in &inputs {
-            if !a.job.force && same_file(Path::new(i), Path::new(&o)) {
-                bail!("{o}: the output would overwrite the input (use --force to allow)");
-            }
-        }
-    }
-    let env_img: Option<(Image, Mapping)> = match &a.env {
-        Some(e) => {
-            let m = Mapping::parse(&a.env_format, a.env_preset.as_deref())
-                .context("--env-format/--env-preset")?;
-            let l = a.env_layout.as_deref().map(Layout::parse).transpose()?;
-            let mut img = read_env(e, m, l, &ReadOptions::default())?;
-            check_nonfinite(&mut img, a.job.nonfinite()?, e)?;
-            EnvMap::new(m, &img, e)?;
-            Some((img, m))
-        }
-        None => None,
-    };
-    let scene = match &a.scene {
-        Some(s) => {
-            let mut sc = load_scene(s)?;
-            sc.environment = match &env_img {
-                Some((img, m)) => Environment::Map {
-                    image: img.clone(),
-                    mapping: *m,
-                    rotation: IDENTITY,
-                },
-                None => Environment::Constant(match vec3(&a.background) {
-                    Some(c) => c,
-                    None if s == "builtin:demo" => match &sc.environment {
-                        Environment::Constant(c) => *c,
-                        _ => [0.0; 3],
-                    },
-                    None => [0.0; 3],
-                }),
-            };
-            for l in a.point_light.chunks_exact(6) {
-                sc.lights.push(Light::Point {
-                    position: [l[0], l[1], l[2]],
-                    intensity: [l[3], l[4], l[5]],
-                });
-            }
-            for l in a.sun.chunks_exact(6) {
-                sc.lights.push(Light::Directional {
-                    direction: [l[0], l[1], l[2]],
-                    irradiance: [l[3], l[4], l[5]],
-                });
-            }
-            sc.options.shading = shading;
-            sc.options.max_depth = a.max_depth;
-            sc.options.indirect_samples = a.indirect_samples;
-            sc.options.seed = a.seed;
-            Some(sc)
-        }
-        None => None,
-    };
-    let env_map = env_img.as_ref().map(|(img, m)| EnvMap {
-        mapping: *m,
-        width: img.width,
-        height: img.height,
-        channels: img.channels,
-        data: &img.data,
-    });
-    let env_source = env_map.as_ref().map(|e| EnvSource::new(e, IDENTITY));
-    let source: &dyn RaySource = match (&scene, &env_source) {
-        (Some(s), _) => s,
-        (None, Some(e)) => e,
-        (None, None) => unreachable!("checked above"),
-    };
+    let world = a.world.load(&a.job, a.seed, &env_paths(&a.output))?;
+    let source = world.source();
+    let source = source.as_ref();
+    let scene = world.scene.as_ref();
     let opts = GenerateOptions {
         samples: a.samples,
         max_samples: a.max_samples,
@@ -245,7 +119,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pattern = dir.join("{face}.exr").display().to_string();
         written.extend(write_env(&pattern, cube, &faces, None, &wopts)?);
     }
-    summary(&a, dst, w, h, &report, seconds, &written, scene.as_ref());
+    summary(&a, dst, w, h, &report, seconds, &written, scene);
     Ok(())
 }
 
@@ -280,7 +154,7 @@ fn summary(
     let rays_per_texel = r.rays as f64 / r.texels.max(1) as f64;
     if a.job.json {
         let v = serde_json::json!({
-            "scene": a.scene, "env": a.env, "output": written,
+            "scene": a.world.scene, "env": a.world.env, "output": written,
             "to": dst.name(), "preset": dst.preset_name(),
             "size": a.size, "width": w, "height": h,
             "samples": a.samples, "filter": a.filter, "outside": a.outside,
@@ -298,7 +172,7 @@ fn summary(
         }
         eprintln!(
             "{} -> {} ({} {}, {w}x{h}): {} rays ({rays_per_texel:.1}/texel), {seconds:.3} s, {:.2} Mrays/s",
-            a.scene.as_deref().or(a.env.as_deref()).unwrap_or(""),
+            a.world.scene.as_deref().or(a.world.env.as_deref()).unwrap_or(""),
             written.join(", "),
             dst.name(),
             dst.preset_name(),

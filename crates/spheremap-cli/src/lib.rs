@@ -11,9 +11,12 @@ mod cmd_convert;
 mod cmd_demo;
 mod cmd_generate;
 mod cmd_info;
+mod cmd_photo;
+mod cmd_preview;
 mod cmd_texgen;
 mod job;
 pub mod progress;
+mod scene_args;
 
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
@@ -44,6 +47,16 @@ enum Command {
     /// Make a sphere map (or any mapping) by firing rays: ray-trace a scene (OBJ/glTF) from a
     /// point, or look up an environment map (six cube faces around the point).
     Generate(Box<cmd_generate::Args>),
+    /// A sphere map (or any mapping) from one or two photos of a mirror ball: the ball found
+    /// to a fraction of a pixel, orthographic or perspective camera, the camera removed with
+    /// a second shot; with a confidence mask.
+    FromPhoto(Box<cmd_photo::PhotoArgs>),
+    /// A sphere map (or any mapping) from a fisheye photo (equidistant, equisolid,
+    /// stereographic, orthographic or polynomial lens), with a coverage mask.
+    FromFisheye(Box<cmd_photo::FisheyeArgs>),
+    /// Render a photo of a scene (or an environment map) through a perspective or fisheye
+    /// camera with the ray tracer.
+    Preview(Box<cmd_preview::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -85,6 +98,9 @@ where
         Command::Info(a) => cmd_info::run(a),
         Command::Convert(a) => cmd_convert::run(*a),
         Command::Generate(a) => cmd_generate::run(*a),
+        Command::FromPhoto(a) => cmd_photo::run_photo(*a),
+        Command::FromFisheye(a) => cmd_photo::run_fisheye(*a),
+        Command::Preview(a) => cmd_preview::run(*a),
     });
     std::panic::set_hook(previous_hook);
     match result {

@@ -47,6 +47,22 @@ fn octant_patches(centre: [f32; 3], radius: f32, n: usize) -> Vec<([f32; 3], [[f
     out
 }
 
+/// A chrome ball: a mirror sphere of radius 1 at the origin reflecting `reflectance` of what
+/// it mirrors (real chrome balls: about 0.6 to 0.8); set the environment to see it in a room.
+/// With a camera (`spheremap preview`) it makes test photos for `from-photo`.
+pub fn mirror_ball_scene(reflectance: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let chrome = b.add_material(Material {
+        name: "chrome".into(),
+        diffuse: [0.0; 3],
+        mirror: [reflectance; 3],
+        ..Default::default()
+    });
+    b.add_sphere([0.0; 3], 1.0, chrome);
+    b.build(Environment::Constant([0.0; 3]), "builtin:mirror-ball")
+        .expect("a valid built-in scene")
+}
+
 /// Inside a sphere of radius `radius` centred at the origin whose octants glow in
 /// [`octant_colour`]: from the centre, every ray returns exactly the colour of its octant.
 /// `n`² triangles per octant.

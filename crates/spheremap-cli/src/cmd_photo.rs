@@ -1,0 +1,429 @@
+//! `spheremap from-photo` (mirror-ball photos) and `spheremap from-fisheye`: thin layers over
+//! `spheremap::photo`.
+
+use crate::job::{vec3, JobFlags};
+use anyhow::{bail, Context};
+use spheremap::cube::Layout;
+use spheremap::envio::{env_paths, same_file, write_env};
+use spheremap::fisheye::{Lens, LensModel};
+use spheremap::generate::GenerateOptions;
+use spheremap::image_io::{check_nonfinite, read_image, Image, ReadOptions};
+use spheremap::mapping::Mapping;
+use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::resample::{Filter, Outside, Progress};
+use spheremap::view;
+use std::path::Path;
+use std::time::Instant;
+
+/// The output side, shared by both commands.
+#[derive(clap::Args, Debug)]
+pub struct MapOut {
+    /// Output mapping (default sphere: the GL sphere map of the camera's view).
+    #[arg(long, default_value = "sphere")]
+    to: String,
+    /// Preset of the output mapping.
+    #[arg(long)]
+    preset: Option<String>,
+    /// Cube layout of the output when --to cube.
+    #[arg(long)]
+    layout: Option<String>,
+    /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
+    #[arg(long, default_value_t = 512)]
+    size: usize,
+    /// Samples per texel: 1 = one lookup at the texel centre; S > 1 = at least S, spread over
+    /// the texel's footprint (more where it is stretched).
+    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
+    samples: u32,
+    /// The most samples one texel may take.
+    #[arg(long, default_value_t = 1024)]
+    max_samples: u32,
+    /// Reconstruction filter: box (default), tent, gaussian.
+    #[arg(long, default_value = "box")]
+    filter: String,
+    /// Outside the disc: gutter (default) or black.
+    #[arg(long, default_value = "gutter")]
+    outside: String,
+    /// Seed of the sample jitter.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The output's view, in the camera's frame (the camera looks down -Z, +Y up): the
+    /// direction of the output eye's -Z (with --up); default 0 0 -1, the camera's own view.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    look: Option<Vec<f64>>,
+    /// The output eye's +Y in the camera's frame (with --look; default 0 1 0).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// What to put where no photo sees: none (0, default), smooth (pull-push interpolation
+    /// from the seen texels), mean (their mean colour).
+    #[arg(long, default_value = "none")]
+    fill: String,
+    /// Write the confidence mask here (one channel, 0 = unseen, 1 = best sampled).
+    #[arg(long)]
+    mask: Option<String>,
+    /// Read/write LDR files as linear values (no sRGB transfer).
+    #[arg(long)]
+    linear: bool,
+    /// Output file (.exr .hdr .pfm .png .jpg), or a {face} pattern with --to cube.
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: JobFlags,
+}
+
+impl MapOut {
+    fn options(&self) -> anyhow::Result<(PhotoOptions, Mapping)> {
+        let dst = Mapping::parse(&self.to, self.preset.as_deref()).context("--to/--preset")?;
+        if self.size == 0 || self.size > 1 << 15 {
+            bail!("size: {} is out of range 1..=32768", self.size);
+        }
+        let (width, height) = dst.canvas(self.size);
+        let rotation =
+            view::conversion_rotation(vec3(&self.look), vec3(&self.up), None, None, None)?;
+        Ok((
+            PhotoOptions {
+                mapping: dst,
+                width,
+                height,
+                generate: GenerateOptions {
+                    samples: self.samples,
+                    max_samples: self.max_samples,
+                    filter: Filter::parse(&self.filter)?,
+                    outside: Outside::parse(&self.outside)?,
+                    rotation,
+                    seed: self.seed,
+                    max_memory: self.job.max_memory()?,
+                    ..Default::default()
+                },
+                fill: Fill::parse(&self.fill)?,
+                ..Default::default()
+            },
+            dst,
+        ))
+    }
+
+    /// Refuses outputs that would overwrite an input.
+    fn check_outputs(&self, inputs: &[&str]) -> anyhow::Result<()> {
+        let mut outs = env_paths(&self.output);
+        if let Some(m) = &self.mask {
+            outs.extend(env_paths(m));
+        }
+        for o in &outs {
+            for i in inputs {
+                if !self.job.force && same_file(Path::new(i), Path::new(o)) {
+                    bail!("{o}: the output would overwrite the input (use --force to allow)");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn read(&self, path: &str) -> anyhow::Result<Image> {
+        let ropts = ReadOptions {
+            linear: self.linear,
+            ..Default::default()
+        };
+        let mut img = read_image(Path::new(path), &ropts)?;
+        check_nonfinite(&mut img, self.job.nonfinite()?, path)?;
+        Ok(img)
+    }
+
+    fn write(&self, dst: Mapping, map: &Image, mask: &Image) -> anyhow::Result<Vec<String>> {
+        let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
+        let wopts = self.job.write_options(self.linear);
+        let mut written = write_env(&self.output, dst, map, layout, &wopts)?;
+        if let Some(m) = &self.mask {
+            // The mask is data: written linear whatever the format.
+            let mopts = self.job.write_options(true);
+            written.extend(write_env(m, dst, mask, layout, &mopts)?);
+        }
+        Ok(written)
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct PhotoArgs {
+    /// The photo of the mirror ball.
+    ball: String,
+    /// A second photo of the ball, taken from about --angle degrees around it: the camera
+    /// and the grazing rim of each photo are replaced by the other.
+    #[arg(long)]
+    second: Option<String>,
+    /// Where the second camera stood, in degrees around the ball from the first (positive:
+    /// to the first camera's right); refined by aligning the photos.
+    #[arg(long, default_value_t = 90.0, allow_negative_numbers = true)]
+    angle: f64,
+    /// Use --angle as is (no alignment).
+    #[arg(long)]
+    no_align: bool,
+    /// Horizontal field of view of the photo(s) in degrees (default: from EXIF).
+    #[arg(long)]
+    fov: Option<f64>,
+    /// Focal length in mm (with --sensor).
+    #[arg(long)]
+    focal: Option<f64>,
+    /// Sensor width in mm (with --focal, or with the EXIF focal length).
+    #[arg(long)]
+    sensor: Option<f64>,
+    /// Assume an orthographic camera (the classic assumption; no field of view needed).
+    #[arg(long)]
+    orthographic: bool,
+    /// The ball's outline in the first photo: centre and radius in continuous pixel
+    /// coordinates ((0,0) the top-left corner, pixel centres at i + 0.5); default: found.
+    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"])]
+    circle: Option<Vec<f64>>,
+    /// The ball's outline in the second photo (default: found).
+    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"])]
+    circle2: Option<Vec<f64>>,
+    /// The ball's reflectance (one value, or R G B): the photo is divided by it (a chrome
+    /// ball reflects about 0.6 to 0.8).
+    #[arg(long, num_args = 1..=3, value_names = ["R"])]
+    reflectance: Option<Vec<f32>>,
+    /// Radius in degrees around the direction back to the camera whose confidence is 0 (the
+    /// camera and the photographer).
+    #[arg(long, default_value_t = 20.0)]
+    camera_radius: f64,
+    #[command(flatten)]
+    out: MapOut,
+}
+
+fn circle_of(v: &Option<Vec<f64>>) -> Option<Circle> {
+    v.as_ref().map(|v| Circle {
+        cx: v[0],
+        cy: v[1],
+        r: v[2],
+    })
+}
+
+/// The camera model of one photo (its own EXIF when no flag says).
+fn model_of(a: &PhotoArgs, path: &str, img: &Image) -> anyhow::Result<(BallModel, String)> {
+    if a.orthographic {
+        return Ok((BallModel::Orthographic, "orthographic".into()));
+    }
+    let bytes = if a.fov.is_none() && a.focal.is_none() {
+        Some(spheremap::io::read_file(Path::new(path))?)
+    } else {
+        None
+    };
+    let (hfov, from) = photo::exif_hfov(
+        a.fov,
+        a.focal,
+        a.sensor,
+        bytes.as_deref(),
+        img.width,
+        img.height,
+    )
+    .with_context(|| path.to_string())?;
+    Ok((
+        BallModel::Perspective { hfov_deg: hfov },
+        format!(
+            "perspective, horizontal field of view {hfov:.3}° ({})",
+            from.describe()
+        ),
+    ))
+}
+
+pub fn run_photo(a: PhotoArgs) -> anyhow::Result<()> {
+    let (mut opts, dst) = a.out.options()?;
+    let mut inputs = vec![a.ball.as_str()];
+    inputs.extend(a.second.as_deref());
+    a.out.check_outputs(&inputs)?;
+    opts.reflectance = match a.reflectance.as_deref() {
+        None => [1.0; 3],
+        Some([r]) => [*r; 3],
+        Some([r, g, b]) => [*r, *g, *b],
+        Some(_) => bail!("reflectance: give one value or three (R G B)"),
+    };
+    opts.camera_radius_deg = a.camera_radius;
+    opts.angle_deg = a.angle;
+    opts.align = !a.no_align;
+    let img1 = a.out.read(&a.ball)?;
+    let (m1, d1) = model_of(&a, &a.ball, &img1)?;
+    let img2 = a.second.as_deref().map(|p| a.out.read(p)).transpose()?;
+    let m2 = match (&a.second, &img2) {
+        (Some(p), Some(i)) => Some(model_of(&a, p, i)?),
+        _ => None,
+    };
+    let p1 = BallPhoto {
+        image: &img1,
+        model: m1,
+        circle: circle_of(&a.circle),
+    };
+    let p2 = img2.as_ref().zip(m2.as_ref()).map(|(i, (m, _))| BallPhoto {
+        image: i,
+        model: *m,
+        circle: circle_of(&a.circle2),
+    });
+    let t0 = Instant::now();
+    let progress = Progress::default();
+    let result = std::thread::scope(|s| {
+        let work = s.spawn(|| photo::from_mirror_ball(&p1, p2.as_ref(), &opts, Some(&progress)));
+        crate::progress::watch(&progress, &work, a.out.job.show_progress(), "unwarping");
+        work.join().expect("the photo thread panicked")
+    });
+    // Name the photo in errors about it.
+    let (map, mask, report) = result.map_err(|e| anyhow::anyhow!(name_photo(&e, &a)))?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let written = a.out.write(dst, &map, &mask)?;
+    let models: Vec<String> = std::iter::once(d1).chain(m2.map(|m| m.1)).collect();
+    summary(&a.out, dst, &report, &models, seconds, &written, &inputs);
+    Ok(())
+}
+
+/// The core says "photo"/"second" for its arguments; the CLI names the files.
+fn name_photo(e: &spheremap::Error, a: &PhotoArgs) -> String {
+    let msg = e.to_string();
+    if let Some(rest) = msg.strip_prefix("photo: ") {
+        format!("{}: {rest}", a.ball)
+    } else if let (Some(rest), Some(p)) = (msg.strip_prefix("second: "), &a.second) {
+        format!("{p}: {rest}")
+    } else {
+        msg
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FisheyeArgs {
+    /// The fisheye photo.
+    image: String,
+    /// Lens model: equidistant, equisolid, stereographic, orthographic, polynomial.
+    #[arg(long)]
+    model: String,
+    /// Field of view across the image circle, degrees.
+    #[arg(long)]
+    fov: f64,
+    /// Optical centre in continuous pixel coordinates (default: the image centre).
+    #[arg(long, num_args = 2, value_names = ["CX", "CY"])]
+    centre: Option<Vec<f64>>,
+    /// Radius of the image circle in pixels (where the angle is fov/2; default: half the
+    /// shorter side).
+    #[arg(long)]
+    radius: Option<f64>,
+    /// Polynomial model: r/f = θ(1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸) (OpenCV's fisheye).
+    #[arg(long, num_args = 4, value_names = ["K1", "K2", "K3", "K4"], allow_negative_numbers = true)]
+    k: Option<Vec<f64>>,
+    #[command(flatten)]
+    out: MapOut,
+}
+
+pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
+    let (opts, dst) = a.out.options()?;
+    a.out.check_outputs(&[a.image.as_str()])?;
+    let k =
+        a.k.as_deref()
+            .map_or([0.0; 4], |k| [k[0], k[1], k[2], k[3]]);
+    if a.k.is_some() && a.model != "polynomial" {
+        bail!("k: only the polynomial model takes coefficients");
+    }
+    let model = LensModel::parse(&a.model, k)?;
+    let img = a.out.read(&a.image)?;
+    let centre = a
+        .centre
+        .as_deref()
+        .map_or([0.5 * img.width as f64, 0.5 * img.height as f64], |c| {
+            [c[0], c[1]]
+        });
+    let radius = a.radius.unwrap_or(0.5 * img.width.min(img.height) as f64);
+    let lens = Lens::new(model, a.fov, centre, radius)?;
+    let t0 = Instant::now();
+    let progress = Progress::default();
+    let (map, mask, report) = std::thread::scope(|s| {
+        let work = s.spawn(|| photo::from_fisheye(&img, lens, &opts, Some(&progress)));
+        crate::progress::watch(&progress, &work, a.out.job.show_progress(), "unwarping");
+        work.join().expect("the photo thread panicked")
+    })
+    .map_err(|e| anyhow::anyhow!("{}: {e}", a.image))?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let written = a.out.write(dst, &map, &mask)?;
+    let desc = format!("fisheye, {} {}°", a.model, a.fov);
+    summary(
+        &a.out,
+        dst,
+        &report,
+        &[desc],
+        seconds,
+        &written,
+        &[&a.image],
+    );
+    Ok(())
+}
+
+fn summary(
+    out: &MapOut,
+    dst: Mapping,
+    r: &PhotoReport,
+    models: &[String],
+    seconds: f64,
+    written: &[String],
+    inputs: &[&str],
+) {
+    if out.job.json {
+        let shots: Vec<_> = r
+            .shots
+            .iter()
+            .map(|s| {
+                serde_json::json!({
+                    "circle": [s.circle.cx, s.circle.cy, s.circle.r],
+                    "fit_rms_px": s.fit_rms, "fit_points": s.fit_points,
+                    "distance_radii": s.distance.is_finite().then_some(s.distance),
+                    "blind_cone_deg": s.blind_deg,
+                })
+            })
+            .collect();
+        let v = serde_json::json!({
+            "inputs": inputs, "output": written, "models": models,
+            "to": dst.name(), "preset": dst.preset_name(), "size": out.size,
+            "samples": out.samples, "fill": out.fill,
+            "shots": shots,
+            "rotation": r.rotation, "rotation_deg": r.rotation_deg,
+            "alignment_rms": r.alignment_rms, "gain": r.gain,
+            "seen_fraction": r.seen_fraction, "samples_total": r.rays,
+            "seconds": seconds,
+        });
+        crate::out(&format!("{v}\n"));
+    } else if !out.job.quiet {
+        for (i, (s, m)) in r.shots.iter().zip(models).enumerate() {
+            let fit = match s.fit_rms {
+                Some(rms) => format!(
+                    "found, fit residual {rms:.3} px over {} edge points",
+                    s.fit_points
+                ),
+                None => "given".into(),
+            };
+            let dist = if s.distance.is_finite() {
+                format!(
+                    "; ball {:.2} radii away, unseen cone behind it {:.2}°",
+                    s.distance, s.blind_deg
+                )
+            } else {
+                String::new()
+            };
+            eprintln!(
+                "{}: {m}; ball at ({:.2}, {:.2}) r {:.2} px ({fit}){dist}",
+                inputs[i], s.circle.cx, s.circle.cy, s.circle.r
+            );
+        }
+        if let (Some(a), Some(g)) = (r.rotation_deg, r.gain) {
+            let res = r.alignment_rms.map_or("not aligned".into(), |v| {
+                format!("residual {v:.3} (log luminance)")
+            });
+            eprintln!("second shot: rotated {a:.2}° from the first, gain {g:.3}, {res}");
+        }
+        if r.shots.is_empty() {
+            for m in models {
+                eprintln!("{}: {m}", inputs[0]);
+            }
+        }
+        let unseen = if r.seen_fraction < 1.0 && out.fill == "none" {
+            " (unseen texels are 0; --fill smooth fills them)"
+        } else {
+            ""
+        };
+        eprintln!(
+            "-> {} ({} {}): {:.1} % of the map seen{unseen}, {seconds:.3} s",
+            written.join(", "),
+            dst.name(),
+            dst.preset_name(),
+            100.0 * r.seen_fraction
+        );
+    }
+}

@@ -1,0 +1,114 @@
+//! `spheremap preview`: a photo of a scene (or an environment map) through a perspective or
+//! fisheye camera, ray traced — to look at a scene before making maps from it, or to make
+//! test photos of a mirror ball (thin layer over `spheremap::camera`).
+
+use crate::job::vec3;
+use anyhow::bail;
+use spheremap::camera::{self, Camera, Projection};
+use spheremap::fisheye::{Lens, LensModel};
+use spheremap::image_io::write_image;
+use spheremap::resample::Progress;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    world: crate::scene_args::SceneArgs,
+    /// Where the camera stands.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    eye: Vec<f64>,
+    /// The point it looks at.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    target: Vec<f64>,
+    /// Its up direction (default 0 1 0), as gluLookAt.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// Horizontal field of view in degrees (perspective camera).
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    /// A fisheye lens instead: equidistant, equisolid, stereographic, orthographic (its image
+    /// circle fills the shorter side; --fov is then the field across the circle).
+    #[arg(long)]
+    lens: Option<String>,
+    /// Image size in pixels.
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [640, 480])]
+    size: Vec<usize>,
+    /// Rays per pixel (jittered grid; 1 = through the pixel centre).
+    #[arg(long, default_value_t = 16)]
+    samples: u32,
+    /// Seed of the jitter and the scene's random rays.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output image (.exr .hdr .pfm .png .jpg; PNG/JPEG are sRGB-encoded, clipped).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: crate::job::JobFlags,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let (w, h) = (a.size[0], a.size[1]);
+    let projection = match a.lens.as_deref() {
+        None => Projection::Perspective { hfov_deg: a.fov },
+        Some(m) => {
+            let model = LensModel::parse(m, [0.0; 4])?;
+            Projection::Fisheye(Lens::new(
+                model,
+                a.fov,
+                [0.5 * w as f64, 0.5 * h as f64],
+                0.5 * w.min(h) as f64,
+            )?)
+        }
+    };
+    let up = vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]);
+    let cam = Camera::look_at(
+        projection,
+        [a.eye[0], a.eye[1], a.eye[2]],
+        [a.target[0], a.target[1], a.target[2]],
+        up,
+        w,
+        h,
+    )?;
+    if a.samples == 0 || a.samples > 4096 {
+        bail!("samples: {} is out of range 1..=4096", a.samples);
+    }
+    spheremap::error::check_memory(
+        "size",
+        2 * (w as u128 * h as u128 * 4 * 4),
+        a.job.max_memory()?,
+    )?;
+    let world = a.world.load(&a.job, a.seed, std::slice::from_ref(&a.output))?;
+    let source = world.source();
+    let t0 = Instant::now();
+    let progress = Progress::default();
+    let img = std::thread::scope(|s| {
+        let work = s.spawn(|| {
+            camera::render(
+                &cam,
+                source.as_ref(),
+                a.samples,
+                a.seed,
+                false,
+                Some(&progress),
+            )
+        });
+        crate::progress::watch(&progress, &work, a.job.show_progress(), "rendering");
+        work.join().expect("the render thread panicked")
+    })?;
+    let seconds = t0.elapsed().as_secs_f64();
+    write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;
+    if a.job.json {
+        let v = serde_json::json!({
+            "output": a.output, "width": w, "height": h, "samples": a.samples,
+            "focal_px": cam.focal_px(), "seconds": seconds,
+        });
+        crate::out(&format!("{v}\n"));
+    } else if !a.job.quiet {
+        eprintln!(
+            "-> {} ({w}x{h}, {} rays/pixel): {seconds:.3} s",
+            a.output, a.samples
+        );
+    }
+    Ok(())
+}
