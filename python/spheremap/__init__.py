@@ -11,6 +11,7 @@ float64) and raises ``ValueError`` naming the argument for a wrong shape or dtyp
 
 from __future__ import annotations
 
+import os
 from typing import NamedTuple
 
 import numpy as np
@@ -50,6 +51,11 @@ __all__ = [
     "NORMALIZE_MODES",
     "SINGULAR_MODES",
     "MATCAP_VARIANTS",
+    "LENS_MODELS",
+    "PHOTO_FILLS",
+    "find_ball",
+    "from_mirror_ball",
+    "from_fisheye",
 ]
 
 NORMALIZE_MODES = ("on", "off", "rescale")
@@ -61,6 +67,10 @@ MAPPINGS = ("sphere", "latlong", "cube", "angular", "paraboloid", "octahedral")
 CUBE_LAYOUTS = ("hcross", "vcross", "hstrip", "vstrip", "dice", "horizon")
 #: Reconstruction filters of convert.
 FILTERS = ("box", "tent", "gaussian")
+#: Fisheye lens models (from_fisheye; Scene.preview takes the first four).
+LENS_MODELS = ("equidistant", "equisolid", "stereographic", "orthographic", "polynomial")
+#: What from_mirror_ball / from_fisheye put where no photo sees.
+PHOTO_FILLS = ("none", "smooth", "mean")
 
 
 def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
@@ -471,9 +481,11 @@ class Scene:
 
     @classmethod
     def builtin(cls, name: str = "demo", **kwargs) -> "Scene":
-        """A built-in scene: "demo" (the demo's little world; view it from (0, 1, 0)) or
-        "octants" (inside a sphere whose octants glow in 8 colours). Keyword arguments as load."""
-        _choice(name, "name", ("demo", "octants"))
+        """A built-in scene: "demo" (the demo's little world; view it from (0, 1, 0)),
+        "octants" (inside a sphere whose octants glow in 8 colours) or "mirror-ball" (a chrome
+        ball of radius 1 at the origin, reflectance 0.75, to photograph inside an environment).
+        Keyword arguments as load."""
+        _choice(name, "name", ("demo", "octants", "mirror-ball"))
         scene = cls(_ext.Scene.builtin(name))
         if kwargs:
             args = dict(background=None, environment=None, environment_mapping="latlong",
@@ -555,6 +567,24 @@ class Scene:
         """Distance to the closest hit along each ray ((K,) float32, inf on a miss)."""
         return self._inner.intersect(*self._rays(origins, directions))
 
+    def preview(self, eye, target, *, up=(0.0, 1.0, 0.0), fov: float = 40.0, lens: str | None = None,
+                size=(640, 480), samples: int = 16, seed: int = 0) -> np.ndarray:
+        """What a camera sees of the scene (``spheremap preview``): (H, W, 3) float32, row 0 at
+        the top. The camera stands at `eye` looking at `target` with `up`, as gluLookAt.
+        fov: horizontal field of view in degrees (perspective); with `lens` (one of LENS_MODELS
+        except "polynomial") a fisheye whose image circle fills the shorter side and spans `fov`
+        degrees. samples: rays per pixel on a jittered grid (1 = through the pixel centre)."""
+        if lens is not None:
+            _choice(lens, "lens", LENS_MODELS[:4])
+        try:
+            w, h = (int(v) for v in size)
+        except (TypeError, ValueError):
+            raise ValueError(f"size: expected (width, height), got {size!r}") from None
+        return _ext.render_camera(self._inner, _vec3(eye, "eye"), _vec3(target, "target"),
+                                  _vec3(up, "up"), _finite(fov, "fov"), lens,
+                                  _size_any(w, "size"), _size_any(h, "size"),
+                                  _size_any(samples, "samples"), _seed(seed))
+
     def __repr__(self) -> str:
         return f"<spheremap.Scene: {self.triangle_count} triangles, {self.light_count} lights>"
 
@@ -610,3 +640,163 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
         f = out.shape[1]
         out = out.reshape(6, f, f, out.shape[2])
     return out
+
+
+def _finite(v, name: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
+        raise ValueError(f"{name}: expected a finite number, got {v!r}")
+    return float(v)
+
+
+def _photo(x, name: str, linear: bool, nonfinite: str):
+    """A photo argument: an (H, W[, C]) array, or a path (read; its bytes kept for EXIF).
+    Returns (float32 (H, W, C) array, EXIF bytes or None)."""
+    if isinstance(x, (str, os.PathLike)):
+        try:
+            a = read_image(x, linear=linear)
+            with open(x, "rb") as f:
+                exif = f.read()
+        except (OSError, Error) as e:
+            raise type(e)(f"{name}: {e}") from None
+    else:
+        a, exif = _floats(x, name), None
+        if a.ndim == 2:
+            a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ValueError(f"{name}: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    a = _nonfinite(a, nonfinite, name)
+    return np.ascontiguousarray(a, dtype=np.float32), exif
+
+
+def _map_out(to, preset, size, samples, max_samples, filter, outside, seed, look, up, fill,
+             max_memory) -> dict:
+    """The output options shared by the photo routes (the CLI's output flags)."""
+    _choice(to, "to", MAPPINGS)
+    _choice(filter, "filter", FILTERS)
+    _choice(outside, "outside", ("gutter", "black"))
+    _choice(fill, "fill", PHOTO_FILLS)
+    if look is None and up is not None:
+        raise ValueError("up: needs look")
+    return dict(to=to, preset=preset, size=_size_any(size, "size"),
+                samples=_size_any(samples, "samples"), max_samples=_size_any(max_samples, "max_samples"),
+                filter=filter, outside=outside, seed=_seed(seed), look=_vec3(look, "look"),
+                up=_vec3(up, "up"), fill=fill, max_memory=_max_memory(max_memory))
+
+
+def _circle(c, name: str):
+    if c is None:
+        return None
+    a = _floats(c, name, last=(3,), ndim=1)
+    if not np.all(np.isfinite(a)) or a[2] <= 0:
+        raise ValueError(f"{name}: expected (cx, cy, r) finite with r > 0, got {c!r}")
+    return tuple(float(v) for v in a)
+
+
+def _cube_out(to: str, a: np.ndarray) -> np.ndarray:
+    if to == "cube":
+        f = a.shape[1]
+        return a.reshape(6, f, f, a.shape[2])
+    return a
+
+
+def find_ball(image, *, linear: bool = False) -> dict:
+    """Finds a mirror ball in a photo (array or path): its outline to sub-pixel precision.
+    Returns {"circle": (cx, cy, r), "fit_rms_px", "fit_points"} in continuous pixel coordinates
+    ((0, 0) the top-left corner, pixel centres at i + 1/2). Raises spheremap.DataError when no
+    ball is found."""
+    a, _ = _photo(image, "image", linear, "error")
+    cx, cy, r, rms, n = _ext.find_ball(a)
+    return {"circle": (cx, cy, r), "fit_rms_px": rms, "fit_points": n}
+
+
+def from_mirror_ball(image, *, second=None, angle: float = 90.0, align: bool = True,
+                     fov: float | None = None, focal: float | None = None, sensor: float | None = None,
+                     orthographic: bool = False, circle=None, circle2=None, reflectance=None,
+                     camera_radius: float = 20.0, fill: str = "none", size: int = 512,
+                     samples: int = 4, max_samples: int = 1024, filter: str = "box",
+                     outside: str = "gutter", to: str = "sphere", preset: str | None = None,
+                     look=None, up=None, seed: int = 0, linear: bool = False,
+                     nonfinite: str = "error", max_memory: int | None = None):
+    """A sphere map from one or two photos of a mirror ball (``spheremap from-photo``).
+
+    image, second: the photos, as (H, W[, C]) arrays of linear values or as paths (then read, and
+        their EXIF focal length used when no field of view is given). `second` is taken from about
+        `angle` degrees around the ball (positive: to the first camera's right); the rotation is
+        refined by aligning the photos unless align=False.
+    fov: horizontal field of view in degrees (perspective model), or focal + sensor in mm, or the
+        photo's EXIF; orthographic=True assumes the classic orthographic camera instead.
+    circle, circle2: the ball's outline (cx, cy, r) in continuous pixel coordinates ((0, 0) the
+        top-left corner, pixel centres at i + 1/2); default: found (see find_ball).
+    reflectance: the ball's reflectance (a number or (r, g, b)); the photo is divided by it.
+    camera_radius: degrees around the direction back to the camera given confidence 0.
+    fill: "none" (unseen texels 0), "smooth" (pull-push from the seen ones) or "mean".
+    The output is the map of a viewer at the (first) camera looking at the ball's centre with the
+    camera's up, in mapping `to` (default "sphere", GL convention) of size `size`, each texel
+    filtered over its footprint with `samples`..`max_samples` samples; look/up turn it.
+
+    Returns (map (H', W', C) float32 — (6, N, N, C) for to="cube", mask (..., 1) float32 — the
+    confidence, 0 where no photo sees, info dict — the fitted circles, distances, unseen cone,
+    second shot's rotation, gain and alignment residual, seen fraction).
+    """
+    if not orthographic and fov is None and focal is None and not isinstance(image, (str, os.PathLike)):
+        raise ValueError("fov: the photo's field of view is unknown (an array has no EXIF): give fov, "
+                         "focal and sensor, or orthographic=True")
+    out = _map_out(to, preset, size, samples, max_samples, filter, outside, seed, look, up, fill,
+                   max_memory)
+    a, exif = _photo(image, "image", linear, nonfinite)
+    b, exif2 = (None, None) if second is None else _photo(second, "second", linear, nonfinite)
+    if reflectance is None:
+        refl = (1.0, 1.0, 1.0)
+    else:
+        try:
+            r = np.atleast_1d(np.asarray(reflectance, dtype=np.float64))
+        except (TypeError, ValueError):
+            raise ValueError(f"reflectance: expected one positive number or three, got {reflectance!r}") from None
+        if r.ndim != 1 or len(r) not in (1, 3) or not np.all((r > 0) & np.isfinite(r)):
+            raise ValueError(f"reflectance: expected one positive number or three, got {reflectance!r}")
+        refl = tuple(float(v) for v in np.broadcast_to(r, 3))
+    fov = None if fov is None else _finite(fov, "fov")
+    focal = None if focal is None else _finite(focal, "focal")
+    sensor = None if sensor is None else _finite(sensor, "sensor")
+    m, mask, info = _ext.from_mirror_ball(
+        a, exif, b, exif2, bool(orthographic), fov, focal, sensor, _circle(circle, "circle"),
+        _circle(circle2, "circle2"), _finite(angle, "angle"), bool(align), refl,
+        _finite(camera_radius, "camera_radius"), out)
+    return _cube_out(to, m), _cube_out(to, mask), info
+
+
+def from_fisheye(image, *, model: str, fov: float, centre=None, radius: float | None = None, k=None,
+                 fill: str = "none", size: int = 512, samples: int = 4, max_samples: int = 1024,
+                 filter: str = "box", outside: str = "gutter", to: str = "sphere",
+                 preset: str | None = None, look=None, up=None, seed: int = 0, linear: bool = False,
+                 nonfinite: str = "error", max_memory: int | None = None):
+    """A sphere map of the camera's view from a fisheye photo (``spheremap from-fisheye``).
+
+    model: one of LENS_MODELS; fov: the field of view in degrees across the image circle;
+    centre: the optical centre (cx, cy) in continuous pixel coordinates (default the image
+    centre); radius: the image circle's radius in pixels (default half the shorter side);
+    k: (k1, k2, k3, k4) of the polynomial model r/f = θ(1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸).
+    Other arguments and the result as from_mirror_ball; the mask is the covered fraction of each
+    texel (0 for the directions the lens did not see).
+    """
+    _choice(model, "model", LENS_MODELS)
+    if k is not None and model != "polynomial":
+        raise ValueError("k: only the polynomial model takes coefficients")
+    kk = (0.0, 0.0, 0.0, 0.0)
+    if k is not None:
+        ka = _floats(k, "k", last=(4,), ndim=1)
+        if not np.all(np.isfinite(ka)):
+            raise ValueError(f"k: must be finite, got {k!r}")
+        kk = tuple(float(v) for v in ka)
+    c = None
+    if centre is not None:
+        ca = _floats(centre, "centre", last=(2,), ndim=1)
+        if not np.all(np.isfinite(ca)):
+            raise ValueError(f"centre: must be finite, got {centre!r}")
+        c = (float(ca[0]), float(ca[1]))
+    out = _map_out(to, preset, size, samples, max_samples, filter, outside, seed, look, up, fill,
+                   max_memory)
+    a, _ = _photo(image, "image", linear, nonfinite)
+    m, mask, info = _ext.from_fisheye(a, model, kk, _finite(fov, "fov"), c,
+                                      None if radius is None else _finite(radius, "radius"), out)
+    return _cube_out(to, m), _cube_out(to, mask), info

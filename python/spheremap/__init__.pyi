@@ -1,5 +1,5 @@
 import os
-from typing import Callable, Literal, NamedTuple
+from typing import Any, Callable, Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -92,6 +92,9 @@ class Scene:
     def add_directional_light(self, direction: npt.ArrayLike, irradiance: npt.ArrayLike) -> None: ...
     def __call__(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float32]: ...
     def intersect(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float32]: ...
+    def preview(self, eye: npt.ArrayLike, target: npt.ArrayLike, *, up: npt.ArrayLike = (0.0, 1.0, 0.0),
+                fov: float = 40.0, lens: str | None = None, size: tuple[int, int] = (640, 480),
+                samples: int = 16, seed: int = 0) -> npt.NDArray[np.float32]: ...
 
 def generate(size: int, fire_ray: Scene | Callable[[npt.NDArray[np.float32], npt.NDArray[np.float32]], npt.ArrayLike],
              *, pos: npt.ArrayLike = (0.0, 0.0, 0.0), look: npt.ArrayLike | None = None,
@@ -99,3 +102,26 @@ def generate(size: int, fire_ray: Scene | Callable[[npt.NDArray[np.float32], npt
              filter: str = "box", outside: str = "gutter", seed: int = 0, precision: str = "f32",
              mapping: str = "sphere", preset: str | None = None,
              max_memory: int | None = None) -> npt.NDArray[np.float32]: ...
+
+LENS_MODELS: tuple[str, ...]
+PHOTO_FILLS: tuple[str, ...]
+_Photo = npt.ArrayLike | str | os.PathLike[str]
+_PhotoResult = tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], dict[str, Any]]
+def find_ball(image: _Photo, *, linear: bool = False) -> dict[str, Any]: ...
+def from_mirror_ball(image: _Photo, *, second: _Photo | None = None, angle: float = 90.0,
+                     align: bool = True, fov: float | None = None, focal: float | None = None,
+                     sensor: float | None = None, orthographic: bool = False,
+                     circle: npt.ArrayLike | None = None, circle2: npt.ArrayLike | None = None,
+                     reflectance: float | npt.ArrayLike | None = None, camera_radius: float = 20.0,
+                     fill: str = "none", size: int = 512, samples: int = 4, max_samples: int = 1024,
+                     filter: str = "box", outside: str = "gutter", to: str = "sphere",
+                     preset: str | None = None, look: npt.ArrayLike | None = None,
+                     up: npt.ArrayLike | None = None, seed: int = 0, linear: bool = False,
+                     nonfinite: str = "error", max_memory: int | None = None) -> _PhotoResult: ...
+def from_fisheye(image: _Photo, *, model: str, fov: float, centre: npt.ArrayLike | None = None,
+                 radius: float | None = None, k: npt.ArrayLike | None = None, fill: str = "none",
+                 size: int = 512, samples: int = 4, max_samples: int = 1024, filter: str = "box",
+                 outside: str = "gutter", to: str = "sphere", preset: str | None = None,
+                 look: npt.ArrayLike | None = None, up: npt.ArrayLike | None = None, seed: int = 0,
+                 linear: bool = False, nonfinite: str = "error",
+                 max_memory: int | None = None) -> _PhotoResult: ...

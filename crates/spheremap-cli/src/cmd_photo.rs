@@ -169,10 +169,10 @@ pub struct PhotoArgs {
     orthographic: bool,
     /// The ball's outline in the first photo: centre and radius in continuous pixel
     /// coordinates ((0,0) the top-left corner, pixel centres at i + 0.5); default: found.
-    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"])]
+    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"], allow_negative_numbers = true)]
     circle: Option<Vec<f64>>,
     /// The ball's outline in the second photo (default: found).
-    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"])]
+    #[arg(long, num_args = 3, value_names = ["CX", "CY", "R"], allow_negative_numbers = true)]
     circle2: Option<Vec<f64>>,
     /// The ball's reflectance (one value, or R G B): the photo is divided by it (a chrome
     /// ball reflects about 0.6 to 0.8).
@@ -292,7 +292,7 @@ pub struct FisheyeArgs {
     #[arg(long)]
     fov: f64,
     /// Optical centre in continuous pixel coordinates (default: the image centre).
-    #[arg(long, num_args = 2, value_names = ["CX", "CY"])]
+    #[arg(long, num_args = 2, value_names = ["CX", "CY"], allow_negative_numbers = true)]
     centre: Option<Vec<f64>>,
     /// Radius of the image circle in pixels (where the angle is fov/2; default: half the
     /// shorter side).

@@ -78,7 +78,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         2 * (w as u128 * h as u128 * 4 * 4),
         a.job.max_memory()?,
     )?;
-    let world = a.world.load(&a.job, a.seed, std::slice::from_ref(&a.output))?;
+    let world = a
+        .world
+        .load(&a.job, a.seed, std::slice::from_ref(&a.output))?;
     let source = world.source();
     let t0 = Instant::now();
     let progress = Progress::default();

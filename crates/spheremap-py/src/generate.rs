@@ -28,6 +28,13 @@ fn rgb(v: Vec<f32>, name: &str) -> PyResult<[f32; 3]> {
     }
 }
 
+impl Scene {
+    /// The core scene (for the other glue modules).
+    pub(crate) fn inner(&self) -> &scene::Scene {
+        &self.inner
+    }
+}
+
 #[pymethods]
 impl Scene {
     /// Loads an OBJ (+MTL) or glTF 2.0 file.
@@ -37,15 +44,16 @@ impl Scene {
         Ok(Scene { inner })
     }
 
-    /// A built-in scene: "demo" or "octants".
+    /// A built-in scene: "demo", "octants" or "mirror-ball".
     #[staticmethod]
     fn builtin(name: &str) -> PyResult<Scene> {
         let inner = match name {
             "demo" => scene::demo_scene(),
             "octants" => scene::octant_sphere_scene(10.0, 16),
+            "mirror-ball" => scene::mirror_ball_scene(0.75),
             _ => {
                 return Err(PyValueError::new_err(format!(
-                    "name: unknown built-in scene {name:?}; expected 'demo' or 'octants'"
+                    "name: unknown built-in scene {name:?}; expected 'demo', 'octants' or 'mirror-ball'"
                 )))
             }
         };

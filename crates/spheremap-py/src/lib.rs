@@ -16,6 +16,7 @@ use spheremap::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
 mod generate;
+mod photo;
 
 pyo3::create_exception!(
     _spheremap,
@@ -703,5 +704,9 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;
     m.add_class::<generate::Scene>()?;
     m.add_function(wrap_pyfunction!(generate::generate, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::from_mirror_ball, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::from_fisheye, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::find_ball, m)?)?;
+    m.add_function(wrap_pyfunction!(photo::render_camera, m)?)?;
     Ok(())
 }

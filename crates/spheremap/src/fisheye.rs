@@ -1,5 +1,5 @@
 //! Fisheye lens models: the angle θ of a ray from the optical axis ↔ its distance r from the
-//! optical centre on the image (groundwork for `from-fisheye`, issue #5).
+//! optical centre on the image (used by `from-fisheye` and the camera render).
 //!
 //! ```text
 //!   model          r(θ) / f                         θ_max

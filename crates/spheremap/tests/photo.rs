@@ -353,3 +353,61 @@ fn fisheye_round_trip_every_model() {
         assert!(rim.iter().any(|v| *v > 0.0), "{rim:?}");
     }
 }
+
+/// The README's table: the orthographic assumption against the perspective model as the ball
+/// moves away, each photo framed so the ball is 0.4 of the image height in radius. Both are
+/// scored on the perspective model's valid mask (confidence ≥ 0.1). The orthographic model's
+/// angular error is largest at the rim, where it takes the reflected direction to be straight
+/// behind the ball (180° from the camera) while a camera D radii away sees at most 180° − β,
+/// sin β = 1/D.
+#[test]
+fn orthographic_error_by_distance() {
+    let env = hdri();
+    let (w, h) = (480, 480);
+    let mut rows = vec![];
+    for d in [3.0, 5.0, 10.0, 20.0, 50.0] {
+        let eye = [0.0, 0.3 * d, d].map(|v: f64| v / (1.0f64 + 0.09).sqrt());
+        let beta = (1.0 / d).asin();
+        // Ball radius 0.4 h on the image: f tan β = 0.4 h.
+        let f = 0.4 * h as f64 / beta.tan();
+        let hfov = 2.0 * (0.5 * w as f64 / f).atan().to_degrees();
+        let scene = ball_scene(&env, 0.75, None, &[eye]);
+        let img = photograph(&scene, eye, hfov, w, h);
+        let want = truth_scene(&ball_scene(&env, 0.0, None, &[eye]), view_of(eye));
+        let shot = BallPhoto {
+            image: &img,
+            model: BallModel::Perspective { hfov_deg: hfov },
+            circle: None,
+        };
+        let o = PhotoOptions {
+            reflectance: [0.75; 3],
+            ..opts()
+        };
+        let (pm, mask, rep) = photo::from_mirror_ball(&shot, None, &o, None).unwrap();
+        let ortho = BallPhoto {
+            model: BallModel::Orthographic,
+            ..shot
+        };
+        let (om, _, _) = photo::from_mirror_ball(&ortho, None, &o, None).unwrap();
+        let valid = |x: usize, y: usize| mask.pixel(x, y)[0] >= 0.1;
+        let (pp, n) = psnr(&pm, &want, valid);
+        let (po, _) = psnr(&om, &want, valid);
+        eprintln!(
+            "D = {d:>4} radii (hfov {hfov:.2}°): perspective {pp:.1} dB, orthographic {po:.1} dB \
+             over {n} texels; unseen cone / orthographic rim error β = {:.2}°; fitted D {:.3}",
+            beta.to_degrees(),
+            rep.shots[0].distance
+        );
+        rows.push((d, pp, po));
+    }
+    for (i, &(d, pp, po)) in rows.iter().enumerate() {
+        assert!(pp >= 35.0, "D = {d}: perspective {pp}");
+        assert!(po < pp, "D = {d}: orthographic {po} vs perspective {pp}");
+        if i > 0 {
+            assert!(
+                po > rows[i - 1].2,
+                "the orthographic error should fall with distance"
+            );
+        }
+    }
+}

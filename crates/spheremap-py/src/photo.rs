@@ -1,0 +1,308 @@
+//! PyO3 glue for the photo routes (`spheremap::photo`) and the camera render
+//! (`spheremap::camera`).  No maths here: arrays and strings in, core calls, arrays and a report
+//! dictionary out.  Argument checking with argument names is in `python/spheremap/__init__.py`.
+
+use super::generate::Scene;
+use super::{contiguous, parse_mapping, run_cancellable, to_py};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use spheremap::camera::{self, Camera, Projection};
+use spheremap::fisheye::{Lens, LensModel};
+use spheremap::generate::GenerateOptions;
+use spheremap::image_io::Image;
+use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::resample::{self as rs, Progress};
+
+/// An (H, W, C) float32 array as a core image (copied).
+fn image_of(a: &PyReadonlyArrayDyn<'_, f32>, name: &str) -> PyResult<Image> {
+    let shape = a.shape().to_vec();
+    if shape.len() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected (H, W, C), got shape {shape:?}"
+        )));
+    }
+    Ok(Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data: contiguous(a, name)?.to_vec(),
+    })
+}
+
+fn array<'py>(py: Python<'py>, img: Image) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([img.height, img.width, img.channels])?
+        .into_any())
+}
+
+fn circle_of(c: Option<[f64; 3]>) -> Option<Circle> {
+    c.map(|[cx, cy, r]| Circle { cx, cy, r })
+}
+
+/// The output side shared by both routes (the CLI's `MapOut`): a dict with these keys.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct MapOptions {
+    to: String,
+    preset: Option<String>,
+    size: usize,
+    samples: u32,
+    max_samples: u32,
+    filter: String,
+    outside: String,
+    seed: u64,
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fill: String,
+    max_memory: Option<u64>,
+}
+
+impl MapOptions {
+    fn options(&self) -> PyResult<PhotoOptions> {
+        let mapping = parse_mapping(&self.to, self.preset.as_deref())?;
+        if self.size == 0 || self.size > 1 << 15 {
+            return Err(PyValueError::new_err(format!(
+                "size: {} is out of range 1..=32768",
+                self.size
+            )));
+        }
+        let (width, height) = mapping.canvas(self.size);
+        Ok(PhotoOptions {
+            mapping,
+            width,
+            height,
+            generate: GenerateOptions {
+                samples: self.samples,
+                max_samples: self.max_samples,
+                filter: rs::Filter::parse(&self.filter).map_err(to_py)?,
+                outside: rs::Outside::parse(&self.outside).map_err(to_py)?,
+                rotation: spheremap::view::conversion_rotation(
+                    self.look, self.up, None, None, None,
+                )
+                .map_err(to_py)?,
+                seed: self.seed,
+                max_memory: self
+                    .max_memory
+                    .unwrap_or_else(spheremap::error::default_max_memory),
+                ..Default::default()
+            },
+            fill: Fill::parse(&self.fill).map_err(to_py)?,
+            ..Default::default()
+        })
+    }
+}
+
+/// The report as a dict (the CLI's `--json` keys).
+fn report_dict<'py>(py: Python<'py>, r: &PhotoReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let shots = pyo3::types::PyList::empty(py);
+    for s in &r.shots {
+        let sd = PyDict::new(py);
+        sd.set_item("circle", (s.circle.cx, s.circle.cy, s.circle.r))?;
+        sd.set_item("fit_rms_px", s.fit_rms)?;
+        sd.set_item("fit_points", s.fit_points)?;
+        sd.set_item(
+            "distance_radii",
+            s.distance.is_finite().then_some(s.distance),
+        )?;
+        sd.set_item("blind_cone_deg", s.blind_deg)?;
+        shots.append(sd)?;
+    }
+    d.set_item("shots", shots)?;
+    d.set_item("rotation", r.rotation)?;
+    d.set_item("rotation_deg", r.rotation_deg)?;
+    d.set_item("alignment_rms", r.alignment_rms)?;
+    d.set_item("gain", r.gain)?;
+    d.set_item("seen_fraction", r.seen_fraction)?;
+    d.set_item("samples_total", r.rays)?;
+    Ok(d)
+}
+
+type PhotoResult<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>);
+
+fn finish<'py>(py: Python<'py>, out: (Image, Image, PhotoReport)) -> PyResult<PhotoResult<'py>> {
+    let (map, mask, report) = out;
+    let d = report_dict(py, &report)?;
+    Ok((array(py, map)?, array(py, mask)?, d))
+}
+
+/// One photo's camera model: orthographic, or perspective with a field of view from the
+/// arguments or the file's EXIF (`exif`: the file's bytes); returns the model and a description.
+fn ball_model(
+    orthographic: bool,
+    fov: Option<f64>,
+    focal: Option<f64>,
+    sensor: Option<f64>,
+    exif: Option<&[u8]>,
+    img: &Image,
+    name: &str,
+) -> PyResult<(BallModel, Option<(f64, &'static str)>)> {
+    if orthographic {
+        return Ok((BallModel::Orthographic, None));
+    }
+    let (hfov, from) = photo::exif_hfov(fov, focal, sensor, exif, img.width, img.height)
+        .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
+    Ok((
+        BallModel::Perspective { hfov_deg: hfov },
+        Some((hfov, from.describe())),
+    ))
+}
+
+/// Mirror-ball photo(s) -> (map, mask, report).
+#[pyfunction]
+#[pyo3(signature = (image, exif, second, exif2, orthographic, fov, focal, sensor, circle, circle2,
+                    angle, align, reflectance, camera_radius, out))]
+#[allow(clippy::too_many_arguments)]
+pub fn from_mirror_ball<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    exif: Option<Vec<u8>>,
+    second: Option<PyReadonlyArrayDyn<'py, f32>>,
+    exif2: Option<Vec<u8>>,
+    orthographic: bool,
+    fov: Option<f64>,
+    focal: Option<f64>,
+    sensor: Option<f64>,
+    circle: Option<[f64; 3]>,
+    circle2: Option<[f64; 3]>,
+    angle: f64,
+    align: bool,
+    reflectance: [f32; 3],
+    camera_radius: f64,
+    out: MapOptions,
+) -> PyResult<PhotoResult<'py>> {
+    let mut opts = out.options()?;
+    opts.reflectance = reflectance;
+    opts.camera_radius_deg = camera_radius;
+    opts.angle_deg = angle;
+    opts.align = align;
+    let img1 = image_of(&image, "image")?;
+    let img2 = second.as_ref().map(|s| image_of(s, "second")).transpose()?;
+    let (m1, fov1) = ball_model(
+        orthographic,
+        fov,
+        focal,
+        sensor,
+        exif.as_deref(),
+        &img1,
+        "image",
+    )?;
+    let m2 = match &img2 {
+        Some(i) => Some(ball_model(
+            orthographic,
+            fov,
+            focal,
+            sensor,
+            exif2.as_deref(),
+            i,
+            "second",
+        )?),
+        None => None,
+    };
+    let p1 = BallPhoto {
+        image: &img1,
+        model: m1,
+        circle: circle_of(circle),
+    };
+    let p2 = img2.as_ref().zip(m2).map(|(i, (m, _))| BallPhoto {
+        image: i,
+        model: m,
+        circle: circle_of(circle2),
+    });
+    let progress = Progress::default();
+    let (opts, p1r, p2r) = (&opts, &p1, p2.as_ref());
+    let result = run_cancellable(py, &progress, "the unwarp", |p| {
+        photo::from_mirror_ball(p1r, p2r, opts, Some(p))
+    })?;
+    let r = finish(py, result)?;
+    let fovs: Vec<Option<(f64, &str)>> = std::iter::once(fov1).chain(m2.map(|m| m.1)).collect();
+    r.2.set_item("fov", fovs)?;
+    Ok(r)
+}
+
+/// A fisheye photo -> (map, mask, report).
+#[pyfunction]
+#[pyo3(signature = (image, model, k, fov, centre, radius, out))]
+#[allow(clippy::too_many_arguments)]
+pub fn from_fisheye<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    model: &str,
+    k: [f64; 4],
+    fov: f64,
+    centre: Option<[f64; 2]>,
+    radius: Option<f64>,
+    out: MapOptions,
+) -> PyResult<PhotoResult<'py>> {
+    let opts = out.options()?;
+    let img = image_of(&image, "image")?;
+    let model = LensModel::parse(model, k).map_err(to_py)?;
+    let centre = centre.unwrap_or([0.5 * img.width as f64, 0.5 * img.height as f64]);
+    let radius = radius.unwrap_or(0.5 * img.width.min(img.height) as f64);
+    let lens = Lens::new(model, fov, centre, radius).map_err(to_py)?;
+    let progress = Progress::default();
+    let (img, opts) = (&img, &opts);
+    let result = run_cancellable(py, &progress, "the unwarp", |p| {
+        photo::from_fisheye(img, lens, opts, Some(p))
+    })?;
+    finish(py, result)
+}
+
+/// The ball's outline in a photo: (cx, cy, r, rms, points).
+#[pyfunction]
+pub fn find_ball(
+    py: Python<'_>,
+    image: PyReadonlyArrayDyn<'_, f32>,
+) -> PyResult<(f64, f64, f64, f64, usize)> {
+    let img = image_of(&image, "image")?;
+    let fit = py
+        .detach(|| photo::find_circle(&img, None))
+        .map_err(to_py)?;
+    Ok((
+        fit.circle.cx,
+        fit.circle.cy,
+        fit.circle.r,
+        fit.rms,
+        fit.points.len(),
+    ))
+}
+
+/// What a camera sees of a scene: (H, W, 3) float32.
+#[pyfunction]
+#[pyo3(signature = (scene, eye, target, up, fov, lens, width, height, samples, seed))]
+#[allow(clippy::too_many_arguments)]
+pub fn render_camera<'py>(
+    py: Python<'py>,
+    scene: PyRef<'py, Scene>,
+    eye: [f64; 3],
+    target: [f64; 3],
+    up: [f64; 3],
+    fov: f64,
+    lens: Option<&str>,
+    width: usize,
+    height: usize,
+    samples: u32,
+    seed: u64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let projection = match lens {
+        None => Projection::Perspective { hfov_deg: fov },
+        Some(m) => Projection::Fisheye(
+            Lens::new(
+                LensModel::parse(m, [0.0; 4]).map_err(to_py)?,
+                fov,
+                [0.5 * width as f64, 0.5 * height as f64],
+                0.5 * width.min(height) as f64,
+            )
+            .map_err(to_py)?,
+        ),
+    };
+    let cam = Camera::look_at(projection, eye, target, up, width, height).map_err(to_py)?;
+    let progress = Progress::default();
+    let (cam, source) = (&cam, scene.inner());
+    let img = run_cancellable(py, &progress, "the render", |p| {
+        camera::render(cam, source, samples, seed, false, Some(p))
+    })?;
+    array(py, img)
+}
