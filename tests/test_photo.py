@@ -166,7 +166,7 @@ def test_cli_from_photo(tmp_path, truth):
 
 
 def test_cli_from_photo_reads_exif(tmp_path):
-    PIL = pytest.importorskip("PIL.Image")
+    from PIL import Image as PIL  # installed by scripts/test.sh
     ball = tmp_path / "ball.png"
     r = cli("preview", "--scene", "builtin:mirror-ball", "--env", HDRI, "--eye", *EYE, "--target", 0, 0, 0,
             "--fov", FOV, "--size", 320, 240, "--samples", 4, "-q", "-o", ball)
