@@ -13,6 +13,7 @@ mod cmd_generate;
 mod cmd_info;
 mod cmd_photo;
 mod cmd_preview;
+mod cmd_render;
 mod cmd_texgen;
 mod job;
 pub mod progress;
@@ -57,6 +58,9 @@ enum Command {
     /// Render a photo of a scene (or an environment map) through a perspective or fisheye
     /// camera with the ray tracer.
     Preview(Box<cmd_preview::Args>),
+    /// Draw a mesh with a sphere map (per-vertex exactly as OpenGL's GL_SPHERE_MAP, or
+    /// per-pixel), a MatCap, its normals, or the per-vertex interpolation error.
+    Render(Box<cmd_render::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -101,6 +105,7 @@ where
         Command::FromPhoto(a) => cmd_photo::run_photo(*a),
         Command::FromFisheye(a) => cmd_photo::run_fisheye(*a),
         Command::Preview(a) => cmd_preview::run(*a),
+        Command::Render(a) => cmd_render::run(*a),
     });
     std::panic::set_hook(previous_hook);
     match result {

@@ -40,10 +40,12 @@ pub mod parse;
 pub mod photo;
 mod quad;
 pub mod real;
+pub mod render;
 pub mod resample;
 pub mod scene;
 pub mod sphere;
 pub mod texgen;
+pub mod tonemap;
 pub mod view;
 
 pub use conventions::{RowOrder, Singular, SpherePreset, PRESETS};

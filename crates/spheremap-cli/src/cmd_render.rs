@@ -1,0 +1,275 @@
+//! `spheremap render`: a thin layer over `spheremap::render`.
+
+use crate::job::{vec3, JobFlags};
+use anyhow::{bail, Context};
+use spheremap::envio::{env_paths, read_env, same_file};
+use spheremap::image_io::{check_nonfinite, write_image, Format, Image, ReadOptions};
+use spheremap::mapping::Mapping;
+use spheremap::matcap::MatcapVariant;
+use spheremap::mesh::load_mesh;
+use spheremap::render::{self, heat_colour, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+use spheremap::resample::EnvMap;
+use spheremap::tonemap::{tone_map, ToneMap};
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The mesh: OBJ or glTF/GLB (its vertex normals when present, else angle-weighted ones).
+    mesh: String,
+    /// The environment: a sphere map (per-vertex, per-pixel), a MatCap image (matcap), or any
+    /// mapping with --env-format (per-pixel). Not needed for normals and error.
+    #[arg(long)]
+    env: Option<String>,
+    /// Mapping of --env: sphere (default), latlong, cube, angular, paraboloid, octahedral.
+    #[arg(long, default_value = "sphere")]
+    env_format: String,
+    /// Preset of --env's mapping.
+    #[arg(long)]
+    env_preset: Option<String>,
+    /// Cube layout of --env (default: from its shape).
+    #[arg(long)]
+    env_layout: Option<String>,
+    /// per-vertex (GL_SPHERE_MAP texgen, as OpenGL), per-pixel, matcap, normals, error.
+    #[arg(long, default_value = "per-pixel")]
+    mode: String,
+    /// MatCap variant for --mode matcap: classic, threejs, perspective.
+    #[arg(long, default_value = "classic")]
+    matcap_variant: String,
+    /// Camera position, as gluLookAt (default: on +Z of the mesh's bounding sphere, framing it).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    eye: Option<Vec<f64>>,
+    /// The point looked at (default: the bounding box's centre).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    target: Option<Vec<f64>>,
+    /// Up direction (default 0 1 0).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// Vertical field of view in degrees, as gluPerspective.
+    #[arg(long, default_value_t = 40.0)]
+    fovy: f64,
+    /// Near plane distance (default: from the bounding sphere).
+    #[arg(long)]
+    near: Option<f64>,
+    /// Far plane distance (default: from the bounding sphere).
+    #[arg(long)]
+    far: Option<f64>,
+    /// Image size in pixels.
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [512, 512])]
+    size: Vec<usize>,
+    /// Colour where no triangle is (linear RGB).
+    #[arg(long, num_args = 3, value_names = ["R", "G", "B"], default_values_t = [0.0, 0.0, 0.0])]
+    background: Vec<f32>,
+    /// Anti-aliasing: K × K samples per pixel (1 = the pixel centre, as GL without MSAA).
+    #[arg(long, default_value_t = 1)]
+    aa: u32,
+    /// Texture wrap of a sphere map or MatCap: clamp-to-edge (default) or repeat.
+    #[arg(long, default_value = "clamp-to-edge")]
+    wrap: String,
+    /// Exposure in stops for PNG/JPEG outputs (EXR/HDR/PFM stay linear and untouched).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Tone-mapping operator for PNG/JPEG outputs: clamp (default), reinhard, aces.
+    #[arg(long, default_value = "clamp")]
+    tonemap: String,
+    /// Error mode: the angle (degrees) shown as the hottest colour in PNG/JPEG outputs
+    /// (EXR holds the degrees themselves).
+    #[arg(long, default_value_t = 5.0)]
+    error_max: f32,
+    /// Read LDR textures as linear values (no sRGB decoding).
+    #[arg(long)]
+    linear: bool,
+    /// Output image (.exr .hdr .pfm: linear values; .png .jpg: tone-mapped, sRGB).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: JobFlags,
+}
+
+/// The camera: as given, or framing the mesh's bounding sphere from +Z.
+fn camera(a: &Args, positions: &[[f32; 3]]) -> anyhow::Result<GlCamera> {
+    let (w, h) = (a.size[0], a.size[1]);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k] as f64);
+            hi[k] = hi[k].max(p[k] as f64);
+        }
+    }
+    if positions.is_empty() {
+        bail!("{}: the mesh has no vertices", a.mesh);
+    }
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let radius = (0..3)
+        .map(|k| (hi[k] - lo[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        .max(1e-6)
+        * 0.5;
+    let target = vec3(&a.target).unwrap_or(centre);
+    // Fit the bounding sphere in the smaller field of view, with 10 % margin.
+    let half = 0.5 * a.fovy.to_radians();
+    let half_min = if w >= h {
+        half
+    } else {
+        (half.tan() * w as f64 / h as f64).atan()
+    };
+    let dist = 1.1 * radius / half_min.sin();
+    let eye = vec3(&a.eye).unwrap_or([target[0], target[1], target[2] + dist]);
+    let d = ((eye[0] - centre[0]).powi(2)
+        + (eye[1] - centre[1]).powi(2)
+        + (eye[2] - centre[2]).powi(2))
+    .sqrt();
+    let near = a
+        .near
+        .unwrap_or(((d - radius) * 0.9).max(d * 1e-3).max(1e-4));
+    let far = a.far.unwrap_or((d + radius) * 1.1);
+    Ok(GlCamera::look_at(
+        eye,
+        target,
+        vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]),
+        a.fovy,
+        near,
+        far,
+        w,
+        h,
+    )?)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let variant = MatcapVariant::parse(&a.matcap_variant, "matcap-variant")?;
+    let mode = Mode::parse(&a.mode, variant)?;
+    let wrap = Wrap::parse(&a.wrap)?;
+    let op = ToneMap::parse(&a.tonemap)?;
+    if !(a.error_max > 0.0 && a.error_max.is_finite()) {
+        bail!("error-max: must be a positive number of degrees");
+    }
+    let mut inputs = vec![a.mesh.clone()];
+    inputs.extend(a.env.iter().flat_map(|e| env_paths(e)));
+    for i in &inputs {
+        if !a.job.force && same_file(Path::new(i), Path::new(&a.output)) {
+            bail!(
+                "{}: the output would overwrite the input (use --force to allow)",
+                a.output
+            );
+        }
+    }
+    let mesh = load_mesh(Path::new(&a.mesh))?;
+    let cam = camera(&a, &mesh.positions)?;
+    let mapping = Mapping::parse(&a.env_format, a.env_preset.as_deref()).context("--env-format")?;
+    let layout = a
+        .env_layout
+        .as_deref()
+        .map(spheremap::cube::Layout::parse)
+        .transpose()?;
+    let env_img: Option<Image> = match (&a.env, mode) {
+        (None, Mode::Normals | Mode::Error) => None,
+        (None, _) => bail!("--env: mode {} needs an environment map", a.mode),
+        (Some(e), _) => {
+            let ropts = ReadOptions {
+                linear: a.linear,
+                ..Default::default()
+            };
+            let mut img = read_env(e, mapping, layout, &ropts)?;
+            check_nonfinite(&mut img, a.job.nonfinite()?, e)?;
+            Some(img)
+        }
+    };
+    let is_sphere = matches!(mapping, Mapping::Sphere(_));
+    if matches!(mode, Mode::PerVertex | Mode::Matcap(_)) && !is_sphere {
+        bail!(
+            "--env-format: mode {} looks up (s, t) in a sphere map or MatCap image; convert the \
+             map first (spheremap convert ... --to sphere)",
+            a.mode
+        );
+    }
+    let texture = env_img.as_ref().map(|image| Texture { image, wrap });
+    let envmap = match (&env_img, is_sphere) {
+        (Some(img), false) => Some(EnvMap::new(
+            mapping,
+            img,
+            a.env.as_deref().unwrap_or("env"),
+        )?),
+        _ => None,
+    };
+    let env = match (&texture, &envmap) {
+        (_, Some(m)) => Env::Map(m),
+        (Some(t), None) => Env::Texture(t),
+        _ => Env::None,
+    };
+    let opts = RenderOptions {
+        mode,
+        background: [a.background[0], a.background[1], a.background[2]],
+        aa: a.aa,
+    };
+    let t0 = Instant::now();
+    let (img, stats) = render::render(&mesh, &cam, env, &opts)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let error_stats = (mode == Mode::Error).then(|| error_summary(&img));
+    let linear_out = Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
+    let out = if mode == Mode::Error && !linear_out {
+        heat_image(&img, a.error_max, opts.background)
+    } else if !linear_out {
+        let mut i = img;
+        tone_map(&mut i, a.exposure, op);
+        i
+    } else {
+        img
+    };
+    write_image(Path::new(&a.output), &out, &a.job.write_options(false))?;
+    if a.job.json {
+        let mut v = serde_json::json!({
+            "output": a.output, "mode": a.mode, "width": cam.width, "height": cam.height,
+            "triangles_drawn": stats.triangles, "covered_pixels": stats.covered_pixels,
+            "modelview": cam.modelview, "projection": cam.projection, "seconds": seconds,
+        });
+        if let Some((mean, p95, max)) = error_stats {
+            v["error_deg"] = serde_json::json!({"mean": mean, "p95": p95, "max": max});
+        }
+        crate::out(&format!("{v}\n"));
+    } else if !a.job.quiet {
+        let extra = error_stats.map_or(String::new(), |(mean, p95, max)| {
+            format!(
+                "; per-vertex vs per-pixel lookup angle: mean {mean:.3}°, 95 % {p95:.3}°, max {max:.3}° \
+                 (PNG colour scale 0..{}°)",
+                a.error_max
+            )
+        });
+        eprintln!(
+            "-> {} ({}x{}, {}, {} triangles, {} pixels covered){extra}: {seconds:.3} s",
+            a.output, cam.width, cam.height, a.mode, stats.triangles, stats.covered_pixels
+        );
+    }
+    Ok(())
+}
+
+/// Mean, 95th percentile and maximum of the angle over the covered pixels.
+fn error_summary(img: &Image) -> (f64, f64, f64) {
+    let mut v: Vec<f32> = img
+        .data
+        .chunks_exact(2)
+        .filter(|p| p[1] > 0.0)
+        .map(|p| p[0])
+        .collect();
+    if v.is_empty() {
+        return (0.0, 0.0, 0.0);
+    }
+    v.sort_by(f32::total_cmp);
+    let mean = v.iter().map(|x| *x as f64).sum::<f64>() / v.len() as f64;
+    let p95 = v[((v.len() - 1) as f64 * 0.95).round() as usize] as f64;
+    (mean, p95, *v.last().unwrap() as f64)
+}
+
+/// (degrees, coverage) → heat colours (0 → dark, `max` and above → pale yellow) over the
+/// background by coverage.
+fn heat_image(img: &Image, max: f32, bg: [f32; 3]) -> Image {
+    let mut out = Image::new(img.width, img.height, 3);
+    for (o, p) in out.data.chunks_exact_mut(3).zip(img.data.chunks_exact(2)) {
+        let h = heat_colour(p[0] / max);
+        for k in 0..3 {
+            o[k] = p[1] * h[k] + (1.0 - p[1]) * bg[k];
+        }
+    }
+    out
+}
