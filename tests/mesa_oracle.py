@@ -107,3 +107,67 @@ def mesa_sphere_texgen(positions: np.ndarray, normals: np.ndarray, modelview: np
                 raise RuntimeError("unexpected feedback token")
             out[sel] = rec[:, 9:11]
     return out
+
+
+def mesa_render_sphere_map(positions, normals, triangles, modelview, projection, texture, size,
+                           background=(0, 0, 0)) -> np.ndarray:
+    """Draws triangles with OpenGL's fixed-function GL_SPHERE_MAP path in Mesa: texgen on S and
+    T, GL_NORMALIZE, GL_REPLACE, a GL_LINEAR RGBA8 texture without mipmaps clamped to the edge,
+    depth test GL_LESS, no lighting, no culling. `texture`: (H, W, 4) uint8 with row 0 at the top
+    (t = 1); returns (height, width, 4) uint8 with row 0 at the top. Uses its own context."""
+    from OpenGL import GL, osmesa
+
+    _context()  # fails with MesaUnavailable when OSMesa is missing
+    w, h = size
+    ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, 24, 0, 0, None)
+    if not ctx:
+        raise MesaUnavailable("OSMesaCreateContextExt failed")
+    buf = (ctypes.c_ubyte * (w * h * 4))()
+    try:
+        if not osmesa.OSMesaMakeCurrent(ctx, buf, GL.GL_UNSIGNED_BYTE, w, h):
+            raise MesaUnavailable("OSMesaMakeCurrent failed")
+        GL.glViewport(0, 0, w, h)
+        GL.glClearColor(background[0] / 255, background[1] / 255, background[2] / 255, 1.0)
+        GL.glClearDepth(1.0)
+        GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
+        GL.glEnable(GL.GL_DEPTH_TEST)
+        GL.glDepthFunc(GL.GL_LESS)
+        GL.glDisable(GL.GL_LIGHTING)
+        GL.glDisable(GL.GL_CULL_FACE)
+        GL.glDisable(GL.GL_DITHER)
+        GL.glEnable(GL.GL_NORMALIZE)
+        tex = GL.glGenTextures(1)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+        for p, v in ((GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR), (GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR),
+                     (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_EDGE), (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_EDGE)):
+            GL.glTexParameteri(GL.GL_TEXTURE_2D, p, v)
+        GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
+        t = np.ascontiguousarray(np.asarray(texture, np.uint8)[::-1])  # GL row 0 is t = 0
+        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, t.shape[1], t.shape[0], 0, GL.GL_RGBA,
+                        GL.GL_UNSIGNED_BYTE, t)
+        GL.glTexEnvi(GL.GL_TEXTURE_ENV, GL.GL_TEXTURE_ENV_MODE, GL.GL_REPLACE)
+        GL.glEnable(GL.GL_TEXTURE_2D)
+        for coord, gen in ((GL.GL_S, GL.GL_TEXTURE_GEN_S), (GL.GL_T, GL.GL_TEXTURE_GEN_T)):
+            GL.glTexGeni(coord, GL.GL_TEXTURE_GEN_MODE, GL.GL_SPHERE_MAP)
+            GL.glEnable(gen)
+        GL.glMatrixMode(GL.GL_TEXTURE)
+        GL.glLoadIdentity()
+        GL.glMatrixMode(GL.GL_PROJECTION)
+        GL.glLoadMatrixd(np.ascontiguousarray(np.asarray(projection, np.float64).T).ravel())
+        GL.glMatrixMode(GL.GL_MODELVIEW)
+        GL.glLoadMatrixd(np.ascontiguousarray(np.asarray(modelview, np.float64).T).ravel())
+        pos = np.ascontiguousarray(positions, np.float32)
+        nrm = np.ascontiguousarray(normals, np.float32)
+        idx = np.ascontiguousarray(triangles, np.uint32).ravel()
+        GL.glEnableClientState(GL.GL_VERTEX_ARRAY)
+        GL.glEnableClientState(GL.GL_NORMAL_ARRAY)
+        GL.glVertexPointer(3, GL.GL_FLOAT, 0, pos)
+        GL.glNormalPointer(GL.GL_FLOAT, 0, nrm)
+        GL.glDrawElements(GL.GL_TRIANGLES, len(idx), GL.GL_UNSIGNED_INT, idx)
+        GL.glFinish()
+        out = np.frombuffer(buf, np.uint8).reshape(h, w, 4)[::-1].copy()  # OSMesa: row 0 = bottom
+    finally:
+        osmesa.OSMesaDestroyContext(ctx)
+        if _ctx is not None:  # give the texgen oracle its context back
+            osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
+    return out

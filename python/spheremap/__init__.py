@@ -56,6 +56,9 @@ __all__ = [
     "find_ball",
     "from_mirror_ball",
     "from_fisheye",
+    "RENDER_MODES",
+    "load_mesh",
+    "render",
 ]
 
 NORMALIZE_MODES = ("on", "off", "rescale")
@@ -69,6 +72,8 @@ CUBE_LAYOUTS = ("hcross", "vcross", "hstrip", "vstrip", "dice", "horizon")
 FILTERS = ("box", "tent", "gaussian")
 #: Fisheye lens models (from_fisheye; Scene.preview takes the first four).
 LENS_MODELS = ("equidistant", "equisolid", "stereographic", "orthographic", "polynomial")
+#: Modes of render.
+RENDER_MODES = ("per-vertex", "per-pixel", "matcap", "normals", "error")
 #: What from_mirror_ball / from_fisheye put where no photo sees.
 PHOTO_FILLS = ("none", "smooth", "mean")
 
@@ -800,3 +805,90 @@ def from_fisheye(image, *, model: str, fov: float, centre=None, radius: float | 
     m, mask, info = _ext.from_fisheye(a, model, kk, _finite(fov, "fov"), c,
                                       None if radius is None else _finite(radius, "radius"), out)
     return _cube_out(to, m), _cube_out(to, mask), info
+
+
+def load_mesh(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reads an OBJ or glTF/GLB mesh -> (positions (N, 3) float32, normals (N, 3) float32,
+    triangles (M, 3) uint32): faces triangulated, glTF node transforms applied, the file's
+    vertex normals or else angle-weighted ones (see the README)."""
+    return _ext.load_mesh(os.fspath(path))
+
+
+def _env_image(env, env_format: str, linear: bool) -> np.ndarray:
+    if isinstance(env, (str, os.PathLike)):
+        a = read_image(env, linear=linear)
+    else:
+        a = _floats(env, "env")
+    if env_format == "cube":
+        if a.ndim == 3 and a.shape[1] * 6 != a.shape[0]:
+            a = cube_from_layout(a, _guess_layout(a.shape))
+        if a.ndim == 4:
+            if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
+                raise ValueError(f"env: a cube map is (6, F, F, C), got shape {a.shape}")
+            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+    elif a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ValueError(f"env: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    a = _nonfinite(a, "error", "env")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def _guess_layout(shape) -> str:
+    h, w = shape[0], shape[1]
+    for layout, (cw, ch) in {"hcross": (4, 3), "vcross": (3, 4), "hstrip": (6, 1), "vstrip": (1, 6)}.items():
+        if w * ch == h * cw:
+            return layout
+    raise ValueError(f"env: cannot tell the cube layout of a {w}x{h} image; pass (6, F, F, C) faces")
+
+
+def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere",
+           env_preset: str | None = None, matcap_variant: str = "classic", eye=None, target=None,
+           up=None, fovy: float = 40.0, near: float | None = None, far: float | None = None,
+           size=(512, 512), background=(0.0, 0.0, 0.0), aa: int = 1, wrap: str = "clamp-to-edge",
+           linear: bool = False) -> np.ndarray:
+    """Draws a mesh with the CPU rasterizer (``spheremap render``; see the README).
+
+    mesh: a path (OBJ, glTF/GLB) or (positions (N, 3), normals (N, 3) or None, triangles (M, 3)).
+    env: the sphere map (per-vertex, per-pixel), MatCap image (matcap) or environment map in
+        `env_format` (per-pixel), as an array or a path; not needed for normals and error.
+    mode: one of RENDER_MODES. per-vertex is OpenGL's fixed-function GL_SPHERE_MAP path
+        (texgen per vertex, (s, t) interpolated, GL_LINEAR); per-pixel the reflection vector per
+        pixel (a sphere map in eye space, other mappings in world space).
+    eye, target, up, fovy, near, far: gluLookAt + gluPerspective (defaults frame the mesh).
+    size: (width, height). aa: k x k samples per pixel. wrap: "clamp-to-edge" or "repeat".
+
+    Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
+    in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
+    """
+    _choice(mode, "mode", RENDER_MODES)
+    _choice(env_format, "env_format", MAPPINGS)
+    _choice(matcap_variant, "matcap_variant", MATCAP_VARIANTS)
+    _choice(wrap, "wrap", ("clamp-to-edge", "repeat"))
+    if isinstance(mesh, (str, os.PathLike)):
+        p, n, t = load_mesh(mesh)
+    else:
+        try:
+            p, n, t = mesh
+        except (TypeError, ValueError):
+            raise ValueError("mesh: expected a path or (positions, normals, triangles)") from None
+        p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
+        if n is not None:
+            n = np.ascontiguousarray(_floats(n, "normals", last=(3,), ndim=2), dtype=np.float32)
+        t = np.asarray(t)
+        if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
+            raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
+        t = np.ascontiguousarray(t, dtype=np.uint32)
+    if env is None and mode not in ("normals", "error"):
+        raise ValueError(f"env: mode {mode!r} needs an environment map")
+    e = None if env is None else _env_image(env, env_format, linear)
+    try:
+        w, h = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise ValueError(f"size: expected (width, height), got {size!r}") from None
+    bg = _vec3(background, "background")
+    return _ext.render(p, n, t, e, env_format, env_preset, mode, matcap_variant, _vec3(eye, "eye"),
+                       _vec3(target, "target"), _vec3(up, "up"), _finite(fovy, "fovy"),
+                       None if near is None else _finite(near, "near"),
+                       None if far is None else _finite(far, "far"), _size_any(w, "size"),
+                       _size_any(h, "size"), tuple(float(v) for v in bg), _size_any(aa, "aa"), wrap)

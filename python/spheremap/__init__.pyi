@@ -125,3 +125,13 @@ def from_fisheye(image: _Photo, *, model: str, fov: float, centre: npt.ArrayLike
                  look: npt.ArrayLike | None = None, up: npt.ArrayLike | None = None, seed: int = 0,
                  linear: bool = False, nonfinite: str = "error",
                  max_memory: int | None = None) -> _PhotoResult: ...
+RENDER_MODES: tuple[str, ...]
+def load_mesh(path: str | os.PathLike[str]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
+def render(mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike],
+           env: _Photo | None = None, *, mode: str = "per-pixel", env_format: str = "sphere",
+           env_preset: str | None = None, matcap_variant: str = "classic",
+           eye: npt.ArrayLike | None = None, target: npt.ArrayLike | None = None,
+           up: npt.ArrayLike | None = None, fovy: float = 40.0, near: float | None = None,
+           far: float | None = None, size: tuple[int, int] = (512, 512),
+           background: npt.ArrayLike = (0.0, 0.0, 0.0), aa: int = 1, wrap: str = "clamp-to-edge",
+           linear: bool = False) -> npt.NDArray[np.float32]: ...

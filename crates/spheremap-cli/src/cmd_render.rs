@@ -86,57 +86,6 @@ pub struct Args {
     job: JobFlags,
 }
 
-/// The camera: as given, or framing the mesh's bounding sphere from +Z.
-fn camera(a: &Args, positions: &[[f32; 3]]) -> anyhow::Result<GlCamera> {
-    let (w, h) = (a.size[0], a.size[1]);
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k] as f64);
-            hi[k] = hi[k].max(p[k] as f64);
-        }
-    }
-    if positions.is_empty() {
-        bail!("{}: the mesh has no vertices", a.mesh);
-    }
-    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-    let radius = (0..3)
-        .map(|k| (hi[k] - lo[k]).powi(2))
-        .sum::<f64>()
-        .sqrt()
-        .max(1e-6)
-        * 0.5;
-    let target = vec3(&a.target).unwrap_or(centre);
-    // Fit the bounding sphere in the smaller field of view, with 10 % margin.
-    let half = 0.5 * a.fovy.to_radians();
-    let half_min = if w >= h {
-        half
-    } else {
-        (half.tan() * w as f64 / h as f64).atan()
-    };
-    let dist = 1.1 * radius / half_min.sin();
-    let eye = vec3(&a.eye).unwrap_or([target[0], target[1], target[2] + dist]);
-    let d = ((eye[0] - centre[0]).powi(2)
-        + (eye[1] - centre[1]).powi(2)
-        + (eye[2] - centre[2]).powi(2))
-    .sqrt();
-    let near = a
-        .near
-        .unwrap_or(((d - radius) * 0.9).max(d * 1e-3).max(1e-4));
-    let far = a.far.unwrap_or((d + radius) * 1.1);
-    Ok(GlCamera::look_at(
-        eye,
-        target,
-        vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]),
-        a.fovy,
-        near,
-        far,
-        w,
-        h,
-    )?)
-}
-
 pub fn run(a: Args) -> anyhow::Result<()> {
     let variant = MatcapVariant::parse(&a.matcap_variant, "matcap-variant")?;
     let mode = Mode::parse(&a.mode, variant)?;
@@ -156,7 +105,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let mesh = load_mesh(Path::new(&a.mesh))?;
-    let cam = camera(&a, &mesh.positions)?;
+    let cam = GlCamera::framing(
+        &mesh.positions,
+        vec3(&a.eye),
+        vec3(&a.target),
+        vec3(&a.up),
+        a.fovy,
+        a.near,
+        a.far,
+        (a.size[0], a.size[1]),
+    )
+    .with_context(|| a.mesh.clone())?;
     let mapping = Mapping::parse(&a.env_format, a.env_preset.as_deref()).context("--env-format")?;
     let layout = a
         .env_layout

@@ -17,6 +17,7 @@ use spheremap::{MatcapVariant, Singular, SpherePreset};
 
 mod generate;
 mod photo;
+mod render;
 
 pyo3::create_exception!(
     _spheremap,
@@ -708,5 +709,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(photo::from_fisheye, m)?)?;
     m.add_function(wrap_pyfunction!(photo::find_ball, m)?)?;
     m.add_function(wrap_pyfunction!(photo::render_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::load_mesh, m)?)?;
     Ok(())
 }

@@ -155,6 +155,67 @@ impl GlCamera {
         })
     }
 
+    /// A camera for `positions` with defaults a user expects: `target` the bounding box's
+    /// centre, `eye` on +Z of it far enough that the bounding sphere fits the smaller field of
+    /// view with a 10 % margin, `up` +Y, `near`/`far` just around the bounding sphere (near ≥
+    /// 1/1000 of the distance, for depth precision). Anything given is used as is.
+    #[allow(clippy::too_many_arguments)]
+    pub fn framing(
+        positions: &[[f32; 3]],
+        eye: Option<[f64; 3]>,
+        target: Option<[f64; 3]>,
+        up: Option<[f64; 3]>,
+        fovy_deg: f64,
+        near: Option<f64>,
+        far: Option<f64>,
+        (width, height): (usize, usize),
+    ) -> Result<GlCamera> {
+        if positions.is_empty() {
+            return Err(Error::param("mesh", "has no vertices"));
+        }
+        if !(fovy_deg > 0.0 && fovy_deg < 180.0) {
+            return Err(Error::param(
+                "fovy",
+                format!("{fovy_deg}°: must be in (0°, 180°)"),
+            ));
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k] as f64);
+                hi[k] = hi[k].max(p[k] as f64);
+            }
+        }
+        let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+        let radius = (0.5 * dot(sub(hi, lo), sub(hi, lo)).sqrt()).max(1e-9);
+        let target = target.unwrap_or(centre);
+        let half = 0.5 * fovy_deg.to_radians();
+        let half_min = if width >= height {
+            half
+        } else {
+            (half.tan() * width as f64 / height as f64).atan()
+        };
+        let eye = eye.unwrap_or([
+            target[0],
+            target[1],
+            target[2] + 1.1 * radius / half_min.sin(),
+        ]);
+        let d = dot(sub(eye, centre), sub(eye, centre)).sqrt();
+        let near = near.unwrap_or(((d - radius) * 0.9).max(d * 1e-3));
+        let far = far.unwrap_or((d + radius) * 1.1);
+        GlCamera::look_at(
+            eye,
+            target,
+            up.unwrap_or([0.0, 1.0, 0.0]),
+            fovy_deg,
+            near,
+            far,
+            width,
+            height,
+        )
+    }
+
     /// Eye → world rotation (the transpose of the modelview's rotation; gluLookAt's is
     /// orthonormal).
     pub fn eye_to_world(&self) -> Mat3 {

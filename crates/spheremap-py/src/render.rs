@@ -1,0 +1,164 @@
+//! PyO3 glue for the rasterizer (`spheremap::render`) and the mesh loader. No maths here.
+
+use super::{contiguous, parse_mapping, to_py};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use spheremap::image_io::Image;
+use spheremap::matcap::MatcapVariant;
+use spheremap::mesh::Mesh;
+use spheremap::render::{Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+use spheremap::resample::EnvMap;
+
+type MeshArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
+
+/// OBJ/glTF -> (positions (N,3) f32, normals (N,3) f32, triangles (M,3) u32).
+#[pyfunction]
+pub fn load_mesh<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<MeshArrays<'py>> {
+    let m = py
+        .detach(|| spheremap::mesh::load_mesh(&path))
+        .map_err(to_py)?;
+    let (n, t) = (m.positions.len(), m.triangles.len());
+    Ok((
+        PyArray1::from_vec(py, m.positions.into_flattened())
+            .reshape([n, 3])?
+            .into_any(),
+        PyArray1::from_vec(py, m.normals.into_flattened())
+            .reshape([n, 3])?
+            .into_any(),
+        PyArray1::from_vec(py, m.triangles.into_flattened())
+            .reshape([t, 3])?
+            .into_any(),
+    ))
+}
+
+fn rows<T: numpy::Element + Copy, const K: usize>(
+    a: &PyReadonlyArrayDyn<'_, T>,
+    name: &str,
+) -> PyResult<Vec<[T; K]>> {
+    if a.ndim() != 2 || a.shape()[1] != K {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected shape (N, {K}), got {:?}",
+            a.shape()
+        )));
+    }
+    Ok(contiguous(a, name)?
+        .chunks_exact(K)
+        .map(|c| std::array::from_fn(|i| c[i]))
+        .collect())
+}
+
+/// Draws a mesh -> (H, W, 3) float32 (error mode: (H, W, 2) degrees and coverage).
+#[pyfunction]
+#[pyo3(signature = (positions, normals, triangles, env, env_mapping, env_preset, mode,
+                    matcap_variant, eye, target, up, fovy, near, far, width, height, background,
+                    aa, wrap))]
+#[allow(clippy::too_many_arguments)]
+pub fn render<'py>(
+    py: Python<'py>,
+    positions: PyReadonlyArrayDyn<'py, f32>,
+    normals: Option<PyReadonlyArrayDyn<'py, f32>>,
+    triangles: PyReadonlyArrayDyn<'py, u32>,
+    env: Option<PyReadonlyArrayDyn<'py, f32>>,
+    env_mapping: &str,
+    env_preset: Option<&str>,
+    mode: &str,
+    matcap_variant: &str,
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fovy: f64,
+    near: Option<f64>,
+    far: Option<f64>,
+    width: usize,
+    height: usize,
+    background: [f32; 3],
+    aa: u32,
+    wrap: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let variant = MatcapVariant::parse(matcap_variant, "matcap_variant").map_err(to_py)?;
+    let mode = Mode::parse(mode, variant).map_err(to_py)?;
+    let wrap = Wrap::parse(wrap).map_err(to_py)?;
+    let positions = rows::<f32, 3>(&positions, "positions")?;
+    let triangles = rows::<u32, 3>(&triangles, "triangles")?;
+    if let Some(t) = triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return Err(PyValueError::new_err(format!(
+            "triangles: {t:?} indexes past the {} positions",
+            positions.len()
+        )));
+    }
+    let (normals, from_file) = match &normals {
+        Some(n) => (rows::<f32, 3>(n, "normals")?, true),
+        None => (
+            spheremap::mesh::vertex_normals(&positions, &triangles),
+            false,
+        ),
+    };
+    let mesh = Mesh {
+        positions,
+        normals,
+        triangles,
+        normals_from_file: from_file,
+    };
+    if mesh.normals.len() != mesh.positions.len() {
+        return Err(PyValueError::new_err(format!(
+            "normals: {} normals for {} positions",
+            mesh.normals.len(),
+            mesh.positions.len()
+        )));
+    }
+    let cam = GlCamera::framing(
+        &mesh.positions,
+        eye,
+        target,
+        up,
+        fovy,
+        near,
+        far,
+        (width, height),
+    )
+    .map_err(to_py)?;
+    let mapping = parse_mapping(env_mapping, env_preset)?;
+    let img = env
+        .as_ref()
+        .map(|e| -> PyResult<Image> {
+            let s = e.shape();
+            Ok(Image {
+                height: s[0],
+                width: s[1],
+                channels: s[2],
+                data: contiguous(e, "env")?.to_vec(),
+            })
+        })
+        .transpose()?;
+    let is_sphere = matches!(mapping, spheremap::Mapping::Sphere(_));
+    let texture = img.as_ref().map(|image| Texture { image, wrap });
+    let envmap = match (&img, is_sphere) {
+        (Some(i), false) => Some(EnvMap::new(mapping, i, "env").map_err(to_py)?),
+        _ => None,
+    };
+    if matches!(mode, Mode::PerVertex | Mode::Matcap(_)) && envmap.is_some() {
+        return Err(PyValueError::new_err(
+            "env_format: per-vertex and matcap look up (s, t) in a sphere map or MatCap image",
+        ));
+    }
+    let env = match (&texture, &envmap) {
+        (_, Some(m)) => Env::Map(m),
+        (Some(t), None) => Env::Texture(t),
+        _ => Env::None,
+    };
+    let opts = RenderOptions {
+        mode,
+        background,
+        aa,
+    };
+    let (out, _) = py
+        .detach(|| spheremap::render::render(&mesh, &cam, env, &opts))
+        .map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, out.data)
+        .reshape([out.height, out.width, out.channels])?
+        .into_any())
+}
