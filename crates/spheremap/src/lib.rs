@@ -18,12 +18,14 @@
 // Index loops over channels and axes read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod analyze;
 pub mod angular;
 pub mod camera;
 pub mod chart;
 pub mod conventions;
 pub mod cube;
 pub mod demo;
+pub mod draw;
 pub mod envio;
 pub mod error;
 pub mod fisheye;
