@@ -6,6 +6,7 @@
 //! failure (one line on stderr naming the file or argument and the cause), clap's own codes for
 //! usage errors (2) and `--help` (0).
 
+mod cmd_analyze;
 mod cmd_conventions;
 mod cmd_convert;
 mod cmd_demo;
@@ -61,6 +62,9 @@ enum Command {
     /// Draw a mesh with a sphere map (per-vertex exactly as OpenGL's GL_SPHERE_MAP, or
     /// per-pixel), a MatCap, its normals, or the per-vertex interpolation error.
     Render(Box<cmd_render::Args>),
+    /// Sampling analytics of a mapping (texel solid angle, anisotropy, angular resolution) and
+    /// a mesh's per-vertex interpolation error with tessellation advice.
+    Analyze(Box<cmd_analyze::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -106,6 +110,7 @@ where
         Command::FromFisheye(a) => cmd_photo::run_fisheye(*a),
         Command::Preview(a) => cmd_preview::run(*a),
         Command::Render(a) => cmd_render::run(*a),
+        Command::Analyze(a) => cmd_analyze::run(*a),
     });
     std::panic::set_hook(previous_hook);
     match result {

@@ -4,7 +4,7 @@
 //! ## A mapping's texels
 //!
 //! For texel (x, y) of a W × H canvas, with J the 3 × 2 Jacobian of the direction with respect
-//! to the pixel position at the texel centre (central differences ±¼ texel, inside the texel)
+//! to the pixel position at the texel centre (central differences of ±1/1000 texel)
 //! and σ₁ ≥ σ₂ its singular values (radians per pixel along the texel's most and least
 //! stretched directions):
 //!
@@ -12,8 +12,9 @@
 //!   [`Mapping::solid_angles`]); the sphere map's interior texels are 16/N² sr;
 //! * **anisotropy** σ₁/σ₂ (1 = square footprint on the sphere; the sphere map reaches
 //!   1/cos²(θ/2) toward its rim);
-//! * **angular resolution** √(σ₁σ₂) in degrees per texel (the side of the square of the same
-//!   solid angle).
+//! * **angular resolution** σ₁ in degrees per texel: the coarsest angular step of the texel,
+//!   along its most stretched direction (on an equal-area map such as the sphere map, √(σ₁σ₂)
+//!   is the same everywhere and σ₁ is what degrades toward the rim).
 //!
 //! Texels whose centre is off the map (outside a disc) are NaN.
 //!
@@ -91,7 +92,7 @@ pub fn mapping_maps(mapping: Mapping, width: usize, height: usize) -> Result<Map
         .map(|i| {
             let (x, y) = ((i % width) as f64 + 0.5, (i / width) as f64 + 0.5);
             let dir = |dx: f64, dy: f64| mapping.uv_to_dir([(x + dx) / w, (y + dy) / h]);
-            let e = 0.25;
+            let e = 1e-3;
             let (Some(xp), Some(xm), Some(yp), Some(ym)) =
                 (dir(e, 0.0), dir(-e, 0.0), dir(0.0, e), dir(0.0, -e))
             else {
@@ -108,7 +109,7 @@ pub fn mapping_maps(mapping: Mapping, width: usize, height: usize) -> Result<Map
             if !(s2 > 0.0) {
                 return (f64::NAN, f64::NAN);
             }
-            (s1 / s2, (s1 * s2).sqrt().to_degrees())
+            (s1 / s2, s1.to_degrees())
         })
         .collect();
     let solid_angle = solid_angle
@@ -254,14 +255,24 @@ fn split_error(t: &EyeTri, k: usize, pts: &[[f64; 3]]) -> f64 {
 /// `threshold_deg`.
 pub fn mesh_error(mesh: &Mesh, cam: &GlCamera, threshold_deg: f64) -> Result<MeshError> {
     if !(threshold_deg > 0.0 && threshold_deg.is_finite()) {
-        return Err(Error::param("threshold", "must be a positive number of degrees"));
+        return Err(Error::param(
+            "threshold",
+            "must be a positive number of degrees",
+        ));
     }
     if mesh.normals.len() != mesh.positions.len() {
         return Err(Error::param("mesh", "needs one normal per vertex"));
     }
     let n = mesh.positions.len();
-    if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
-        return Err(Error::param("mesh", format!("triangle {t:?} indexes past the {n} vertices")));
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= n))
+    {
+        return Err(Error::param(
+            "mesh",
+            format!("triangle {t:?} indexes past the {n} vertices"),
+        ));
     }
     let mv = crate::texgen::ModelviewState::new(cam.modelview)?;
     let m = &cam.modelview;
@@ -291,10 +302,15 @@ pub fn mesh_error(mesh: &Mesh, cam: &GlCamera, threshold_deg: f64) -> Result<Mes
             let c = bary(&t.p, [1.0 / 3.0; 3]);
             let face = {
                 let (a, b) = (sub(t.p[1], t.p[0]), sub(t.p[2], t.p[0]));
-                [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+                [
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ]
             };
-            let clip: [f64; 4] =
-                std::array::from_fn(|i| proj[i][0] * c[0] + proj[i][1] * c[1] + proj[i][2] * c[2] + proj[i][3]);
+            let clip: [f64; 4] = std::array::from_fn(|i| {
+                proj[i][0] * c[0] + proj[i][1] * c[1] + proj[i][2] * c[2] + proj[i][3]
+            });
             let in_frustum = clip[3] > 0.0 && (0..3).all(|k| clip[k].abs() <= clip[3]);
             let in_view = in_frustum && dot(face, c) < 0.0;
             let e = split_error(&t, 1, &pts);
@@ -352,12 +368,21 @@ mod tests {
         assert!((a.solid_angle[c] - 16.0 / (n * n) as f64).abs() < 1e-12);
         assert!((a.anisotropy[c] - 1.0).abs() < 1e-3, "{}", a.anisotropy[c]);
         let (x, y) = (n / 2 + 20, n / 2);
-        let r = ((x as f64 + 0.5) / n as f64 * 2.0 - 1.0).hypot((y as f64 + 0.5) / n as f64 * 2.0 - 1.0);
+        let r = ((x as f64 + 0.5) / n as f64 * 2.0 - 1.0)
+            .hypot((y as f64 + 0.5) / n as f64 * 2.0 - 1.0);
         let want = 1.0 / (1.0 - r * r);
-        assert!((a.anisotropy[y * n + x] / want - 1.0).abs() < 1e-3, "{} {want}", a.anisotropy[y * n + x]);
-        // Resolution² ≈ solid angle (in degrees²) where the texel is inside.
+        assert!(
+            (a.anisotropy[y * n + x] / want - 1.0).abs() < 1e-3,
+            "{} {want}",
+            a.anisotropy[y * n + x]
+        );
+        // At the centre the texel is square: resolution² = solid angle; toward the rim the
+        // coarse step is σ₁ = σ₂ · anisotropy with σ₁σ₂ = 16/N² (equal area).
         let res = a.resolution_deg[c].to_radians();
         assert!((res * res / a.solid_angle[c] - 1.0).abs() < 1e-3);
+        let i = y * n + x;
+        let s1 = a.resolution_deg[i].to_radians();
+        assert!((s1 * s1 / a.anisotropy[i] / (16.0 / (n * n) as f64) - 1.0).abs() < 1e-3);
         // Off the disc: NaN.
         assert!(a.anisotropy[0].is_nan() && a.solid_angle[0].is_nan());
         let s = stats(&a.anisotropy);
@@ -372,7 +397,10 @@ mod tests {
         // the corners (16 texels: the centre texels sit at x = ±1/16, the corner ones at ±15/16).
         let s = stats(&cube.anisotropy);
         let corner = (1.0f64 + 2.0 * (15.0f64 / 16.0).powi(2)).sqrt();
-        assert!(s.min < 1.005 && (s.max / corner - 1.0).abs() < 1e-3, "{s:?} {corner}");
+        assert!(
+            s.min < 1.005 && (s.max / corner - 1.0).abs() < 1e-3,
+            "{s:?} {corner}"
+        );
         let ll = mapping_maps(Mapping::parse("latlong", None).unwrap(), 64, 32).unwrap();
         // Lat-long: anisotropy 1/cos(latitude) at the texel centre.
         let y = 4;
@@ -421,7 +449,11 @@ mod tests {
             let mut index = std::collections::HashMap::new();
             for i in 0..=k {
                 for j in 0..=k - i {
-                    let l = [i as f64 / k as f64, j as f64 / k as f64, 1.0 - (i + j) as f64 / k as f64];
+                    let l = [
+                        i as f64 / k as f64,
+                        j as f64 / k as f64,
+                        1.0 - (i + j) as f64 / k as f64,
+                    ];
                     let p = bary(&t.map(|v| m.positions[v as usize].map(|x| x as f64)), l);
                     let n = unit(bary(&t.map(|v| m.normals[v as usize].map(|x| x as f64)), l));
                     index.insert((i, j), base + out.positions.len() as u32 - base);
@@ -431,9 +463,14 @@ mod tests {
             }
             for i in 0..k {
                 for j in 0..k - i {
-                    out.triangles.push([index[&(i, j)], index[&(i + 1, j)], index[&(i, j + 1)]]);
+                    out.triangles
+                        .push([index[&(i, j)], index[&(i + 1, j)], index[&(i, j + 1)]]);
                     if i + j + 2 <= k {
-                        out.triangles.push([index[&(i + 1, j)], index[&(i + 1, j + 1)], index[&(i, j + 1)]]);
+                        out.triangles.push([
+                            index[&(i + 1, j)],
+                            index[&(i + 1, j + 1)],
+                            index[&(i, j + 1)],
+                        ]);
                     }
                 }
             }
@@ -443,8 +480,17 @@ mod tests {
 
     #[test]
     fn tessellation_advice_holds_when_applied() {
-        let cam = GlCamera::look_at([0.3, 0.5, 4.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0, 0.5, 10.0, 256, 256)
-            .unwrap();
+        let cam = GlCamera::look_at(
+            [0.3, 0.5, 4.0],
+            [0.0; 3],
+            [0.0, 1.0, 0.0],
+            40.0,
+            0.5,
+            10.0,
+            256,
+            256,
+        )
+        .unwrap();
         let coarse = uv_sphere(8, 16);
         let tau = 2.0;
         let e = mesh_error(&coarse, &cam, tau).unwrap();
@@ -463,7 +509,10 @@ mod tests {
             .filter(|&i| fixable(i / kk))
             .map(|i| e2.triangle_error_deg[i])
             .fold(0.0, f64::max);
-        let worst_before = over.iter().map(|&i| e.triangle_error_deg[i]).fold(0.0, f64::max);
+        let worst_before = over
+            .iter()
+            .map(|&i| e.triangle_error_deg[i])
+            .fold(0.0, f64::max);
         eprintln!(
             "{} of {} over {tau}°, worst {worst_before:.2}°; uniform split {k}, unfixable {}; after: worst {worst:.3}°",
             over.len(),
@@ -471,5 +520,152 @@ mod tests {
             e.unfixable()
         );
         assert!(worst <= tau * 1.05, "{worst}");
+    }
+}
+
+/// Figures of the analytics (PNG-ready linear RGB).
+pub mod figure {
+    use super::{stats, MappingMaps};
+    use crate::draw;
+    use crate::image_io::Image;
+    use crate::render::heat_colour;
+
+    const INK: [f32; 3] = [0.9, 0.9, 0.9];
+    const BG: [f32; 3] = [0.02, 0.02, 0.02];
+    const OFF: [f32; 3] = [0.06, 0.06, 0.07];
+
+    /// A number for a legend: 4 significant digits, scientific when small or large.
+    pub fn num(v: f64) -> String {
+        if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+            let s = format!("{v:.3}");
+            let s = s.trim_end_matches('0').trim_end_matches('.');
+            s.to_string()
+        } else {
+            format!("{v:.2e}")
+        }
+    }
+
+    /// One panel: `values` (row-major w × h, NaN = off the map) coloured from `lo` to `hi`, a
+    /// title above, a colour bar with `lo`, the middle and `hi` below.
+    #[allow(clippy::too_many_arguments)]
+    pub fn panel(
+        values: &[f64],
+        w: usize,
+        h: usize,
+        lo: f64,
+        hi: f64,
+        log: bool,
+        title: &str,
+        unit: &str,
+    ) -> Image {
+        // A constant map (relative range under 1e-9) is one colour with one label.
+        let constant = !(hi - lo > 1e-9 * hi.abs().max(lo.abs()));
+        let log = log && !constant;
+        let title = match (unit.is_empty(), log) {
+            (true, false) => title.to_string(),
+            (true, true) => format!("{title} (log scale)"),
+            (false, false) => format!("{title} ({unit})"),
+            (false, true) => format!("{title} ({unit}, log scale)"),
+        };
+        let bar = 10;
+        let width = w.max(draw::text_width(&title, 1) + 8).max(200);
+        let height = 14 + h + 8 + bar + 20;
+        let mut img = Image::new(width, height, 3);
+        for p in img.data.chunks_exact_mut(3) {
+            p.copy_from_slice(&BG);
+        }
+        draw::text(&mut img, &title, 0, 2, 1, INK);
+        // Colour position of a value: linear, or logarithmic (lo > 0).
+        let f = |v: f64| -> f64 {
+            let (v, lo, hi) = if log {
+                (v.max(lo).ln(), lo.ln(), hi.ln())
+            } else {
+                (v, lo, hi)
+            };
+            if constant {
+                0.5
+            } else {
+                (v - lo) / (hi - lo)
+            }
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let v = values[y * w + x];
+                let c = if v.is_finite() {
+                    heat_colour(f(v) as f32)
+                } else {
+                    OFF
+                };
+                img.pixel_mut(x, 14 + y).copy_from_slice(&c);
+            }
+        }
+        let mid = if log {
+            (lo * hi).sqrt()
+        } else {
+            0.5 * (lo + hi)
+        };
+        let labels = if constant {
+            vec![(0.5, num(lo))]
+        } else {
+            vec![(0.0, num(lo)), (0.5, num(mid)), (1.0, num(hi))]
+        };
+        let bw = width.min(w.max(160)) - 40;
+        draw::colour_bar(
+            &mut img,
+            8,
+            (14 + h + 8) as i64,
+            bw,
+            bar,
+            heat_colour,
+            &labels,
+            INK,
+        );
+        img
+    }
+
+    /// The three panels of a mapping's analytics side by side.
+    pub fn mapping_figure(m: &MappingMaps, name: &str) -> Image {
+        let (w, h) = (m.width, m.height);
+        let sa = stats(&m.solid_angle);
+        let an = stats(&m.anisotropy);
+        let re = stats(&m.resolution_deg);
+        // Log scales where the range spans more than a factor of 4.
+        let lg = |s: &super::Stats| s.min > 0.0 && s.max > 4.0 * s.min;
+        let p1 = panel(
+            &m.solid_angle,
+            w,
+            h,
+            sa.min,
+            sa.max,
+            lg(&sa),
+            &format!("{name}: texel solid angle"),
+            "sr",
+        );
+        let p2 = panel(
+            &m.anisotropy,
+            w,
+            h,
+            1.0,
+            an.max,
+            lg(&an),
+            "anisotropy (1 = square)",
+            "",
+        );
+        let p3 = panel(
+            &m.resolution_deg,
+            w,
+            h,
+            re.min,
+            re.max,
+            lg(&re),
+            "angular resolution: coarsest step",
+            "deg/texel",
+        );
+        let items = [
+            (&p1, String::new()),
+            (&p2, String::new()),
+            (&p3, String::new()),
+        ];
+        draw::contact_sheet(&items, 3, BG, INK)
     }
 }

@@ -81,7 +81,12 @@ pub fn colour_bar(
 
 /// Images side by side in `cols` columns on a `background`, each with its caption above it.
 /// Images of other sizes are placed in cells as large as the largest.
-pub fn contact_sheet(items: &[(&Image, String)], cols: usize, background: [f32; 3], ink: [f32; 3]) -> Image {
+pub fn contact_sheet(
+    items: &[(&Image, String)],
+    cols: usize,
+    background: [f32; 3],
+    ink: [f32; 3],
+) -> Image {
     let cols = cols.max(1);
     let rows = items.len().div_ceil(cols);
     let cw = items.iter().map(|(i, _)| i.width).max().unwrap_or(1);
@@ -99,7 +104,11 @@ pub fn contact_sheet(items: &[(&Image, String)], cols: usize, background: [f32; 
         for y in 0..img.height {
             for x in 0..img.width {
                 let s = img.pixel(x, y);
-                let c = if img.channels >= 3 { [s[0], s[1], s[2]] } else { [s[0]; 3] };
+                let c = if img.channels >= 3 {
+                    [s[0], s[1], s[2]]
+                } else {
+                    [s[0]; 3]
+                };
                 out.pixel_mut(x0 + x, y0 + cap + y).copy_from_slice(&c);
             }
         }

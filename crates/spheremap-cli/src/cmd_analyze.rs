@@ -1,0 +1,210 @@
+//! `spheremap analyze`: a thin layer over `spheremap::analyze`.
+
+use crate::job::{vec3, JobFlags};
+use anyhow::{bail, Context};
+use spheremap::analyze::{self, figure, stats, Stats};
+use spheremap::draw;
+use spheremap::image_io::{read_image, write_image, ReadOptions};
+use spheremap::mapping::Mapping;
+use spheremap::mesh::load_mesh;
+use spheremap::render::{self, Env, GlCamera, Mode, RenderOptions};
+use std::path::Path;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// An environment map whose mapping (--mapping) and size are analysed.
+    map: Option<String>,
+    /// The mapping: sphere (default), latlong, cube, angular, paraboloid, octahedral.
+    #[arg(long, default_value = "sphere")]
+    mapping: String,
+    /// Its preset.
+    #[arg(long)]
+    preset: Option<String>,
+    /// Canvas size N without MAP (sphere N×N, latlong 2N×N, cube faces N×N...).
+    #[arg(long, default_value_t = 256)]
+    size: usize,
+    /// A mesh: per-vertex interpolation error, triangles over --threshold, tessellation advice.
+    #[arg(long)]
+    mesh: Option<String>,
+    /// Camera of the mesh analysis (as render; default: framing the mesh).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    eye: Option<Vec<f64>>,
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    target: Option<Vec<f64>>,
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    #[arg(long, default_value_t = 40.0)]
+    fovy: f64,
+    #[arg(long)]
+    near: Option<f64>,
+    #[arg(long)]
+    far: Option<f64>,
+    /// Size of the mesh's error heat map.
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [512, 512])]
+    view_size: Vec<usize>,
+    /// Error threshold in degrees for the triangle list and the tessellation advice.
+    #[arg(long, default_value_t = 1.0)]
+    threshold: f64,
+    /// The figure (PNG/JPEG; panels with colour bars and legends).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: JobFlags,
+}
+
+fn stats_json(s: &Stats) -> serde_json::Value {
+    serde_json::json!({"min": s.min, "max": s.max, "mean": s.mean, "texels": s.count})
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let mapping = Mapping::parse(&a.mapping, a.preset.as_deref()).context("--mapping/--preset")?;
+    if let Some(m) = &a.map {
+        if !a.job.force && spheremap::envio::same_file(Path::new(m), Path::new(&a.output)) {
+            bail!(
+                "{}: the output would overwrite the input (use --force to allow)",
+                a.output
+            );
+        }
+    }
+    let (w, h) = match &a.map {
+        Some(path) => {
+            let img = read_image(Path::new(path), &ReadOptions::default())?;
+            mapping
+                .size_of(img.width, img.height, "map")
+                .with_context(|| path.clone())?;
+            (img.width, img.height)
+        }
+        None => {
+            if a.size == 0 || a.size > 8192 {
+                bail!("size: {} is out of range 1..=8192", a.size);
+            }
+            mapping.canvas(a.size)
+        }
+    };
+    let maps = analyze::mapping_maps(mapping, w, h)?;
+    let (sa, an, re) = (
+        stats(&maps.solid_angle),
+        stats(&maps.anisotropy),
+        stats(&maps.resolution_deg),
+    );
+    let mut panels = vec![figure::mapping_figure(&maps, mapping.name())];
+    let mut json = serde_json::json!({
+        "mapping": mapping.name(), "preset": mapping.preset_name(), "width": w, "height": h,
+        "solid_angle_sr": stats_json(&sa), "solid_angle_max_over_min": sa.max / sa.min,
+        "anisotropy": stats_json(&an), "resolution_deg": stats_json(&re),
+    });
+    let mut lines = vec![format!(
+        "{} {w}x{h}: texel solid angle {}..{} sr (max/min {:.3}), anisotropy up to {:.3}, \
+         coarsest step {:.4}..{:.4} deg/texel",
+        mapping.name(),
+        figure::num(sa.min),
+        figure::num(sa.max),
+        sa.max / sa.min,
+        an.max,
+        re.min,
+        re.max
+    )];
+    if let Some(path) = &a.mesh {
+        let mesh = load_mesh(Path::new(path))?;
+        let cam = GlCamera::framing(
+            &mesh.positions,
+            vec3(&a.eye),
+            vec3(&a.target),
+            vec3(&a.up),
+            a.fovy,
+            a.near,
+            a.far,
+            (a.view_size[0], a.view_size[1]),
+        )
+        .with_context(|| path.clone())?;
+        let err = analyze::mesh_error(&mesh, &cam, a.threshold)?;
+        let opts = RenderOptions {
+            mode: Mode::Error,
+            aa: 2,
+            ..Default::default()
+        };
+        let (heat, _) = render::render(&mesh, &cam, Env::None, &opts)?;
+        // Pixel statistics over the covered pixels.
+        let mut px: Vec<f64> = heat
+            .data
+            .chunks_exact(2)
+            .filter(|p| p[1] > 0.0)
+            .map(|p| p[0] as f64)
+            .collect();
+        px.sort_by(f64::total_cmp);
+        let pct = |q: f64| {
+            px.get(((px.len().max(1) - 1) as f64 * q).round() as usize)
+                .copied()
+        };
+        let over = err.over();
+        let in_view = err.in_view.iter().filter(|v| **v).count();
+        let k = err.uniform_split();
+        let mut hist = std::collections::BTreeMap::new();
+        for (s, v) in err.split.iter().zip(&err.in_view) {
+            if *v && *s > 1 {
+                *hist.entry(s.to_string()).or_insert(0usize) += 1;
+            }
+        }
+        json["mesh"] = serde_json::json!({
+            "file": path, "triangles": mesh.triangles.len(), "in_view": in_view,
+            "threshold_deg": a.threshold, "over": over.len(),
+            "over_indices": over.iter().take(1000).collect::<Vec<_>>(),
+            "pixel_error_deg": {"mean": px.iter().sum::<f64>() / px.len().max(1) as f64,
+                                "p95": pct(0.95), "max": pct(1.0)},
+            "uniform_split": k,
+            "triangles_after_uniform": mesh.triangles.len() as u64 * (k as u64).pow(2),
+            "triangles_after_adaptive": err.triangles_after(),
+            "unfixable": err.unfixable(), "split_histogram": hist,
+            "max_split": analyze::MAX_SPLIT,
+        });
+        lines.push(format!(
+            "{path}: {} of {in_view} triangles in view over {}°; split each edge in {k} \
+             ({} triangles) or adaptively ({} triangles); {} cannot get under it (they reflect \
+             toward the sphere map's rim)",
+            over.len(),
+            a.threshold,
+            mesh.triangles.len() as u64 * (k as u64).pow(2),
+            err.triangles_after(),
+            err.unfixable()
+        ));
+        let deg: Vec<f64> = heat
+            .data
+            .chunks_exact(2)
+            .map(|p| if p[1] > 0.0 { p[0] as f64 } else { f64::NAN })
+            .collect();
+        let top = (2.0 * a.threshold).max(1e-6);
+        // Clipped at twice the threshold (NaN, no surface, stays NaN).
+        panels.push(figure::panel(
+            &deg.iter()
+                .map(|v| if *v > top { top } else { *v })
+                .collect::<Vec<_>>(),
+            heat.width,
+            heat.height,
+            0.0,
+            top,
+            false,
+            &format!(
+                "per-vertex vs per-pixel lookup angle (threshold {}°)",
+                a.threshold
+            ),
+            "deg",
+        ));
+    }
+    let sheet = if panels.len() == 1 {
+        panels.pop().unwrap()
+    } else {
+        let items: Vec<_> = panels.iter().map(|p| (p, String::new())).collect();
+        draw::contact_sheet(&items, 1, [0.02; 3], [0.9; 3])
+    };
+    write_image(Path::new(&a.output), &sheet, &a.job.write_options(false))?;
+    if a.job.json {
+        json["output"] = a.output.clone().into();
+        crate::out(&format!("{json}\n"));
+    } else if !a.job.quiet {
+        for l in lines {
+            eprintln!("{l}");
+        }
+        eprintln!("-> {}", a.output);
+    }
+    Ok(())
+}
