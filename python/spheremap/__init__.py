@@ -59,6 +59,7 @@ __all__ = [
     "RENDER_MODES",
     "load_mesh",
     "render",
+    "analyze",
 ]
 
 NORMALIZE_MODES = ("on", "off", "rescale")
@@ -892,3 +893,72 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
                        None if near is None else _finite(near, "near"),
                        None if far is None else _finite(far, "far"), _size_any(w, "size"),
                        _size_any(h, "size"), tuple(float(v) for v in bg), _size_any(aa, "aa"), wrap)
+
+
+def _stats(a: np.ndarray) -> dict:
+    f = a[np.isfinite(a)]
+    if f.size == 0:
+        return {"min": float("nan"), "max": float("nan"), "mean": float("nan"), "count": 0}
+    return {"min": float(f.min()), "max": float(f.max()), "mean": float(f.mean()), "count": int(f.size)}
+
+
+def analyze(map=None, *, mapping: str = "sphere", preset: str | None = None, size: int = 256,
+            mesh=None, eye=None, target=None, up=None, fovy: float = 40.0, near: float | None = None,
+            far: float | None = None, view_size=(512, 512), threshold: float = 1.0) -> dict:
+    """Sampling analytics (``spheremap analyze``; definitions in the README).
+
+    map: an environment map (array or path) whose canvas is analysed as `mapping`; without it,
+        the `mapping` canvas of `size` N.
+    Returns a dict: "solid_angle" (sr), "anisotropy", "resolution_deg" (the coarsest angular
+    step per texel), each (H, W) float64 with NaN off the map, and "stats" (min/max/mean of
+    each). With `mesh` (a path or (positions, normals or None, triangles)) and a camera as
+    render: "mesh" = {"triangle_error_deg" (M,), "in_view" (M,), "split" (M,) (the advised
+    split per triangle: edges in k, k*k pieces; max_split + 1 = cannot get under the
+    threshold), "over" (indices of triangles in view over `threshold` degrees),
+    "uniform_split", "triangles_after_adaptive", "unfixable", "pixel_error_deg" ((H, W), NaN
+    where no surface)}.
+    """
+    _choice(mapping, "mapping", MAPPINGS)
+    if map is not None:
+        a = read_image(map) if isinstance(map, (str, os.PathLike)) else _floats(map, "map")
+        if mapping == "cube" and a.ndim == 4:
+            h, w = 6 * a.shape[1], a.shape[2]
+        elif a.ndim in (2, 3):
+            h, w = a.shape[:2]
+        else:
+            raise ValueError(f"map: expected an image (H, W[, C]), got shape {a.shape}")
+    else:
+        n = _size_any(size, "size")
+        w, h = {"latlong": (2 * n, n), "paraboloid": (2 * n, n), "cube": (n, 6 * n)}.get(mapping, (n, n))
+    sa, an, res = _ext.analyze_mapping(mapping, preset, w, h)
+    out = {"mapping": mapping, "width": w, "height": h, "solid_angle": sa, "anisotropy": an,
+           "resolution_deg": res,
+           "stats": {"solid_angle": _stats(sa), "anisotropy": _stats(an), "resolution_deg": _stats(res)}}
+    if mesh is not None:
+        if isinstance(mesh, (str, os.PathLike)):
+            p, nrm, t = load_mesh(mesh)
+        else:
+            p, nrm, t = mesh
+            p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
+            if nrm is not None:
+                nrm = np.ascontiguousarray(_floats(nrm, "normals", last=(3,), ndim=2), dtype=np.float32)
+            t = np.asarray(t)
+            if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
+                raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
+            t = np.ascontiguousarray(t, dtype=np.uint32)
+        try:
+            vw, vh = (int(v) for v in view_size)
+        except (TypeError, ValueError):
+            raise ValueError(f"view_size: expected (width, height), got {view_size!r}") from None
+        cam = (_vec3(eye, "eye"), _vec3(target, "target"), _vec3(up, "up"), _finite(fovy, "fovy"),
+               None if near is None else _finite(near, "near"), None if far is None else _finite(far, "far"),
+               _size_any(vw, "view_size"), _size_any(vh, "view_size"))
+        err, in_view, split, k, after, unfixable = _ext.analyze_mesh(p, nrm, t, *cam, _finite(threshold, "threshold"))
+        heat = render((p, nrm, t), mode="error", eye=eye, target=target, up=up, fovy=fovy, near=near,
+                      far=far, size=(vw, vh), aa=2)
+        px = np.where(heat[..., 1] > 0, heat[..., 0], np.nan)
+        out["mesh"] = {"triangle_error_deg": err, "in_view": in_view, "split": split,
+                       "over": np.nonzero(in_view & (err > threshold))[0], "uniform_split": int(k),
+                       "triangles_after_adaptive": int(after), "unfixable": int(unfixable),
+                       "max_split": _ext.MAX_SPLIT, "pixel_error_deg": px}
+    return out

@@ -681,6 +681,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
         }
     }));
     m.add("__version__", spheremap::VERSION)?;
+    m.add("MAX_SPLIT", spheremap::analyze::MAX_SPLIT)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
@@ -711,5 +712,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(photo::render_camera, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::load_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(render::analyze_mapping, m)?)?;
+    m.add_function(wrap_pyfunction!(render::analyze_mesh, m)?)?;
     Ok(())
 }

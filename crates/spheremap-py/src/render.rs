@@ -48,6 +48,47 @@ fn rows<T: numpy::Element + Copy, const K: usize>(
         .collect())
 }
 
+/// A core mesh from (N,3) positions, optional (N,3) normals (else angle-weighted ones) and
+/// (M,3) triangles, indices checked.
+fn mesh_of(
+    positions: &PyReadonlyArrayDyn<'_, f32>,
+    normals: Option<&PyReadonlyArrayDyn<'_, f32>>,
+    triangles: &PyReadonlyArrayDyn<'_, u32>,
+) -> PyResult<Mesh> {
+    let positions = rows::<f32, 3>(positions, "positions")?;
+    let triangles = rows::<u32, 3>(triangles, "triangles")?;
+    if let Some(t) = triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return Err(PyValueError::new_err(format!(
+            "triangles: {t:?} indexes past the {} positions",
+            positions.len()
+        )));
+    }
+    let (normals, from_file) = match normals {
+        Some(n) => (rows::<f32, 3>(n, "normals")?, true),
+        None => (
+            spheremap::mesh::vertex_normals(&positions, &triangles),
+            false,
+        ),
+    };
+    let mesh = Mesh {
+        positions,
+        normals,
+        triangles,
+        normals_from_file: from_file,
+    };
+    if mesh.normals.len() != mesh.positions.len() {
+        return Err(PyValueError::new_err(format!(
+            "normals: {} normals for {} positions",
+            mesh.normals.len(),
+            mesh.positions.len()
+        )));
+    }
+    Ok(mesh)
+}
+
 /// Draws a mesh -> (H, W, 3) float32 (error mode: (H, W, 2) degrees and coverage).
 #[pyfunction]
 #[pyo3(signature = (positions, normals, triangles, env, env_mapping, env_preset, mode,
@@ -79,37 +120,7 @@ pub fn render<'py>(
     let variant = MatcapVariant::parse(matcap_variant, "matcap_variant").map_err(to_py)?;
     let mode = Mode::parse(mode, variant).map_err(to_py)?;
     let wrap = Wrap::parse(wrap).map_err(to_py)?;
-    let positions = rows::<f32, 3>(&positions, "positions")?;
-    let triangles = rows::<u32, 3>(&triangles, "triangles")?;
-    if let Some(t) = triangles
-        .iter()
-        .find(|t| t.iter().any(|&i| i as usize >= positions.len()))
-    {
-        return Err(PyValueError::new_err(format!(
-            "triangles: {t:?} indexes past the {} positions",
-            positions.len()
-        )));
-    }
-    let (normals, from_file) = match &normals {
-        Some(n) => (rows::<f32, 3>(n, "normals")?, true),
-        None => (
-            spheremap::mesh::vertex_normals(&positions, &triangles),
-            false,
-        ),
-    };
-    let mesh = Mesh {
-        positions,
-        normals,
-        triangles,
-        normals_from_file: from_file,
-    };
-    if mesh.normals.len() != mesh.positions.len() {
-        return Err(PyValueError::new_err(format!(
-            "normals: {} normals for {} positions",
-            mesh.normals.len(),
-            mesh.positions.len()
-        )));
-    }
+    let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
     let cam = GlCamera::framing(
         &mesh.positions,
         eye,
@@ -161,4 +172,86 @@ pub fn render<'py>(
     Ok(PyArray1::from_vec(py, out.data)
         .reshape([out.height, out.width, out.channels])?
         .into_any())
+}
+
+/// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64.
+#[pyfunction]
+#[pyo3(signature = (mapping, preset, width, height))]
+pub fn analyze_mapping<'py>(
+    py: Python<'py>,
+    mapping: &str,
+    preset: Option<&str>,
+    width: usize,
+    height: usize,
+) -> PyResult<MeshArrays<'py>> {
+    let m = parse_mapping(mapping, preset)?;
+    let a = py
+        .detach(|| spheremap::analyze::mapping_maps(m, width, height))
+        .map_err(to_py)?;
+    let arr = |v: Vec<f64>| -> PyResult<Bound<'py, PyAny>> {
+        Ok(PyArray1::from_vec(py, v)
+            .reshape([height, width])?
+            .into_any())
+    };
+    Ok((
+        arr(a.solid_angle)?,
+        arr(a.anisotropy)?,
+        arr(a.resolution_deg)?,
+    ))
+}
+
+type MeshErrorArrays<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    u32,
+    u64,
+    usize,
+);
+
+/// Per-triangle error of a mesh and camera -> (error degrees (M,), in view (M,) bool, split (M,)
+/// u32, uniform split, triangles after the adaptive split, unfixable count).
+#[pyfunction]
+#[pyo3(signature = (positions, normals, triangles, eye, target, up, fovy, near, far, width,
+                    height, threshold))]
+#[allow(clippy::too_many_arguments)]
+pub fn analyze_mesh<'py>(
+    py: Python<'py>,
+    positions: PyReadonlyArrayDyn<'py, f32>,
+    normals: Option<PyReadonlyArrayDyn<'py, f32>>,
+    triangles: PyReadonlyArrayDyn<'py, u32>,
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    fovy: f64,
+    near: Option<f64>,
+    far: Option<f64>,
+    width: usize,
+    height: usize,
+    threshold: f64,
+) -> PyResult<MeshErrorArrays<'py>> {
+    let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
+    let cam = GlCamera::framing(
+        &mesh.positions,
+        eye,
+        target,
+        up,
+        fovy,
+        near,
+        far,
+        (width, height),
+    )
+    .map_err(to_py)?;
+    let e = py
+        .detach(|| spheremap::analyze::mesh_error(&mesh, &cam, threshold))
+        .map_err(to_py)?;
+    let (k, after, unfixable) = (e.uniform_split(), e.triangles_after(), e.unfixable());
+    Ok((
+        PyArray1::from_vec(py, e.triangle_error_deg).into_any(),
+        PyArray1::from_vec(py, e.in_view).into_any(),
+        PyArray1::from_vec(py, e.split).into_any(),
+        k,
+        after,
+        unfixable,
+    ))
 }
