@@ -5,13 +5,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Mesa's off-screen OpenGL, the texgen oracle (Debian: libosmesa6).
-if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
+# Mesa's off-screen OpenGL, the texgen/rasterizer/shader oracle (Debian: libosmesa6), and
+# glslang, which compiles the GLSL and HLSL shader snippets (Debian: glslang-tools).
+need=()
+ldconfig -p 2>/dev/null | grep -q libOSMesa || need+=(libosmesa6)
+command -v glslangValidator >/dev/null || need+=(glslang-tools)
+if [ ${#need[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
-    echo "== installing libosmesa6 (Mesa oracle)"
-    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 >/dev/null
+    echo "== installing ${need[*]}"
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
   else
-    echo "!! libOSMesa not found and cannot apt-get install it: the Mesa oracle tests will be skipped" >&2
+    echo "!! missing ${need[*]} and cannot apt-get install: the Mesa and shader-compiler tests will be skipped" >&2
   fi
 fi
 

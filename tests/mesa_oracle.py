@@ -171,3 +171,65 @@ def mesa_render_sphere_map(positions, normals, triangles, modelview, projection,
         if _ctx is not None:  # give the texgen oracle its context back
             osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
     return out
+
+
+def mesa_run_fragment(source: str, inputs: list, size) -> np.ndarray:
+    """Runs a GLSL fragment shader over a (width, height) float framebuffer in Mesa and returns
+    its output (height, width, 4) float32, row 0 = the bottom of the framebuffer (y = 0).
+    `inputs`: (H, W, 3) float32 arrays bound as RGB32F textures to units 0, 1, ... and uniforms
+    `in0`, `in1`, ... (read them with texelFetch(inK, ivec2(gl_FragCoord.xy), 0)); a 4-D entry
+    (H, W, 4) float32 named by a tuple (name, array, filter) binds an RGBA32F texture with
+    GL_LINEAR (True) or GL_NEAREST filtering under that name. Uses its own context."""
+    from OpenGL import GL, osmesa
+
+    _context()
+    w, h = size
+    ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, 0, 0, 0, None)
+    if not ctx:
+        raise MesaUnavailable("OSMesaCreateContextExt failed")
+    buf = (ctypes.c_float * (w * h * 4))()
+    try:
+        if not osmesa.OSMesaMakeCurrent(ctx, buf, GL.GL_FLOAT, w, h):
+            raise MesaUnavailable("OSMesaMakeCurrent (float buffer) failed")
+        GL.glViewport(0, 0, w, h)
+        GL.glClampColor(GL.GL_CLAMP_FRAGMENT_COLOR, GL.GL_FALSE)
+        sh = GL.glCreateShader(GL.GL_FRAGMENT_SHADER)
+        GL.glShaderSource(sh, source)
+        GL.glCompileShader(sh)
+        if not GL.glGetShaderiv(sh, GL.GL_COMPILE_STATUS):
+            raise RuntimeError("GLSL compile failed: " + GL.glGetShaderInfoLog(sh).decode())
+        prog = GL.glCreateProgram()
+        GL.glAttachShader(prog, sh)
+        GL.glLinkProgram(prog)
+        if not GL.glGetProgramiv(prog, GL.GL_LINK_STATUS):
+            raise RuntimeError("GLSL link failed: " + GL.glGetProgramInfoLog(prog).decode())
+        GL.glUseProgram(prog)
+        for unit, item in enumerate(inputs):
+            name, arr, linear = item if isinstance(item, tuple) else (f"in{unit}", item, False)
+            arr = np.ascontiguousarray(arr, np.float32)
+            fmt, ifmt = (GL.GL_RGB, GL.GL_RGB32F) if arr.shape[2] == 3 else (GL.GL_RGBA, GL.GL_RGBA32F)
+            GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+            tex = GL.glGenTextures(1)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+            filt = GL.GL_LINEAR if linear else GL.GL_NEAREST
+            for p, v in ((GL.GL_TEXTURE_MIN_FILTER, filt), (GL.GL_TEXTURE_MAG_FILTER, filt),
+                         (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_EDGE), (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_EDGE)):
+                GL.glTexParameteri(GL.GL_TEXTURE_2D, p, v)
+            GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
+            GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, ifmt, arr.shape[1], arr.shape[0], 0, fmt, GL.GL_FLOAT, arr)
+            GL.glUniform1i(GL.glGetUniformLocation(prog, name), unit)
+        GL.glMatrixMode(GL.GL_PROJECTION)
+        GL.glLoadIdentity()
+        GL.glMatrixMode(GL.GL_MODELVIEW)
+        GL.glLoadIdentity()
+        GL.glBegin(GL.GL_QUADS)
+        for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            GL.glVertex2f(x, y)
+        GL.glEnd()
+        GL.glFinish()
+        out = np.frombuffer(buf, np.float32).reshape(h, w, 4).copy()
+    finally:
+        osmesa.OSMesaDestroyContext(ctx)
+        if _ctx is not None:
+            osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
+    return out

@@ -15,6 +15,7 @@ mod cmd_info;
 mod cmd_photo;
 mod cmd_preview;
 mod cmd_render;
+mod cmd_shader;
 mod cmd_texgen;
 mod job;
 pub mod progress;
@@ -65,6 +66,9 @@ enum Command {
     /// Sampling analytics of a mapping (texel solid angle, anisotropy, angular resolution) and
     /// a mesh's per-vertex interpolation error with tessellation advice.
     Analyze(Box<cmd_analyze::Args>),
+    /// Print a shader snippet (GLSL, WGSL, HLSL) for per-vertex texgen, per-pixel sphere-map
+    /// lookup or MatCap, in spheremap's conventions; compiled and executed by the tests.
+    Shader(cmd_shader::Args),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
 }
@@ -111,6 +115,7 @@ where
         Command::Preview(a) => cmd_preview::run(*a),
         Command::Render(a) => cmd_render::run(*a),
         Command::Analyze(a) => cmd_analyze::run(*a),
+        Command::Shader(a) => cmd_shader::run(a),
     });
     std::panic::set_hook(previous_hook);
     match result {

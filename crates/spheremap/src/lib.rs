@@ -45,6 +45,7 @@ pub mod real;
 pub mod render;
 pub mod resample;
 pub mod scene;
+pub mod shader;
 pub mod sphere;
 pub mod texgen;
 pub mod tonemap;
