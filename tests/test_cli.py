@@ -25,7 +25,8 @@ def test_demo_writes_chart_and_teapot(tmp_path):
     r = cli("demo", tmp_path / "d", "--size", 128)
     assert r.returncode == 0, r.stderr
     for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv",
-              "apartment_sphere.exr", "apartment_sphere.png", "raytraced_sphere.exr", "raytraced_sphere.png"]:
+              "apartment_sphere.exr", "apartment_sphere.png", "raytraced_sphere.exr", "raytraced_sphere.png",
+              "teapot_contact_sheet.png"]:
         assert (tmp_path / "d" / f).stat().st_size > 0
     # The demo's sphere map is the bundled HDRI seen from the demo camera (look = target - eye).
     demo = sm.read_image(tmp_path / "d" / "apartment_sphere.exr")

@@ -76,6 +76,13 @@ pub struct Args {
     /// (EXR holds the degrees themselves).
     #[arg(long, default_value_t = 5.0)]
     error_max: f32,
+    /// A turntable: N frames with the eye orbiting the target about --up (a full turn); -o is
+    /// an animated GIF (.gif) or a pattern with {frame} for numbered images.
+    #[arg(long)]
+    turntable: Option<u32>,
+    /// Milliseconds per frame of the animated GIF.
+    #[arg(long, default_value_t = 80)]
+    frame_ms: u32,
     /// Read LDR textures as linear values (no sRGB decoding).
     #[arg(long)]
     linear: bool,
@@ -162,20 +169,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         background: [a.background[0], a.background[1], a.background[2]],
         aa: a.aa,
     };
+    if let Some(n) = a.turntable {
+        return turntable(&a, n, &mesh, &cam, env, &opts, op);
+    }
     let t0 = Instant::now();
     let (img, stats) = render::render(&mesh, &cam, env, &opts)?;
     let seconds = t0.elapsed().as_secs_f64();
     let error_stats = (mode == Mode::Error).then(|| error_summary(&img));
     let linear_out = Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
-    let out = if mode == Mode::Error && !linear_out {
-        heat_image(&img, a.error_max, opts.background)
-    } else if !linear_out {
-        let mut i = img;
-        tone_map(&mut i, a.exposure, op);
-        i
-    } else {
-        img
-    };
+    let out = finish(img, &a, &opts, op, linear_out);
     write_image(Path::new(&a.output), &out, &a.job.write_options(false))?;
     if a.job.json {
         let mut v = serde_json::json!({
@@ -198,6 +200,81 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         eprintln!(
             "-> {} ({}x{}, {}, {} triangles, {} pixels covered){extra}: {seconds:.3} s",
             a.output, cam.width, cam.height, a.mode, stats.triangles, stats.covered_pixels
+        );
+    }
+    Ok(())
+}
+
+/// Display-ready: the error heat map or the tone-mapped colours, unless the output is linear.
+fn finish(img: Image, a: &Args, opts: &RenderOptions, op: ToneMap, linear_out: bool) -> Image {
+    if linear_out {
+        img
+    } else if opts.mode == Mode::Error {
+        heat_image(&img, a.error_max, opts.background)
+    } else {
+        let mut i = img;
+        tone_map(&mut i, a.exposure, op);
+        i
+    }
+}
+
+fn turntable(
+    a: &Args,
+    n: u32,
+    mesh: &spheremap::mesh::Mesh,
+    cam: &GlCamera,
+    env: Env,
+    opts: &RenderOptions,
+    op: ToneMap,
+) -> anyhow::Result<()> {
+    if n == 0 || n > 3600 {
+        bail!("turntable: {n} frames is out of range 1..=3600");
+    }
+    let gif = a.output.to_ascii_lowercase().ends_with(".gif");
+    if !gif && !a.output.contains("{frame}") {
+        bail!(
+            "{}: with --turntable, -o is a .gif or a pattern with {{frame}}",
+            a.output
+        );
+    }
+    let linear_out =
+        !gif && Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
+    let t0 = Instant::now();
+    let mut frames = Vec::with_capacity(n as usize);
+    for k in 0..n {
+        let c = cam.orbited(360.0 * k as f64 / n as f64)?;
+        let (img, _) = render::render(mesh, &c, env, opts)?;
+        frames.push(finish(img, a, opts, op, linear_out));
+    }
+    let written = if gif {
+        spheremap::image_io::write_gif(Path::new(&a.output), &frames, a.frame_ms)?;
+        vec![a.output.clone()]
+    } else {
+        let digits = (n - 1).to_string().len().max(3);
+        let mut w = vec![];
+        for (k, f) in frames.iter().enumerate() {
+            let p = a.output.replace("{frame}", &format!("{k:0digits$}"));
+            write_image(Path::new(&p), f, &a.job.write_options(false))?;
+            w.push(p);
+        }
+        w
+    };
+    let seconds = t0.elapsed().as_secs_f64();
+    if a.job.json {
+        let v = serde_json::json!({"output": written, "frames": n, "mode": a.mode,
+                                   "width": cam.width, "height": cam.height, "seconds": seconds});
+        crate::out(&format!("{v}\n"));
+    } else if !a.job.quiet {
+        eprintln!(
+            "-> {} ({n} frames, {}x{}, {}): {seconds:.3} s",
+            if gif {
+                a.output.clone()
+            } else {
+                format!("{} ... {}", written[0], written[written.len() - 1])
+            },
+            cam.width,
+            cam.height,
+            a.mode
         );
     }
     Ok(())

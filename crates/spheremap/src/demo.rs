@@ -4,7 +4,9 @@
 //! Utah teapot with GL_SPHERE_MAP texgen applied (OBJ with `vt` + MTL pointing at the chart, and
 //! the raw (s,t) as CSV), for a viewer at (0, 12, 40) looking at the teapot's centre; and the
 //! bundled CC0 HDRI (Poly Haven's apartment, 512×256 lat-long) converted into the sphere map of
-//! that viewer (EXR, linear; PNG, sRGB) with the default footprint filter and gutter.
+//! that viewer (EXR, linear; PNG, sRGB) with the default footprint filter and gutter; the
+//! teapot drawn with that sphere map per vertex (as OpenGL) and per pixel, with the error heat
+//! map, in one contact sheet.
 
 use crate::chart::direction_chart;
 use crate::error::{Error, Result};
@@ -90,6 +92,12 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         crate::image_io::write_image(&p, &map, &Default::default())?;
         files.push(p);
     }
+    // The teapot drawn with that sphere map by the rasterizer, from the demo camera: OpenGL's
+    // per-vertex texgen and the per-pixel lookup side by side, with the angle between their
+    // lookup directions as a heat map.
+    let p = outdir.join("teapot_contact_sheet.png");
+    crate::image_io::write_image(&p, &contact_sheet(&mesh, &map)?, &Default::default())?;
+    files.push(p);
     // The built-in scene, ray-traced into the sphere map of an eye at (0, 1, 0) looking
     // down -Z (16 rays per texel, more at the rim).
     let scene = crate::scene::demo_scene();
@@ -114,4 +122,52 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         vertices: mesh.positions.len(),
         nan_texcoords,
     })
+}
+
+/// Per-vertex | per-pixel | error heat map of `mesh` with `sphere_map` from the demo camera
+/// (320 × 240, 2 × 2 samples per pixel, fovy 30°), captioned, the heat map with its colour bar.
+pub fn contact_sheet(
+    mesh: &Mesh,
+    sphere_map: &crate::image_io::Image,
+) -> Result<crate::image_io::Image> {
+    use crate::render::{render, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+    let cam = GlCamera::look_at(DEMO_EYE, DEMO_TARGET, DEMO_UP, 30.0, 1.0, 200.0, 320, 240)?;
+    let tex = Texture {
+        image: sphere_map,
+        wrap: Wrap::ClampToEdge,
+    };
+    let bg = [0.05, 0.05, 0.06];
+    let draw = |mode| {
+        let opts = RenderOptions {
+            mode,
+            background: bg,
+            aa: 2,
+        };
+        render(mesh, &cam, Env::Texture(&tex), &opts).map(|r| r.0)
+    };
+    let (vertex, pixel, error) = (
+        draw(Mode::PerVertex)?,
+        draw(Mode::PerPixel)?,
+        draw(Mode::Error)?,
+    );
+    let top = 5.0;
+    let deg: Vec<f64> = error
+        .data
+        .chunks_exact(2)
+        .map(|p| {
+            if p[1] > 0.0 {
+                (p[0] as f64).min(top)
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let heat =
+        crate::analyze::figure::panel(&deg, 320, 240, 0.0, top, false, "lookup angle", "deg");
+    let items = [
+        (&vertex, "per-vertex (OpenGL GL_SPHERE_MAP)".to_string()),
+        (&pixel, "per-pixel reflection".to_string()),
+        (&heat, "per-vertex vs per-pixel".to_string()),
+    ];
+    Ok(crate::draw::contact_sheet(&items, 3, [0.02; 3], [0.9; 3]))
 }

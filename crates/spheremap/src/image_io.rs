@@ -808,3 +808,35 @@ pub fn check_nonfinite(img: &mut Image, policy: NonFinite, what: &str) -> Result
         }
     }
 }
+
+/// Writes `frames` (linear RGB, values in [0, 1]; tone-map HDR first) as an animated GIF that
+/// loops forever, `delay_ms` per frame, sRGB-encoded and quantized to 256 colours per frame by
+/// the `image` crate's NeuQuant. Atomic like every write.
+pub fn write_gif(path: &Path, frames: &[Image], delay_ms: u32) -> Result<()> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    if frames.is_empty() {
+        return Err(Error::param("frames", "no frames to write"));
+    }
+    let bad = |e: image::ImageError| Error::data(path, format!("cannot encode GIF: {e}"));
+    let mut buf = Vec::new();
+    {
+        let mut enc = GifEncoder::new_with_speed(&mut buf, 10);
+        enc.set_repeat(Repeat::Infinite).map_err(bad)?;
+        for img in frames {
+            let rgb = to_rgb(img);
+            let mut rgba = Vec::with_capacity(img.width * img.height * 4);
+            for p in rgb.chunks_exact(3) {
+                for v in p {
+                    rgba.push((linear_to_srgb(*v) * 255.0 + 0.5) as u8);
+                }
+                rgba.push(255);
+            }
+            let buffer = image::RgbaImage::from_raw(img.width as u32, img.height as u32, rgba)
+                .ok_or_else(|| Error::param("frames", "inconsistent frame size"))?;
+            let delay = image::Delay::from_numer_denom_ms(delay_ms, 1);
+            enc.encode_frame(image::Frame::from_parts(buffer, 0, 0, delay))
+                .map_err(bad)?;
+        }
+    }
+    atomic_write(path, |f| f.write_all(&buf).map_err(|e| Error::io(path, e)))
+}

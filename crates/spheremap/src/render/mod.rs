@@ -64,6 +64,14 @@ pub struct GlCamera {
     pub projection: [[f64; 4]; 4],
     pub width: usize,
     pub height: usize,
+    /// The `gluLookAt` arguments it was made from.
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    pub up: [f64; 3],
+    /// The `gluPerspective` arguments (the aspect is width/height).
+    pub fovy_deg: f64,
+    pub near: f64,
+    pub far: f64,
 }
 
 /// The largest image side the rasterizer draws.
@@ -152,6 +160,12 @@ impl GlCamera {
             projection,
             width,
             height,
+            eye,
+            target,
+            up,
+            fovy_deg,
+            near,
+            far,
         })
     }
 
@@ -216,6 +230,20 @@ impl GlCamera {
         )
     }
 
+    /// The same camera with its eye turned `angle_deg` about `up` through the target.
+    pub fn orbited(&self, angle_deg: f64) -> Result<GlCamera> {
+        GlCamera::look_at(
+            orbit_eye(self.eye, self.target, self.up, angle_deg),
+            self.target,
+            self.up,
+            self.fovy_deg,
+            self.near,
+            self.far,
+            self.width,
+            self.height,
+        )
+    }
+
     /// Eye → world rotation (the transpose of the modelview's rotation; gluLookAt's is
     /// orthonormal).
     pub fn eye_to_world(&self) -> Mat3 {
@@ -226,6 +254,18 @@ impl GlCamera {
             [m[0][2], m[1][2], m[2][2]],
         ]
     }
+}
+
+/// The eye turned by `angle_deg` about the axis through `target` along `up` (a right-handed
+/// turn: with up = +Y, +Z goes to +X at 90°) — a turntable's camera path.
+pub fn orbit_eye(eye: [f64; 3], target: [f64; 3], up: [f64; 3], angle_deg: f64) -> [f64; 3] {
+    let k = unit(up).unwrap_or([0.0, 1.0, 0.0]);
+    let v = sub(eye, target);
+    let (s, c) = angle_deg.to_radians().sin_cos();
+    let kxv = cross(k, v);
+    let kv = dot(k, v);
+    // Rodrigues: v c + (k × v) s + k (k·v)(1 − c).
+    std::array::from_fn(|i| target[i] + v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
 }
 
 /// What to draw.

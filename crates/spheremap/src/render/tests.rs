@@ -292,3 +292,15 @@ fn near_plane_clipping_keeps_the_visible_part() {
         s.covered_pixels
     );
 }
+
+#[test]
+fn orbit_turns_about_up() {
+    let e = orbit_eye([0.0, 1.0, 5.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], 90.0);
+    // +Z turned 90° counter-clockwise about +Y (seen from above) is +X.
+    assert!(
+        (e[0] - 5.0).abs() < 1e-12 && (e[1] - 1.0).abs() < 1e-12 && e[2].abs() < 1e-12,
+        "{e:?}"
+    );
+    let f = orbit_eye([3.0, 2.0, 1.0], [0.0; 3], [0.0, 0.0, 2.0], 360.0);
+    assert!((f[0] - 3.0).abs() < 1e-12 && (f[1] - 2.0).abs() < 1e-12);
+}
