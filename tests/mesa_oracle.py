@@ -109,24 +109,50 @@ def mesa_sphere_texgen(positions: np.ndarray, normals: np.ndarray, modelview: np
     return out
 
 
+class _OwnContext:
+    """A separate OSMesa context over a fresh (w, h) buffer of `ctype` for one draw; on exit it
+    is destroyed and the texgen oracle's context made current again."""
+
+    def __init__(self, w, h, ctype, gl_type, depth):
+        self.w, self.h, self.ctype, self.gl_type, self.depth = w, h, ctype, gl_type, depth
+
+    def __enter__(self):
+        from OpenGL import GL, osmesa
+
+        _context()  # raises MesaUnavailable when OSMesa is missing
+        self.ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, self.depth, 0, 0, None)
+        if not self.ctx:
+            raise MesaUnavailable("OSMesaCreateContextExt failed")
+        self.buf = (self.ctype * (self.w * self.h * 4))()
+        if not osmesa.OSMesaMakeCurrent(self.ctx, self.buf, self.gl_type, self.w, self.h):
+            osmesa.OSMesaDestroyContext(self.ctx)
+            raise MesaUnavailable("OSMesaMakeCurrent failed")
+        GL.glViewport(0, 0, self.w, self.h)
+        return self
+
+    def pixels(self, dtype):
+        """The buffer, (h, w, 4), row 0 = the bottom (OSMesa's default)."""
+        return np.frombuffer(self.buf, dtype).reshape(self.h, self.w, 4).copy()
+
+    def __exit__(self, *exc):
+        from OpenGL import GL, osmesa
+
+        osmesa.OSMesaDestroyContext(self.ctx)
+        if _ctx is not None:
+            osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
+        return False
+
+
 def mesa_render_sphere_map(positions, normals, triangles, modelview, projection, texture, size,
                            background=(0, 0, 0)) -> np.ndarray:
     """Draws triangles with OpenGL's fixed-function GL_SPHERE_MAP path in Mesa: texgen on S and
     T, GL_NORMALIZE, GL_REPLACE, a GL_LINEAR RGBA8 texture without mipmaps clamped to the edge,
     depth test GL_LESS, no lighting, no culling. `texture`: (H, W, 4) uint8 with row 0 at the top
     (t = 1); returns (height, width, 4) uint8 with row 0 at the top. Uses its own context."""
-    from OpenGL import GL, osmesa
+    from OpenGL import GL
 
-    _context()  # fails with MesaUnavailable when OSMesa is missing
     w, h = size
-    ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, 24, 0, 0, None)
-    if not ctx:
-        raise MesaUnavailable("OSMesaCreateContextExt failed")
-    buf = (ctypes.c_ubyte * (w * h * 4))()
-    try:
-        if not osmesa.OSMesaMakeCurrent(ctx, buf, GL.GL_UNSIGNED_BYTE, w, h):
-            raise MesaUnavailable("OSMesaMakeCurrent failed")
-        GL.glViewport(0, 0, w, h)
+    with _OwnContext(w, h, ctypes.c_ubyte, GL.GL_UNSIGNED_BYTE, 24) as c:
         GL.glClearColor(background[0] / 255, background[1] / 255, background[2] / 255, 1.0)
         GL.glClearDepth(1.0)
         GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
@@ -165,12 +191,7 @@ def mesa_render_sphere_map(positions, normals, triangles, modelview, projection,
         GL.glNormalPointer(GL.GL_FLOAT, 0, nrm)
         GL.glDrawElements(GL.GL_TRIANGLES, len(idx), GL.GL_UNSIGNED_INT, idx)
         GL.glFinish()
-        out = np.frombuffer(buf, np.uint8).reshape(h, w, 4)[::-1].copy()  # OSMesa: row 0 = bottom
-    finally:
-        osmesa.OSMesaDestroyContext(ctx)
-        if _ctx is not None:  # give the texgen oracle its context back
-            osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
-    return out
+        return c.pixels(np.uint8)[::-1]  # row 0 at the top
 
 
 def mesa_run_fragment(source: str, inputs: list, size) -> np.ndarray:
@@ -180,18 +201,10 @@ def mesa_run_fragment(source: str, inputs: list, size) -> np.ndarray:
     `in0`, `in1`, ... (read them with texelFetch(inK, ivec2(gl_FragCoord.xy), 0)); a 4-D entry
     (H, W, 4) float32 named by a tuple (name, array, filter) binds an RGBA32F texture with
     GL_LINEAR (True) or GL_NEAREST filtering under that name. Uses its own context."""
-    from OpenGL import GL, osmesa
+    from OpenGL import GL
 
-    _context()
     w, h = size
-    ctx = osmesa.OSMesaCreateContextExt(osmesa.OSMESA_RGBA, 0, 0, 0, None)
-    if not ctx:
-        raise MesaUnavailable("OSMesaCreateContextExt failed")
-    buf = (ctypes.c_float * (w * h * 4))()
-    try:
-        if not osmesa.OSMesaMakeCurrent(ctx, buf, GL.GL_FLOAT, w, h):
-            raise MesaUnavailable("OSMesaMakeCurrent (float buffer) failed")
-        GL.glViewport(0, 0, w, h)
+    with _OwnContext(w, h, ctypes.c_float, GL.GL_FLOAT, 0) as c:
         GL.glClampColor(GL.GL_CLAMP_FRAGMENT_COLOR, GL.GL_FALSE)
         sh = GL.glCreateShader(GL.GL_FRAGMENT_SHADER)
         GL.glShaderSource(sh, source)
@@ -227,9 +240,4 @@ def mesa_run_fragment(source: str, inputs: list, size) -> np.ndarray:
             GL.glVertex2f(x, y)
         GL.glEnd()
         GL.glFinish()
-        out = np.frombuffer(buf, np.float32).reshape(h, w, 4).copy()
-    finally:
-        osmesa.OSMesaDestroyContext(ctx)
-        if _ctx is not None:
-            osmesa.OSMesaMakeCurrent(_ctx[0], _ctx[1], GL.GL_UNSIGNED_BYTE, 4, 4)
-    return out
+        return c.pixels(np.float32)

@@ -815,6 +815,24 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return _ext.load_mesh(os.fspath(path))
 
 
+def _mesh_arrays(mesh):
+    """A mesh argument (a path, or (positions, normals or None, triangles)) as the arrays the
+    extension takes."""
+    if isinstance(mesh, (str, os.PathLike)):
+        return load_mesh(mesh)
+    try:
+        p, n, t = mesh
+    except (TypeError, ValueError):
+        raise ValueError("mesh: expected a path or (positions, normals, triangles)") from None
+    p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
+    if n is not None:
+        n = np.ascontiguousarray(_floats(n, "normals", last=(3,), ndim=2), dtype=np.float32)
+    t = np.asarray(t)
+    if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
+        raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
+    return p, n, np.ascontiguousarray(t, dtype=np.uint32)
+
+
 def _env_image(env, env_format: str, linear: bool) -> np.ndarray:
     if isinstance(env, (str, os.PathLike)):
         a = read_image(env, linear=linear)
@@ -866,20 +884,10 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
     _choice(env_format, "env_format", MAPPINGS)
     _choice(matcap_variant, "matcap_variant", MATCAP_VARIANTS)
     _choice(wrap, "wrap", ("clamp-to-edge", "repeat"))
-    if isinstance(mesh, (str, os.PathLike)):
-        p, n, t = load_mesh(mesh)
-    else:
-        try:
-            p, n, t = mesh
-        except (TypeError, ValueError):
-            raise ValueError("mesh: expected a path or (positions, normals, triangles)") from None
-        p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
-        if n is not None:
-            n = np.ascontiguousarray(_floats(n, "normals", last=(3,), ndim=2), dtype=np.float32)
-        t = np.asarray(t)
-        if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
-            raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
-        t = np.ascontiguousarray(t, dtype=np.uint32)
+    p, n, t = _mesh_arrays(mesh)
+    if mode in ("per-vertex", "matcap") and env_format != "sphere":
+        raise ValueError(f"env_format: mode {mode!r} looks up (s, t) in a sphere map or MatCap image; "
+                         "convert the map to a sphere map first")
     if env is None and mode not in ("normals", "error"):
         raise ValueError(f"env: mode {mode!r} needs an environment map")
     e = None if env is None else _env_image(env, env_format, linear)
@@ -935,17 +943,7 @@ def analyze(map=None, *, mapping: str = "sphere", preset: str | None = None, siz
            "resolution_deg": res,
            "stats": {"solid_angle": _stats(sa), "anisotropy": _stats(an), "resolution_deg": _stats(res)}}
     if mesh is not None:
-        if isinstance(mesh, (str, os.PathLike)):
-            p, nrm, t = load_mesh(mesh)
-        else:
-            p, nrm, t = mesh
-            p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
-            if nrm is not None:
-                nrm = np.ascontiguousarray(_floats(nrm, "normals", last=(3,), ndim=2), dtype=np.float32)
-            t = np.asarray(t)
-            if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
-                raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
-            t = np.ascontiguousarray(t, dtype=np.uint32)
+        p, nrm, t = _mesh_arrays(mesh)
         try:
             vw, vh = (int(v) for v in view_size)
         except (TypeError, ValueError):

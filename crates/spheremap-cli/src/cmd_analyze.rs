@@ -1,13 +1,14 @@
 //! `spheremap analyze`: a thin layer over `spheremap::analyze`.
 
-use crate::job::{vec3, JobFlags};
+use crate::camera_args::CameraArgs;
+use crate::job::JobFlags;
 use anyhow::{bail, Context};
 use spheremap::analyze::{self, figure, stats, Stats};
 use spheremap::draw;
 use spheremap::image_io::{read_image, write_image, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::mesh::load_mesh;
-use spheremap::render::{self, Env, GlCamera, Mode, RenderOptions};
+use spheremap::render::{self, Env, Mode, RenderOptions};
 use std::path::Path;
 
 #[derive(clap::Args, Debug)]
@@ -26,19 +27,8 @@ pub struct Args {
     /// A mesh: per-vertex interpolation error, triangles over --threshold, tessellation advice.
     #[arg(long)]
     mesh: Option<String>,
-    /// Camera of the mesh analysis (as render; default: framing the mesh).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    eye: Option<Vec<f64>>,
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    target: Option<Vec<f64>>,
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
-    #[arg(long, default_value_t = 40.0)]
-    fovy: f64,
-    #[arg(long)]
-    near: Option<f64>,
-    #[arg(long)]
-    far: Option<f64>,
+    #[command(flatten)]
+    camera: CameraArgs,
     /// Size of the mesh's error heat map.
     #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [512, 512])]
     view_size: Vec<usize>,
@@ -106,17 +96,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )];
     if let Some(path) = &a.mesh {
         let mesh = load_mesh(Path::new(path))?;
-        let cam = GlCamera::framing(
-            &mesh.positions,
-            vec3(&a.eye),
-            vec3(&a.target),
-            vec3(&a.up),
-            a.fovy,
-            a.near,
-            a.far,
-            (a.view_size[0], a.view_size[1]),
-        )
-        .with_context(|| path.clone())?;
+        let cam = a
+            .camera
+            .camera(&mesh.positions, (a.view_size[0], a.view_size[1]))
+            .with_context(|| path.clone())?;
         let err = analyze::mesh_error(&mesh, &cam, a.threshold)?;
         let opts = RenderOptions {
             mode: Mode::Error,

@@ -1,14 +1,14 @@
 //! `spheremap render`: a thin layer over `spheremap::render`.
 
-use crate::job::{vec3, JobFlags};
+use crate::camera_args::CameraArgs;
+use crate::job::JobFlags;
 use anyhow::{bail, Context};
 use spheremap::envio::{env_paths, read_env, same_file};
 use spheremap::image_io::{check_nonfinite, write_image, Format, Image, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::matcap::MatcapVariant;
 use spheremap::mesh::load_mesh;
-use spheremap::render::{self, heat_colour, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
-use spheremap::resample::EnvMap;
+use spheremap::render::{self, heat_colour, Env, EnvInput, GlCamera, Mode, RenderOptions, Wrap};
 use spheremap::tonemap::{tone_map, ToneMap};
 use std::path::Path;
 use std::time::Instant;
@@ -36,24 +36,8 @@ pub struct Args {
     /// MatCap variant for --mode matcap: classic, threejs, perspective.
     #[arg(long, default_value = "classic")]
     matcap_variant: String,
-    /// Camera position, as gluLookAt (default: on +Z of the mesh's bounding sphere, framing it).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    eye: Option<Vec<f64>>,
-    /// The point looked at (default: the bounding box's centre).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    target: Option<Vec<f64>>,
-    /// Up direction (default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
-    /// Vertical field of view in degrees, as gluPerspective.
-    #[arg(long, default_value_t = 40.0)]
-    fovy: f64,
-    /// Near plane distance (default: from the bounding sphere).
-    #[arg(long)]
-    near: Option<f64>,
-    /// Far plane distance (default: from the bounding sphere).
-    #[arg(long)]
-    far: Option<f64>,
+    #[command(flatten)]
+    camera: CameraArgs,
     /// Image size in pixels.
     #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [512, 512])]
     size: Vec<usize>,
@@ -112,17 +96,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     let mesh = load_mesh(Path::new(&a.mesh))?;
-    let cam = GlCamera::framing(
-        &mesh.positions,
-        vec3(&a.eye),
-        vec3(&a.target),
-        vec3(&a.up),
-        a.fovy,
-        a.near,
-        a.far,
-        (a.size[0], a.size[1]),
-    )
-    .with_context(|| a.mesh.clone())?;
+    let cam = a
+        .camera
+        .camera(&mesh.positions, (a.size[0], a.size[1]))
+        .with_context(|| a.mesh.clone())?;
     let mapping = Mapping::parse(&a.env_format, a.env_preset.as_deref()).context("--env-format")?;
     let layout = a
         .env_layout
@@ -142,28 +119,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Some(img)
         }
     };
-    let is_sphere = matches!(mapping, Mapping::Sphere(_));
-    if matches!(mode, Mode::PerVertex | Mode::Matcap(_)) && !is_sphere {
-        bail!(
-            "--env-format: mode {} looks up (s, t) in a sphere map or MatCap image; convert the \
-             map first (spheremap convert ... --to sphere)",
-            a.mode
-        );
-    }
-    let texture = env_img.as_ref().map(|image| Texture { image, wrap });
-    let envmap = match (&env_img, is_sphere) {
-        (Some(img), false) => Some(EnvMap::new(
-            mapping,
-            img,
-            a.env.as_deref().unwrap_or("env"),
-        )?),
-        _ => None,
-    };
-    let env = match (&texture, &envmap) {
-        (_, Some(m)) => Env::Map(m),
-        (Some(t), None) => Env::Texture(t),
-        _ => Env::None,
-    };
+    let input = EnvInput::new(
+        mapping,
+        env_img.as_ref(),
+        wrap,
+        a.env.as_deref().unwrap_or("env"),
+    )?;
+    input.check(mode)?;
+    let env = input.env();
     let opts = RenderOptions {
         mode,
         background: [a.background[0], a.background[1], a.background[2]],

@@ -6,6 +6,7 @@
 //! failure (one line on stderr naming the file or argument and the cause), clap's own codes for
 //! usage errors (2) and `--help` (0).
 
+mod camera_args;
 mod cmd_analyze;
 mod cmd_conventions;
 mod cmd_convert;

@@ -7,8 +7,7 @@ use pyo3::prelude::*;
 use spheremap::image_io::Image;
 use spheremap::matcap::MatcapVariant;
 use spheremap::mesh::Mesh;
-use spheremap::render::{Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
-use spheremap::resample::EnvMap;
+use spheremap::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
 
 type MeshArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
 
@@ -145,22 +144,9 @@ pub fn render<'py>(
             })
         })
         .transpose()?;
-    let is_sphere = matches!(mapping, spheremap::Mapping::Sphere(_));
-    let texture = img.as_ref().map(|image| Texture { image, wrap });
-    let envmap = match (&img, is_sphere) {
-        (Some(i), false) => Some(EnvMap::new(mapping, i, "env").map_err(to_py)?),
-        _ => None,
-    };
-    if matches!(mode, Mode::PerVertex | Mode::Matcap(_)) && envmap.is_some() {
-        return Err(PyValueError::new_err(
-            "env_format: per-vertex and matcap look up (s, t) in a sphere map or MatCap image",
-        ));
-    }
-    let env = match (&texture, &envmap) {
-        (_, Some(m)) => Env::Map(m),
-        (Some(t), None) => Env::Texture(t),
-        _ => Env::None,
-    };
+    let input = EnvInput::new(mapping, img.as_ref(), wrap, "env").map_err(to_py)?;
+    input.check(mode).map_err(to_py)?;
+    let env = input.env();
     let opts = RenderOptions {
         mode,
         background,

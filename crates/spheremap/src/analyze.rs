@@ -408,33 +408,7 @@ mod tests {
         assert!((ll.anisotropy[y * 64 + 10] * lat.cos() - 1.0).abs() < 2e-3);
     }
 
-    /// A UV sphere of radius 1 with exact normals.
-    fn uv_sphere(rings: usize, segments: usize) -> Mesh {
-        let mut m = Mesh {
-            positions: vec![],
-            normals: vec![],
-            triangles: vec![],
-            normals_from_file: true,
-        };
-        for i in 0..=rings {
-            let th = std::f64::consts::PI * i as f64 / rings as f64;
-            for j in 0..=segments {
-                let ph = std::f64::consts::TAU * j as f64 / segments as f64;
-                let p = [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()].map(|v| v as f32);
-                m.positions.push(p);
-                m.normals.push(p);
-            }
-        }
-        let row = segments as u32 + 1;
-        for i in 0..rings as u32 {
-            for j in 0..segments as u32 {
-                let a = i * row + j;
-                m.triangles.push([a, a + row, a + 1]);
-                m.triangles.push([a + 1, a + row, a + row + 1]);
-            }
-        }
-        m
-    }
+    use crate::render::tests::uv_sphere;
 
     /// Splits every triangle k × k (flat positions, interpolated renormalized normals).
     fn subdivide(m: &Mesh, k: usize) -> Mesh {

@@ -322,6 +322,63 @@ pub enum Env<'a> {
     None,
 }
 
+/// An environment image prepared for rendering: a sphere map (or MatCap) becomes a GL
+/// texture, any other mapping a direction-lookup map.
+pub struct EnvInput<'a> {
+    texture: Option<Texture<'a>>,
+    map: Option<EnvMap<'a>>,
+}
+
+impl<'a> EnvInput<'a> {
+    /// `image` in `mapping` (none: nothing to look up); `what` names it in errors.
+    pub fn new(
+        mapping: crate::Mapping,
+        image: Option<&'a Image>,
+        wrap: Wrap,
+        what: &str,
+    ) -> Result<Self> {
+        let sphere = matches!(mapping, crate::Mapping::Sphere(_));
+        Ok(match image {
+            None => EnvInput {
+                texture: None,
+                map: None,
+            },
+            Some(image) if sphere => EnvInput {
+                texture: Some(Texture { image, wrap }),
+                map: None,
+            },
+            Some(image) => EnvInput {
+                texture: None,
+                map: Some(EnvMap::new(mapping, image, what)?),
+            },
+        })
+    }
+
+    /// Whether `mode` can use it: per-vertex and MatCap need (s, t) lookups, i.e. a sphere map
+    /// or MatCap image; per-pixel needs some environment.
+    pub fn check(&self, mode: Mode) -> Result<()> {
+        match mode {
+            Mode::PerVertex | Mode::Matcap(_) if self.texture.is_none() => Err(Error::param(
+                "env-format",
+                "per-vertex and matcap look up (s, t) in a sphere map or MatCap image; convert \
+                 the map to a sphere map first",
+            )),
+            Mode::PerPixel if self.texture.is_none() && self.map.is_none() => {
+                Err(Error::param("env", "per-pixel needs an environment map"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    pub fn env(&self) -> Env<'_> {
+        match (&self.texture, &self.map) {
+            (Some(t), _) => Env::Texture(t),
+            (None, Some(m)) => Env::Map(m),
+            _ => Env::None,
+        }
+    }
+}
+
 /// Render options.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderOptions {
@@ -440,4 +497,4 @@ pub fn render(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -16,8 +16,8 @@ fn quad() -> Mesh {
     }
 }
 
-/// A UV sphere of radius 1 with exact normals.
-fn uv_sphere(rings: usize, segments: usize) -> Mesh {
+/// A UV sphere of radius 1 with exact normals (also used by the analyze tests).
+pub(crate) fn uv_sphere(rings: usize, segments: usize) -> Mesh {
     let mut m = Mesh {
         positions: vec![],
         normals: vec![],
