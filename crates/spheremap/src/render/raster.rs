@@ -235,9 +235,12 @@ pub(crate) fn draw(
     let c = opts.mode.channels();
     let offs = offsets(opts.aa);
     let ns = offs.len();
+    // The image, and per band in flight a depth (8 bytes), a triangle id (4) and two
+    // barycentrics (16) per sample.
     crate::error::check_memory(
         "size",
-        (width * height * c * 4 + width * BAND * ns * 16 * rayon::current_num_threads()) as u128,
+        (width * height * c * 4) as u128
+            + (width * BAND * ns * 28 * rayon::current_num_threads()) as u128,
         crate::error::default_max_memory(),
     )?;
     let bands = height.div_ceil(BAND);
