@@ -103,6 +103,12 @@ def test_render_modes_through_the_cli(tmp_path):
     m, proj = glu((0, 10, 60), (0, 0, 0), (0, 1, 0), 30, 1, 200, 64, 48)
     np.testing.assert_allclose(s["modelview"], m, atol=1e-12)
     np.testing.assert_allclose(s["projection"], proj, atol=1e-12)
+    # The same camera as one spec (the texgen command's lookat: form).
+    r = cli("render", TEAPOT, "--mode", "normals", "--camera", "lookat:0,10,60,0,0,0,0,1,0", "--fovy", 30,
+            "--near", 1, "--far", 200, "--size", 64, 48, "--json", "-o", tmp_path / "n2.exr")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["modelview"] == s["modelview"]
+    np.testing.assert_array_equal(sm.read_image(tmp_path / "n2.exr"), sm.read_image(tmp_path / "n.exr"))
 
 
 def test_render_cli_errors(tmp_path):
@@ -115,6 +121,7 @@ def test_render_cli_errors(tmp_path):
         ((TEAPOT, "--mode", "normals", "--fovy", 180), "fovy"),
         ((TEAPOT, "--mode", "normals", "--aa", 0), "aa"),
         ((TEAPOT, "--mode", "normals", "--tonemap", "filmic"), "tonemap"),
+        ((TEAPOT, "--mode", "normals", "--camera", "1,2,3"), "camera"),
     ]:
         r = cli("render", *args, "-o", out)
         assert r.returncode == 2, (args, r.stderr)

@@ -129,18 +129,8 @@ impl GlCamera {
                 format!("near {near}, far {far}: need 0 < near < far"),
             ));
         }
-        // gluLookAt: f = target − eye, s = f × up, u = s × f (f and s normalized).
-        let f =
-            unit(sub(target, eye)).ok_or_else(|| Error::param("target", "must differ from eye"))?;
-        let s = unit(cross(f, up))
-            .ok_or_else(|| Error::param("up", "must not be parallel to the view direction"))?;
-        let u = cross(s, f);
-        let modelview = [
-            [s[0], s[1], s[2], -dot(s, eye)],
-            [u[0], u[1], u[2], -dot(u, eye)],
-            [-f[0], -f[1], -f[2], dot(f, eye)],
-            [0.0, 0.0, 0.0, 1.0],
-        ];
+        // gluLookAt: the one construction the texgen command's `lookat:` spec uses too.
+        let modelview = crate::parse::look_at(eye, target, up, "camera")?;
         // gluPerspective.
         let c = 1.0 / (0.5 * fovy_deg.to_radians()).tan();
         let aspect = width as f64 / height as f64;
