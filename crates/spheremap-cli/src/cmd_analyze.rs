@@ -172,6 +172,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ),
             "deg",
         ));
+        let normals_opts = RenderOptions {
+            mode: Mode::Normals,
+            ..Default::default()
+        };
+        let (normals, _) = render::render(&mesh, &cam, Env::None, &normals_opts)?;
+        let ids = render::triangle_ids(&mesh, &cam)?;
+        panels.push(figure::triangles_panel(&ids, &normals, &err));
     }
     let sheet = if panels.len() == 1 {
         panels.pop().unwrap()

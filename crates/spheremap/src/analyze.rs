@@ -542,7 +542,7 @@ pub mod figure {
             (false, true) => format!("{title} ({unit}, log scale)"),
         };
         let bar = 10;
-        let width = w.max(draw::text_width(&title, 1) + 8).max(200);
+        let width = w.max(draw::text_width(&title, 1) + 8).max(300);
         let height = 14 + h + 8 + bar + 20;
         let mut img = Image::new(width, height, 3);
         for p in img.data.chunks_exact_mut(3) {
@@ -583,7 +583,7 @@ pub mod figure {
         } else {
             vec![(0.0, num(lo)), (0.5, num(mid)), (1.0, num(hi))]
         };
-        let bw = width.min(w.max(160)) - 40;
+        let bw = width - 24; // room for three labels of up to 12 characters
         draw::colour_bar(
             &mut img,
             8,
@@ -594,6 +594,45 @@ pub mod figure {
             &labels,
             INK,
         );
+        img
+    }
+
+    /// The mesh with its triangles coloured by the advice: grey = under the threshold, orange =
+    /// over it (a split fixes it), red = no split up to `MAX_SPLIT` does; shaded by the eye-space
+    /// normal's z (from a `Normals` render, `n/2 + ½`), on the dark background.
+    pub fn triangles_panel(ids: &[u32], normals: &Image, err: &super::MeshError) -> Image {
+        let (w, h) = (normals.width, normals.height);
+        let title = format!(
+            "triangles over {} deg: orange = split fixes it, red = no split does",
+            num(err.threshold_deg)
+        );
+        let width = w.max(draw::text_width(&title, 1) + 8);
+        let mut img = Image::new(width, 14 + h + 4, 3);
+        for p in img.data.chunks_exact_mut(3) {
+            p.copy_from_slice(&BG);
+        }
+        draw::text(&mut img, &title, 0, 2, 1, INK);
+        for y in 0..h {
+            for x in 0..w {
+                let id = ids[y * w + x];
+                if id == u32::MAX {
+                    continue;
+                }
+                let t = id as usize;
+                let shade = 0.25 + 0.75 * (2.0 * normals.pixel(x, y)[2] - 1.0).abs();
+                let base = if err.in_view[t] && err.triangle_error_deg[t] > err.threshold_deg {
+                    if err.split[t] > super::MAX_SPLIT {
+                        [0.9, 0.05, 0.03]
+                    } else {
+                        [1.0, 0.45, 0.05]
+                    }
+                } else {
+                    [0.45, 0.45, 0.45]
+                };
+                img.pixel_mut(x, 14 + y)
+                    .copy_from_slice(&base.map(|c: f32| c * shade));
+            }
+        }
         img
     }
 

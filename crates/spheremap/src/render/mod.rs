@@ -486,5 +486,16 @@ pub fn render(
     ))
 }
 
+/// Per pixel (row-major, row 0 at the top), the index of the mesh triangle seen through the
+/// pixel centre, `u32::MAX` where none: the visibility pass of [`render`] with one sample.
+pub fn triangle_ids(mesh: &Mesh, cam: &GlCamera) -> Result<Vec<u32>> {
+    if mesh.positions.len() != mesh.normals.len() {
+        return Err(Error::param("mesh", "needs one normal per vertex"));
+    }
+    let verts = vertex_stage(mesh, cam)?;
+    let tris = raster::setup(&mesh.triangles, &verts, cam.width, cam.height)?;
+    Ok(raster::triangle_ids(&tris, cam.width, cam.height))
+}
+
 #[cfg(test)]
 pub(crate) mod tests;

@@ -21,6 +21,8 @@ const BAND: usize = 16;
 
 /// A triangle ready to rasterize.
 pub(crate) struct Tri {
+    /// Index of the mesh triangle it comes from (clipping may make several).
+    src: u32,
     /// Window position in 1/256 pixel, image rows (y down).
     x: [i64; 3],
     y: [i64; 3],
@@ -111,11 +113,14 @@ pub(crate) fn setup(
             ],
         )
     };
+    const CHUNK: usize = 4096;
     let chunks: Vec<Vec<Tri>> = triangles
-        .par_chunks(4096)
-        .map(|chunk| {
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
             let mut out = Vec::new();
-            for t in chunk {
+            for (j, t) in chunk.iter().enumerate() {
+                let src = (c * CHUNK + j) as u32;
                 if t.iter().any(|&i| i as usize >= n) {
                     continue; // checked below
                 }
@@ -127,7 +132,9 @@ pub(crate) fn setup(
                     clip_polygon(p.to_vec())
                 };
                 for k in 1..poly.len().saturating_sub(1) {
-                    if let Some(tri) = make_tri([&poly[0], &poly[k], &poly[k + 1]], width, height) {
+                    if let Some(tri) =
+                        make_tri(src, [&poly[0], &poly[k], &poly[k + 1]], width, height)
+                    {
                         out.push(tri);
                     }
                 }
@@ -147,7 +154,7 @@ pub(crate) fn setup(
     Ok(chunks.into_iter().flatten().collect())
 }
 
-fn make_tri(p: [&PV; 3], width: usize, height: usize) -> Option<Tri> {
+fn make_tri(src: u32, p: [&PV; 3], width: usize, height: usize) -> Option<Tri> {
     let (w, h) = (width as f64, height as f64);
     let mut x = [0i64; 3];
     let mut y = [0i64; 3];
@@ -196,6 +203,7 @@ fn make_tri(p: [&PV; 3], width: usize, height: usize) -> Option<Tri> {
         return None;
     }
     Some(Tri {
+        src,
         x,
         y,
         z,
@@ -243,13 +251,7 @@ pub(crate) fn draw(
             + (width * BAND * ns * 28 * rayon::current_num_threads()) as u128,
         crate::error::default_max_memory(),
     )?;
-    let bands = height.div_ceil(BAND);
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
-    for (i, t) in tris.iter().enumerate() {
-        for bin in &mut bins[t.py0 / BAND..=t.py1 / BAND] {
-            bin.push(i as u32);
-        }
-    }
+    let bins = bin_triangles(tris, height);
     let mut img = Image::new(width, height, c);
     let covered: usize = img
         .data
@@ -278,45 +280,7 @@ fn draw_band(
     out: &mut [f32],
 ) -> usize {
     let ns = offs.len();
-    let n = width * rows * ns;
-    let mut depth = vec![1.0f64; n];
-    let mut id = vec![u32::MAX; n];
-    let mut bary = vec![[0f64; 2]; n];
-    let sub = SUB as i64;
-    for &ti in bin {
-        let t = &tris[ti as usize];
-        let (ya, yb) = (t.py0.max(y0), t.py1.min(y0 + rows - 1));
-        let e = |i: usize, px: i64, py: i64| -> i64 {
-            let j = (i + 1) % 3;
-            (t.x[j] - t.x[i]) * (py - t.y[i]) - (t.y[j] - t.y[i]) * (px - t.x[i])
-        };
-        let inv_area = 1.0 / t.area as f64;
-        for py in ya..=yb {
-            for px in t.px0..=t.px1 {
-                for (s, &(ox, oy)) in offs.iter().enumerate() {
-                    let (fx, fy) = (px as i64 * sub + ox, py as i64 * sub + oy);
-                    let e0 = e(0, fx, fy);
-                    let e1 = e(1, fx, fy);
-                    let e2 = e(2, fx, fy);
-                    let inside = |e: i64, k: usize| e > 0 || (e == 0 && t.owned[k]);
-                    if !(inside(e0, 0) && inside(e1, 1) && inside(e2, 2)) {
-                        continue;
-                    }
-                    // λ of vertex 2 is E_01/A, of 0 is E_12/A, of 1 is E_20/A.
-                    let l0 = e1 as f64 * inv_area;
-                    let l1 = e2 as f64 * inv_area;
-                    let l2 = e0 as f64 * inv_area;
-                    let zz = l0 * t.z[0] + l1 * t.z[1] + l2 * t.z[2];
-                    let k = ((py - y0) * width + px) * ns + s;
-                    if zz < depth[k] {
-                        depth[k] = zz;
-                        id[k] = ti;
-                        bary[k] = [l0, l1];
-                    }
-                }
-            }
-        }
-    }
+    let (id, bary) = visibility(tris, bin, width, y0, rows, offs);
     let c = opts.mode.channels();
     let mut covered = 0;
     let mut sample = [0f32; 3];
@@ -364,4 +328,88 @@ fn draw_band(
         }
     }
     covered
+}
+
+/// The visible triangle and its barycentrics (vertices 0 and 1) at every sample of a band of
+/// `rows` rows from `y0` (`u32::MAX`: none).
+fn visibility(
+    tris: &[Tri],
+    bin: &[u32],
+    width: usize,
+    y0: usize,
+    rows: usize,
+    offs: &[(i64, i64)],
+) -> (Vec<u32>, Vec<[f64; 2]>) {
+    let ns = offs.len();
+    let n = width * rows * ns;
+    let mut depth = vec![1.0f64; n];
+    let mut id = vec![u32::MAX; n];
+    let mut bary = vec![[0f64; 2]; n];
+    let sub = SUB as i64;
+    for &ti in bin {
+        let t = &tris[ti as usize];
+        let (ya, yb) = (t.py0.max(y0), t.py1.min(y0 + rows - 1));
+        let e = |i: usize, px: i64, py: i64| -> i64 {
+            let j = (i + 1) % 3;
+            (t.x[j] - t.x[i]) * (py - t.y[i]) - (t.y[j] - t.y[i]) * (px - t.x[i])
+        };
+        let inv_area = 1.0 / t.area as f64;
+        for py in ya..=yb {
+            for px in t.px0..=t.px1 {
+                for (s, &(ox, oy)) in offs.iter().enumerate() {
+                    let (fx, fy) = (px as i64 * sub + ox, py as i64 * sub + oy);
+                    let e0 = e(0, fx, fy);
+                    let e1 = e(1, fx, fy);
+                    let e2 = e(2, fx, fy);
+                    let inside = |e: i64, k: usize| e > 0 || (e == 0 && t.owned[k]);
+                    if !(inside(e0, 0) && inside(e1, 1) && inside(e2, 2)) {
+                        continue;
+                    }
+                    // λ of vertex 2 is E_01/A, of 0 is E_12/A, of 1 is E_20/A.
+                    let l0 = e1 as f64 * inv_area;
+                    let l1 = e2 as f64 * inv_area;
+                    let l2 = e0 as f64 * inv_area;
+                    let zz = l0 * t.z[0] + l1 * t.z[1] + l2 * t.z[2];
+                    let k = ((py - y0) * width + px) * ns + s;
+                    if zz < depth[k] {
+                        depth[k] = zz;
+                        id[k] = ti;
+                        bary[k] = [l0, l1];
+                    }
+                }
+            }
+        }
+    }
+    (id, bary)
+}
+
+/// The triangles touching each band of rows.
+fn bin_triangles(tris: &[Tri], height: usize) -> Vec<Vec<u32>> {
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); height.div_ceil(BAND)];
+    for (i, t) in tris.iter().enumerate() {
+        for bin in &mut bins[t.py0 / BAND..=t.py1 / BAND] {
+            bin.push(i as u32);
+        }
+    }
+    bins
+}
+
+/// Per pixel, the index of the mesh triangle seen through its centre (`u32::MAX`: none).
+pub(crate) fn triangle_ids(tris: &[Tri], width: usize, height: usize) -> Vec<u32> {
+    let offs = offsets(1);
+    let bins = bin_triangles(tris, height);
+    let mut out = vec![u32::MAX; width * height];
+    out.par_chunks_mut(width * BAND)
+        .zip(bins.par_iter())
+        .enumerate()
+        .for_each(|(b, (o, bin))| {
+            let rows = o.len() / width;
+            let (id, _) = visibility(tris, bin, width, b * BAND, rows, &offs);
+            for (dst, i) in o.iter_mut().zip(id) {
+                if i != u32::MAX {
+                    *dst = tris[i as usize].src;
+                }
+            }
+        });
+    out
 }

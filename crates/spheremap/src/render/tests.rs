@@ -304,3 +304,19 @@ fn orbit_turns_about_up() {
     let f = orbit_eye([3.0, 2.0, 1.0], [0.0; 3], [0.0, 0.0, 2.0], 360.0);
     assert!((f[0] - 3.0).abs() < 1e-12 && (f[1] - 2.0).abs() < 1e-12);
 }
+
+#[test]
+fn triangle_ids_split_the_quad_along_its_diagonal() {
+    let c = cam(5.0, 0.5, 64, 64);
+    let ids = triangle_ids(&quad(), &c).unwrap();
+    // Outside: none. Inside: triangle 0 (vertices 0,1,2: below the diagonal from (-1,-1) to
+    // (1,1), i.e. bottom-right in the image) and triangle 1 (top-left).
+    assert_eq!(ids[0], u32::MAX);
+    assert_eq!(ids[40 * 64 + 44], 0); // lower right
+    assert_eq!(ids[20 * 64 + 18], 1); // upper left
+    let counts = [0u32, 1].map(|t| ids.iter().filter(|&&i| i == t).count());
+    assert_eq!(counts[0] + counts[1], 32 * 32);
+    // Pixel centres exactly on the diagonal go to one triangle: 32 of them, to triangle 0 or 1
+    // by the top-left rule; the rest split evenly.
+    assert_eq!(counts[0].abs_diff(counts[1]), 32);
+}
