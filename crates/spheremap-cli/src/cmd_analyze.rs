@@ -48,14 +48,8 @@ fn stats_json(s: &Stats) -> serde_json::Value {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let mapping = Mapping::parse(&a.mapping, a.preset.as_deref()).context("--mapping/--preset")?;
-    if let Some(m) = &a.map {
-        if !a.job.force && spheremap::envio::same_file(Path::new(m), Path::new(&a.output)) {
-            bail!(
-                "{}: the output would overwrite the input (use --force to allow)",
-                a.output
-            );
-        }
-    }
+    let inputs: Vec<&String> = a.map.iter().collect();
+    a.job.refuse_overwrite(&inputs, &[&a.output])?;
     let (w, h) = match &a.map {
         Some(path) => {
             let img = read_image(Path::new(path), &ReadOptions::default())?;

@@ -4,14 +4,13 @@
 use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{default_size, env_paths, read_env, same_file, write_env};
+use spheremap::envio::{default_size, read_env, write_env};
 use spheremap::image_io::{check_nonfinite, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::resample::{
     resample, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
 };
 use spheremap::view;
-use std::path::Path;
 use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
@@ -112,15 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         vec3(&a.from_look),
         vec3(&a.from_up),
     )?;
-    // Never overwrite an input.
-    let outs = env_paths(&a.output);
-    for i in env_paths(&a.input) {
-        for o in &outs {
-            if !a.job.force && same_file(Path::new(&i), Path::new(o)) {
-                bail!("{o}: the output would overwrite the input (use --force to allow)");
-            }
-        }
-    }
+    a.job.refuse_overwrite(&[&a.input], &[&a.output])?;
     let ropts = ReadOptions {
         linear: a.linear,
         ..Default::default()

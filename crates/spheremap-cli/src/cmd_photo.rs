@@ -4,7 +4,7 @@
 use crate::job::{vec3, JobFlags};
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{env_paths, same_file, write_env};
+use spheremap::envio::write_env;
 use spheremap::fisheye::{Lens, LensModel};
 use spheremap::generate::GenerateOptions;
 use spheremap::image_io::{check_nonfinite, read_image, Image, ReadOptions};
@@ -103,18 +103,9 @@ impl MapOut {
 
     /// Refuses outputs that would overwrite an input.
     fn check_outputs(&self, inputs: &[&str]) -> anyhow::Result<()> {
-        let mut outs = env_paths(&self.output);
-        if let Some(m) = &self.mask {
-            outs.extend(env_paths(m));
-        }
-        for o in &outs {
-            for i in inputs {
-                if !self.job.force && same_file(Path::new(i), Path::new(o)) {
-                    bail!("{o}: the output would overwrite the input (use --force to allow)");
-                }
-            }
-        }
-        Ok(())
+        let mut outs = vec![self.output.as_str()];
+        outs.extend(self.mask.as_deref());
+        self.job.refuse_overwrite(inputs, &outs)
     }
 
     fn read(&self, path: &str) -> anyhow::Result<Image> {

@@ -3,7 +3,7 @@
 use crate::camera_args::CameraArgs;
 use crate::job::JobFlags;
 use anyhow::{bail, Context};
-use spheremap::envio::{env_paths, read_env, same_file};
+use spheremap::envio::read_env;
 use spheremap::image_io::{check_nonfinite, write_image, Format, Image, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::matcap::MatcapVariant;
@@ -85,16 +85,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !(a.error_max > 0.0 && a.error_max.is_finite()) {
         bail!("error-max: must be a positive number of degrees");
     }
-    let mut inputs = vec![a.mesh.clone()];
-    inputs.extend(a.env.iter().flat_map(|e| env_paths(e)));
-    for i in &inputs {
-        if !a.job.force && same_file(Path::new(i), Path::new(&a.output)) {
-            bail!(
-                "{}: the output would overwrite the input (use --force to allow)",
-                a.output
-            );
-        }
-    }
+    let inputs: Vec<&String> = std::iter::once(&a.mesh).chain(&a.env).collect();
+    a.job.refuse_overwrite(&inputs, &[&a.output])?;
     let mesh = load_mesh(Path::new(&a.mesh))?;
     let cam = a
         .camera

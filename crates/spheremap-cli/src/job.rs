@@ -2,6 +2,7 @@
 //! limits, NaN policy, overwrite, progress and summary.
 
 use spheremap::image_io::{NonFinite, WriteOptions};
+use std::path::Path;
 
 #[derive(clap::Args, Debug)]
 pub struct JobFlags {
@@ -31,6 +32,29 @@ pub struct JobFlags {
 }
 
 impl JobFlags {
+    /// Refuses (unless --force) an output that is one of the inputs; `{face}` patterns on
+    /// either side stand for their six files.
+    pub fn refuse_overwrite<I: AsRef<str>, O: AsRef<str>>(
+        &self,
+        inputs: &[I],
+        outputs: &[O],
+    ) -> anyhow::Result<()> {
+        use spheremap::envio::{env_paths, same_file};
+        if self.force {
+            return Ok(());
+        }
+        let inputs: Vec<String> = inputs.iter().flat_map(|i| env_paths(i.as_ref())).collect();
+        for o in outputs.iter().flat_map(|o| env_paths(o.as_ref())) {
+            if inputs
+                .iter()
+                .any(|i| same_file(Path::new(i), Path::new(&o)))
+            {
+                anyhow::bail!("{o}: the output would overwrite the input (use --force to allow)");
+            }
+        }
+        Ok(())
+    }
+
     pub fn write_options(&self, linear: bool) -> WriteOptions {
         WriteOptions {
             linear,

@@ -5,7 +5,7 @@
 use crate::job::{vec3, JobFlags};
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{env_paths, read_env, same_file};
+use spheremap::envio::read_env;
 use spheremap::generate::{EnvSource, RaySource};
 use spheremap::image_io::{check_nonfinite, Image, ReadOptions};
 use spheremap::mapping::Mapping;
@@ -122,18 +122,8 @@ impl SceneArgs {
         if self.scene.is_none() && self.env.is_none() {
             bail!("give --scene FILE (or builtin:demo) and/or --env MAP to fire rays into");
         }
-        // Never overwrite an input.
-        let mut inputs: Vec<String> = self.scene.iter().cloned().collect();
-        if let Some(e) = &self.env {
-            inputs.extend(env_paths(e));
-        }
-        for o in outputs {
-            for i in &inputs {
-                if !job.force && same_file(Path::new(i), Path::new(o)) {
-                    bail!("{o}: the output would overwrite the input (use --force to allow)");
-                }
-            }
-        }
+        let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
+        job.refuse_overwrite(&inputs, outputs)?;
         let env: Option<(Image, Mapping)> = match &self.env {
             Some(e) => {
                 let m = Mapping::parse(&self.env_format, self.env_preset.as_deref())
