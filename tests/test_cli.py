@@ -225,3 +225,26 @@ def test_convert_cli_errors(tmp_path):
     before = copy.read_bytes()
     r = cli("convert", copy, copy, "--from", "latlong", "--to", "latlong")
     assert r.returncode == 2 and "--force" in r.stderr and copy.read_bytes() == before
+
+
+def test_outputs_never_overwrite_inputs(tmp_path):
+    """Every command that writes a map refuses to overwrite one of its inputs without --force
+    (one shared guard), and --force lets it."""
+    sph = tmp_path / "sph.exr"
+    sm.write_image(sph, np.full((16, 16, 3), 0.5, np.float32))
+    faces = tmp_path / "f_{face}.exr"
+    r = cli("convert", sph, faces, "--from", "sphere", "--to", "cube", "--size", 8, "-q")
+    assert r.returncode == 0, r.stderr
+    before = sph.read_bytes()
+    for args in [
+        ("convert", sph, sph, "--from", "sphere", "--to", "sphere"),
+        ("convert", faces, tmp_path / "f_px.exr", "--from", "cube", "--to", "sphere"),  # a face of the input
+        ("generate", "--env", sph, "--env-format", "sphere", "--size", 8, "-o", sph),
+        ("render", TEAPOT, "--env", sph, "--size", 8, 8, "-o", sph),
+        ("analyze", sph, "-o", sph),
+    ]:
+        r = cli(*args)
+        assert r.returncode == 2 and "overwrite the input" in r.stderr, (args, r.stderr)
+        assert sph.read_bytes() == before
+    r = cli("render", TEAPOT, "--env", sph, "--size", 8, 8, "--force", "-q", "-o", sph)
+    assert r.returncode == 0, r.stderr
