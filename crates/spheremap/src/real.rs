@@ -147,7 +147,13 @@ pub trait Real64Atan2 {
 /// stays NaN.
 #[inline(always)]
 pub fn floor_fast(x: f32) -> f32 {
-    let t = x as i32 as f32;
+    // Clamped first (NaN becomes −2²³ here and is restored below), so the unchecked
+    // conversion is in range; a plain `as` adds a saturating fix-up that stops vectorization.
+    // (Not `clamp`: it keeps NaN, which the conversion must not see.)
+    #[allow(clippy::manual_clamp)]
+    let c = x.max(-8_388_608.0).min(8_388_608.0);
+    // SAFETY: |c| ≤ 2²³ fits an i32.
+    let t = unsafe { c.to_int_unchecked::<i32>() } as f32;
     let t = if t > x { t - 1.0 } else { t };
     if x.abs() < 8_388_608.0 {
         t
