@@ -1239,6 +1239,19 @@ mod rows {
         taps::<C>(s, sc)
     }
 
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+    unsafe fn stages_avx512<const C: usize>(
+        s: &Src<f32>,
+        d: &Dst<f32>,
+        plan: &Plan,
+        y: usize,
+        sc: &mut Scratch,
+    ) {
+        stages::<C>(s, d, plan, y, sc);
+        taps::<C>(s, sc)
+    }
+
     /// Passes 1–2 with the widest vectors this CPU has, then pass 3.
     pub(super) fn row<const C: usize>(
         s: &Src<f32>,
@@ -1250,7 +1263,14 @@ mod rows {
     ) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2")
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                // SAFETY: the features were detected at run time.
+                unsafe { stages_avx512::<C>(s, d, plan, y, sc) };
+            } else if std::arch::is_x86_feature_detected!("avx2")
                 && std::arch::is_x86_feature_detected!("fma")
             {
                 // SAFETY: the features were detected at run time.
@@ -1271,7 +1291,7 @@ mod rows {
         let row = s.w * C;
         // How far ahead (in texels) the source lines are prefetched: the gathers wait on the
         // last-level cache otherwise (their addresses are known a whole row in advance).
-        const AHEAD: usize = 24;
+        const AHEAD: usize = 64;
         for (x, px) in out.chunks_exact_mut(C).enumerate() {
             #[cfg(target_arch = "x86_64")]
             if let Some(&j) = sc.idx.get(x + AHEAD) {
@@ -1282,6 +1302,9 @@ mod rows {
                     unsafe {
                         _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
                         _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
+                        // The taps' last values (on the next line 2C/16 of the time).
+                        _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(2 * C - 1) as *const i8);
+                        _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 2 * C - 1) as *const i8);
                     }
                 }
             }
