@@ -1,0 +1,565 @@
+//! The conversion engine: any mapping to any mapping, destination-driven, footprint-filtered.
+//!
+//! ## What one output texel is
+//!
+//! For output texel (x, y) the engine spreads samples over the support of the reconstruction
+//! filter centred on the texel (the texel itself for the default 1-texel **box**; 2 texels wide
+//! for **tent**; 3 texels for **gaussian**, σ = ½ texel), on an n_x × n_y grid of strata with one
+//! jittered sample in each (deterministic: the jitter is a hash of the texel, the stratum and the
+//! seed).  Each sample's canvas point becomes a direction (the destination mapping's inverse),
+//! turns by the view rotation into the source's frame, and is looked up **bilinearly** in the
+//! source with the source's wrap rule.  The texel is the weighted mean, the weight of a sample
+//! being `filter(dx)·filter(dy)·dω/dA` — the mapping's solid-angle density, so that a box
+//! average is an average over solid angle and energy is preserved (a lat-long texel near a pole
+//! is not averaged as if it were flat).
+//!
+//! ## How many samples
+//!
+//! * `samples = 1`: exactly one lookup at the texel centre; no jitter, no adaptation — what
+//!   skylibs, py360convert and a GPU `texture()` call do, for comparisons.
+//! * `samples = S > 1`: at least S (n = ⌈√S⌉ per axis), and more where the texel's footprint
+//!   in the source spans more source texels: the footprint is measured by mapping the texel's
+//!   edge midpoints into source pixels, and each axis gets at least one sample per source texel
+//!   it crosses (the stretched rim of a sphere map, the poles of a lat-long, minification), up to
+//!   `max_samples` per texel.  So the result does not alias where a texel covers many.
+//!
+//! ## Source wrap rules (bilinear taps that fall off the canvas or off the map)
+//!
+//! * lat-long: u wraps; past a pole, v reflects and u turns by ½ (continuous over the pole);
+//! * cube: a tap past a face edge is the texel of the neighbouring face that its direction
+//!   hits (seams are crossed, corners included);
+//! * octahedral: pbrt's fold (reflect across the edge, flip the other axis);
+//! * sphere, angular, paraboloid: only taps whose texel centre lies inside the disc count, and
+//!   the bilinear weights are renormalized over them — whatever the file holds outside the disc
+//!   (black, a gutter, a photo's background) never bleeds in.
+//!
+//! ## Outside a destination disc
+//!
+//! Sphere, angular and paraboloid outputs have corners that are off the map.  [`Outside::Gutter`]
+//! (the default) fills them with the radial mirror image of the map across the rim (the texel at
+//! radius 1 + ε shows what radius 1 − ε shows), so GPU bilinear and mipmap lookups near the rim
+//! average real neighbours and show no dark fringe; [`Outside::Black`] writes 0 there, and rim
+//! texels get the covered fraction of their footprint (an anti-aliased edge).
+//!
+//! ## Precision
+//!
+//! [`Precision::F32`] (default) computes directions in f32 with the fast polynomial atan2;
+//! [`Precision::F64`] is the reference path (f64 maths and accumulation, libm trig).  They are
+//! tested against each other.
+
+use crate::conventions::mat3_mul;
+use crate::cube;
+use crate::error::{Error, Result};
+use crate::image_io::Image;
+use crate::mapping::Mapping;
+use crate::real::Real;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+
+mod dest;
+mod rows;
+mod source;
+
+pub(crate) use dest::Dst;
+use source::Src;
+
+/// Reconstruction filter over the output texel's footprint.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Filter {
+    /// The 1-texel box: the plain (solid-angle weighted) average over the texel. Default.
+    #[default]
+    Box,
+    /// Tent, radius 1 texel.
+    Tent,
+    /// Gaussian, σ = ½ texel, truncated at 1.5 texels.
+    Gaussian,
+}
+
+impl Filter {
+    pub const NAMES: [&'static str; 3] = ["box", "tent", "gaussian"];
+    pub fn parse(name: &str) -> Result<Filter> {
+        match name {
+            "box" => Ok(Filter::Box),
+            "tent" | "triangle" => Ok(Filter::Tent),
+            "gaussian" | "gauss" => Ok(Filter::Gaussian),
+            other => Err(Error::param(
+                "filter",
+                format!("unknown filter {other:?}; expected one of: box, tent, gaussian"),
+            )),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Box => "box",
+            Filter::Tent => "tent",
+            Filter::Gaussian => "gaussian",
+        }
+    }
+    /// Half-width of the support, in output texels.
+    pub(crate) fn radius(self) -> f64 {
+        match self {
+            Filter::Box => 0.5,
+            Filter::Tent => 1.0,
+            Filter::Gaussian => 1.5,
+        }
+    }
+    #[inline]
+    pub(crate) fn weight(self, d: f64) -> f64 {
+        match self {
+            Filter::Box => 1.0,
+            Filter::Tent => (1.0 - d.abs()).max(0.0),
+            Filter::Gaussian => (-2.0 * d * d).exp(),
+        }
+    }
+}
+
+/// What to write where a destination disc mapping has no direction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Outside {
+    /// The radial mirror image across the rim (no dark fringe under GPU filtering). Default.
+    #[default]
+    Gutter,
+    /// Zero; rim texels hold their covered fraction.
+    Black,
+}
+
+impl Outside {
+    pub fn parse(name: &str) -> Result<Outside> {
+        match name {
+            "gutter" => Ok(Outside::Gutter),
+            "black" => Ok(Outside::Black),
+            other => Err(Error::param(
+                "outside",
+                format!("unknown fill {other:?}; expected gutter or black"),
+            )),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Outside::Gutter => "gutter",
+            Outside::Black => "black",
+        }
+    }
+}
+
+/// Arithmetic of the direction computations.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    #[default]
+    F32,
+    F64,
+}
+
+impl Precision {
+    pub fn parse(name: &str) -> Result<Precision> {
+        match name {
+            "f32" => Ok(Precision::F32),
+            "f64" => Ok(Precision::F64),
+            other => Err(Error::param(
+                "precision",
+                format!("unknown value {other:?}; expected f32 or f64"),
+            )),
+        }
+    }
+}
+
+/// Options of [`resample`].
+#[derive(Clone, Copy, Debug)]
+pub struct ResampleOptions {
+    /// Samples per output texel: 1 = one centre lookup; S > 1 = at least S, adaptive.
+    pub samples: u32,
+    /// The most samples one texel may take when adapting.
+    pub max_samples: u32,
+    pub filter: Filter,
+    pub outside: Outside,
+    /// Row-major rotation taking directions in the destination's frame to the source's frame
+    /// (its columns are the destination's +X, +Y, +Z axes in source coordinates); see
+    /// [`crate::view`].
+    pub rotation: [[f64; 3]; 3],
+    pub seed: u64,
+    pub precision: Precision,
+    /// Refuse a job whose estimated allocation is over this many bytes
+    /// ([`crate::error::default_max_memory`]).
+    pub max_memory: u64,
+}
+
+/// The default sample count (adaptive, at least 4 per texel).
+pub const DEFAULT_SAMPLES: u32 = 4;
+/// Upper bound on `samples` and `max_samples`.
+pub const SAMPLE_CAP: u32 = 65_536;
+
+impl Default for ResampleOptions {
+    fn default() -> Self {
+        ResampleOptions {
+            samples: DEFAULT_SAMPLES,
+            max_samples: 1024,
+            filter: Filter::Box,
+            outside: Outside::Gutter,
+            rotation: IDENTITY,
+            seed: 0,
+            precision: Precision::F32,
+            max_memory: crate::error::default_max_memory(),
+        }
+    }
+}
+
+pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// An environment map in memory: a mapping and its canvas.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvMap<'a> {
+    pub mapping: Mapping,
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub data: &'a [f32],
+}
+
+impl<'a> EnvMap<'a> {
+    /// Checks the canvas shape against the mapping (`what` names the input in errors).
+    pub fn new(mapping: Mapping, img: &'a Image, what: &str) -> Result<Self> {
+        mapping.size_of(img.width, img.height, what)?;
+        if !(1..=4).contains(&img.channels) {
+            return Err(Error::data(
+                what,
+                format!("{} channels; 1 to 4 are supported", img.channels),
+            ));
+        }
+        Ok(EnvMap {
+            mapping,
+            width: img.width,
+            height: img.height,
+            channels: img.channels,
+            data: &img.data,
+        })
+    }
+}
+
+/// Bilinear lookups of directions in an environment map, with the map's wrap rules — what the
+/// conversion engine does for each sample, for callers with their own directions (a scene's
+/// environment, the generator's environment-map ray source).
+pub struct Sampler<'a> {
+    src: Src<'a, f32>,
+    channels: usize,
+}
+
+impl<'a> Sampler<'a> {
+    pub fn new(env: &EnvMap<'a>) -> Self {
+        Sampler {
+            src: Src::new(env),
+            channels: env.channels,
+        }
+    }
+
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The map's value in direction `d` (any length but 0) into `out[..channels]`.
+    #[inline]
+    pub fn sample(&self, d: [f32; 3], out: &mut [f32]) {
+        let p = self.src.position(d);
+        match self.channels {
+            1 => self.put::<1>(p, out),
+            2 => self.put::<2>(p, out),
+            3 => self.put::<3>(p, out),
+            4 => self.put::<4>(p, out),
+            5 => self.put::<5>(p, out),
+            6 => self.put::<6>(p, out),
+            7 => self.put::<7>(p, out),
+            _ => self.put::<8>(p, out),
+        }
+    }
+
+    #[inline]
+    fn put<const C: usize>(&self, p: [f32; 2], out: &mut [f32]) {
+        let mut acc = [0f32; C];
+        self.src.lookup(p, 1.0, &mut acc);
+        out[..C].copy_from_slice(&acc);
+    }
+}
+
+/// Shared progress and cancellation: workers add finished rows to `done` and stop early when
+/// `cancel` is set (the result is then an error).
+#[derive(Debug, Default)]
+pub struct Progress {
+    pub done: AtomicUsize,
+    pub total: AtomicUsize,
+    pub cancel: AtomicBool,
+}
+
+/// What a run did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResampleReport {
+    /// Source lookups in all.
+    pub lookups: u64,
+    /// The most samples any texel took.
+    pub max_texel_samples: u32,
+}
+
+/// Resamples `src` into a `width`×`height` canvas of `dst` (for a cube: the F×6F face stack).
+pub fn resample(
+    src: &EnvMap,
+    dst: Mapping,
+    width: usize,
+    height: usize,
+    opts: &ResampleOptions,
+    progress: Option<&Progress>,
+) -> Result<(Image, ResampleReport)> {
+    dst.size_of(width, height, "size")
+        .map_err(|e| Error::param("size", e.to_string()))?;
+    if opts.samples == 0 || opts.samples > SAMPLE_CAP {
+        return Err(Error::param(
+            "samples",
+            format!("{} is out of range 1..={SAMPLE_CAP}", opts.samples),
+        ));
+    }
+    if opts.max_samples == 0 || opts.max_samples > SAMPLE_CAP {
+        return Err(Error::param(
+            "max_samples",
+            format!("{} is out of range 1..={SAMPLE_CAP}", opts.max_samples),
+        ));
+    }
+    check_rotation(&opts.rotation)?;
+    // The output, and as much again for whoever encodes it.
+    crate::error::check_memory(
+        "size",
+        2 * (width as u128 * height as u128 * src.channels as u128 * 4),
+        opts.max_memory,
+    )?;
+    let (w, h) = (width, height);
+    let (out, report) = match (opts.precision, src.channels) {
+        (Precision::F32, 1) => run::<f32, 1>(src, dst, w, h, opts, progress),
+        (Precision::F32, 2) => run::<f32, 2>(src, dst, w, h, opts, progress),
+        (Precision::F32, 3) => run::<f32, 3>(src, dst, w, h, opts, progress),
+        (Precision::F32, _) => run::<f32, 4>(src, dst, w, h, opts, progress),
+        (Precision::F64, 1) => run::<f64, 1>(src, dst, w, h, opts, progress),
+        (Precision::F64, 2) => run::<f64, 2>(src, dst, w, h, opts, progress),
+        (Precision::F64, 3) => run::<f64, 3>(src, dst, w, h, opts, progress),
+        (Precision::F64, _) => run::<f64, 4>(src, dst, w, h, opts, progress),
+    };
+    if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+        return Err(Error::cancelled("the conversion"));
+    }
+    Ok((out, report))
+}
+
+pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
+    for i in 0..3 {
+        for j in 0..3 {
+            let d: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+            let want = if i == j { 1.0 } else { 0.0 };
+            if !((d - want).abs() < 1e-6) {
+                return Err(Error::param(
+                    "rotation",
+                    "not a rotation (its columns must be orthonormal)",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn run<T: Real, const C: usize>(
+    src: &EnvMap,
+    dst: Mapping,
+    w: usize,
+    h: usize,
+    opts: &ResampleOptions,
+    progress: Option<&Progress>,
+) -> (Image, ResampleReport) {
+    let s = Src::<T>::new(src);
+    let d = Dst::<T>::new(dst, w, h, &opts.rotation, opts.outside);
+    if let Some(p) = progress {
+        p.total.store(h, Ordering::Relaxed);
+    }
+    let lookups = AtomicU64::new(0);
+    let max_n = AtomicUsize::new(0);
+    // The vectorized one-sample path (f32 only).
+    if opts.samples == 1 && std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>() {
+        // SAFETY: T is f32 (the TypeId check above), so Src<T>/Dst<T> are Src<f32>/Dst<f32>.
+        let s32: &Src<f32> = unsafe { &*(&s as *const Src<T> as *const Src<f32>) };
+        let d32: &Dst<f32> = unsafe { &*(&d as *const Dst<T> as *const Dst<f32>) };
+        let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
+        // The output is not zeroed first (that pass alone cost 5–13 % of a job): every row
+        // writes every one of its values, a cancelled row included.
+        let n = w * h * C;
+        let mut data: Vec<f32> = Vec::with_capacity(n);
+        data.spare_capacity_mut()[..n]
+            .par_chunks_mut(w * C)
+            .enumerate()
+            .with_min_len(4)
+            .for_each_init(
+                || rows::Scratch::new(w),
+                |sc, (y, row)| {
+                    if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+                        row.iter_mut().for_each(|v| {
+                            v.write(0.0);
+                        });
+                        return;
+                    }
+                    rows::row::<C>(s32, d32, &plan, y, sc, row);
+                    if let Some(p) = progress {
+                        p.done.fetch_add(1, Ordering::Relaxed);
+                    }
+                },
+            );
+        // SAFETY: the loop above initialized all n values.
+        unsafe { data.set_len(n) };
+        let out = Image {
+            width: w,
+            height: h,
+            channels: C,
+            data,
+        };
+        let report = ResampleReport {
+            lookups: (w * h) as u64,
+            max_texel_samples: 1,
+        };
+        return (out, report);
+    }
+    let mut out = Image::new(w, h, C);
+    out.data
+        .par_chunks_mut(w * C)
+        .enumerate()
+        .with_min_len(4)
+        .for_each(|(y, row)| {
+            if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+                return;
+            }
+            let (l, m) = if opts.samples == 1 {
+                row_single::<T, C>(&s, &d, y, row)
+            } else {
+                row_filtered::<T, C>(&s, &d, y, row, opts)
+            };
+            lookups.fetch_add(l, Ordering::Relaxed);
+            max_n.fetch_max(m, Ordering::Relaxed);
+            if let Some(p) = progress {
+                p.done.fetch_add(1, Ordering::Relaxed);
+            }
+        });
+    let report = ResampleReport {
+        lookups: lookups.into_inner(),
+        max_texel_samples: max_n.into_inner() as u32,
+    };
+    (out, report)
+}
+
+/// One lookup at each texel centre.
+fn row_single<T: Real, const C: usize>(
+    s: &Src<T>,
+    d: &Dst<T>,
+    y: usize,
+    row: &mut [f32],
+) -> (u64, usize) {
+    let py = T::from_f64(y as f64 + 0.5);
+    for (x, px) in row.chunks_exact_mut(C).enumerate() {
+        let (dir, on) = d.dir(T::from_f64(x as f64 + 0.5), py);
+        if !on && d.outside == Outside::Black {
+            px.fill(0.0);
+            continue;
+        }
+        let mut acc = [T::ZERO; C];
+        s.lookup(s.position(dir), T::ONE, &mut acc);
+        for k in 0..C {
+            px[k] = acc[k].to_f64() as f32;
+        }
+    }
+    (row.len() as u64 / C as u64, 1)
+}
+
+/// Footprint-adaptive stratified samples under the filter.
+fn row_filtered<T: Real, const C: usize>(
+    s: &Src<T>,
+    d: &Dst<T>,
+    y: usize,
+    row: &mut [f32],
+    opts: &ResampleOptions,
+) -> (u64, usize) {
+    let radius = opts.filter.radius();
+    let base = (opts.samples as f64).sqrt().ceil() as usize;
+    let cap = opts.max_samples as usize;
+    let mut lookups = 0u64;
+    let mut max_n = 0usize;
+    let cy = y as f64 + 0.5;
+    for (x, px) in row.chunks_exact_mut(C).enumerate() {
+        let cx = x as f64 + 0.5;
+        // Footprint: the texel's edge midpoints in source pixels.
+        let pos = |ox: f64, oy: f64| {
+            let (dir, _) = d.dir(T::from_f64(cx + ox), T::from_f64(cy + oy));
+            (dir, s.position(dir))
+        };
+        let (lx, ly) = {
+            let (dl, pl) = pos(-0.5, 0.0);
+            let (dr, pr) = pos(0.5, 0.0);
+            let (dt, pt) = pos(0.0, -0.5);
+            let (db, pb) = pos(0.0, 0.5);
+            (s.span(pl, pr, dl, dr), s.span(pt, pb, dt, db))
+        };
+        let support = 2.0 * radius;
+        let (nx, ny) = strata(
+            base.max((lx * support).ceil() as usize),
+            base.max((ly * support).ceil() as usize),
+            opts.samples as usize,
+            cap,
+        );
+        let mut acc = [T::ZERO; C];
+        let mut wsum = T::ZERO;
+        for j in 0..ny {
+            for i in 0..nx {
+                let (jx, jy) = jitter(opts.seed, x as u64, y as u64, (j * nx + i) as u64);
+                let ox = -radius + (i as f64 + jx) / nx as f64 * support;
+                let oy = -radius + (j as f64 + jy) / ny as f64 * support;
+                let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
+                let wgt = opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy);
+                let (dir, on) = d.dir(sx, sy);
+                let wt = T::from_f64(wgt);
+                wsum = wsum + wt;
+                if !on && d.outside == Outside::Black {
+                    continue;
+                }
+                s.lookup(s.position(dir), wt, &mut acc);
+                lookups += 1;
+            }
+        }
+        max_n = max_n.max(nx * ny);
+        for k in 0..C {
+            px[k] = if wsum > T::ZERO {
+                (acc[k] / wsum).to_f64() as f32
+            } else {
+                0.0
+            };
+        }
+    }
+    (lookups, max_n)
+}
+
+/// The strata grid of one texel: at least `samples` in all, then kept within `cap` (the
+/// aspect kept).  Shared with the ray-traced generator, so `samples` means the same there.
+pub(crate) fn strata(mut nx: usize, mut ny: usize, samples: usize, cap: usize) -> (usize, usize) {
+    while nx * ny < samples {
+        nx += 1;
+    }
+    if nx * ny > cap {
+        // Keep the aspect and use as much of the cap as the grid allows.
+        let k = (cap as f64 / (nx * ny) as f64).sqrt();
+        nx = ((nx as f64 * k).round() as usize).clamp(1, cap);
+        ny = (cap / nx).max(1);
+    }
+    (nx, ny)
+}
+
+/// Deterministic jitter in [0,1)² for (texel, sample): a 64-bit mix (SplitMix64 finalizer).
+#[inline]
+pub(crate) fn jitter(seed: u64, x: u64, y: u64, k: u64) -> (f64, f64) {
+    let mut z = seed
+        ^ x.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ y.wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ k.wrapping_mul(0x1656_67B1_9E37_79F9);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    let a = (z >> 40) as f64 / (1u64 << 24) as f64;
+    let b = ((z >> 16) & 0xFF_FFFF) as f64 / (1u64 << 24) as f64;
+    (a, b)
+}

@@ -1,0 +1,423 @@
+//! The one-sample path for f32, in three passes over each output row so the compiler can
+//! vectorize the first two: (1) destination directions (branch-free formulas for the sphere
+//! map, with its gutter, and tables for the lat-long), (2) source positions (branch-free
+//! lat-long, cube and sphere), (3) the bilinear gathers.  Other mappings use the generic
+//! per-texel functions in passes 1–2.  Same formulas as the generic path (tested equal).
+
+use super::*;
+use crate::real::{atan2_fast, floor_fast};
+use crate::RowOrder;
+
+pub(crate) struct Scratch {
+    d: [Vec<f32>; 3],
+    on: Vec<bool>,
+    p: [Vec<f32>; 2],
+    /// Pass 2b: the top-left tap's index into the source data, or `SLOW` when the lookup
+    /// needs the general path; and the bilinear fractions.
+    idx: Vec<u32>,
+    frac: [Vec<f32>; 2],
+}
+
+/// `Scratch::idx` of a lookup that takes the general path.
+const SLOW: u32 = u32::MAX;
+
+impl Scratch {
+    pub(crate) fn new(w: usize) -> Self {
+        Scratch {
+            d: [vec![0.0; w], vec![0.0; w], vec![0.0; w]],
+            on: vec![false; w],
+            p: [vec![0.0; w], vec![0.0; w]],
+            idx: vec![SLOW; w],
+            frac: [vec![0.0; w], vec![0.0; w]],
+        }
+    }
+}
+
+/// Per-run constants.
+pub(crate) struct Plan {
+    /// Sphere destination: rotation · (preset frame)ᵀ, eye → source frame.
+    sphere_m: [[f32; 3]; 3],
+    /// Lat-long destination: cos φ, sin φ per column.
+    cos_phi: Vec<f32>,
+    sin_phi: Vec<f32>,
+    /// Source preset frame (sphere, cube): source frame → the mapping's eye/GL frame.
+    src_frame: [[f32; 3]; 3],
+}
+
+impl Plan {
+    pub(crate) fn new(s: &Src<f32>, d: &Dst<f32>, rot: &[[f64; 3]; 3], w: usize) -> Self {
+        use crate::view::{mul, transpose};
+        let sphere_m = match d.m {
+            Mapping::Sphere(p) => mul(rot, &transpose(&p.frame)),
+            _ => *rot,
+        }
+        .map(|r| r.map(|v| v as f32));
+        let (mut cos_phi, mut sin_phi) = (vec![], vec![]);
+        if let Mapping::LatLong(p) = d.m {
+            for x in 0..w {
+                let phi = ((x as f64 + 0.5) / w as f64 - p.u_plus_x) * std::f64::consts::TAU;
+                cos_phi.push(phi.cos() as f32);
+                sin_phi.push(phi.sin() as f32);
+            }
+        }
+        let src_frame = match s.m {
+            Mapping::Sphere(p) => p.frame,
+            Mapping::Cube(p) => p.frame,
+            _ => IDENTITY,
+        }
+        .map(|r| r.map(|v| v as f32));
+        Plan {
+            sphere_m,
+            cos_phi,
+            sin_phi,
+            src_frame,
+        }
+    }
+}
+
+#[inline(always)]
+fn apply(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
+    // Written out: `[0, 1, 2].map(..)` is not inlined and stops vectorization.
+    [
+        m[0][0] * e[0] + m[0][1] * e[1] + m[0][2] * e[2],
+        m[1][0] * e[0] + m[1][1] * e[1] + m[1][2] * e[2],
+        m[2][0] * e[0] + m[2][1] * e[1] + m[2][2] * e[2],
+    ]
+}
+
+/// Passes 1 and 2 for row `y`.
+#[inline(always)]
+fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, y: usize, sc: &mut Scratch) {
+    let w = sc.on.len();
+    let [dx, dy, dz] = &mut sc.d;
+    let on = &mut sc.on;
+    match d.m {
+        Mapping::Sphere(p) => {
+            let yf = (2.0 * (y as f64 + 0.5) / d.hf as f64 - 1.0) as f32;
+            let b = match p.rows {
+                RowOrder::TopIsT1 => -yf,
+                RowOrder::TopIsT0 => yf,
+            };
+            let (k0, k1) = (2.0 / w as f32, 1.0 / w as f32 - 1.0);
+            let m = &plan.sphere_m;
+            for x in 0..w {
+                let a = x as f32 * k0 + k1;
+                let d2 = a * a + b * b;
+                let inside = d2 <= 1.0;
+                // Gutter: the radial mirror image across the rim (see `Dst::mirrored`).
+                let rho = d2.sqrt();
+                let k = if inside {
+                    1.0
+                } else {
+                    (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+                };
+                let (a2, b2) = (a * k, b * k);
+                let q = a2 * a2 + b2 * b2;
+                let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
+                let r = apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]);
+                dx[x] = r[0];
+                dy[x] = r[1];
+                dz[x] = r[2];
+                on[x] = inside;
+            }
+        }
+        Mapping::LatLong(_) => {
+            let theta = (y as f64 + 0.5) / d.hf as f64 * std::f64::consts::PI;
+            let (st, ct) = (theta.sin() as f32, theta.cos() as f32);
+            let m = &plan.sphere_m;
+            for x in 0..w {
+                let r = apply(m, [st * plan.cos_phi[x], ct, st * plan.sin_phi[x]]);
+                dx[x] = r[0];
+                dy[x] = r[1];
+                dz[x] = r[2];
+                on[x] = true;
+            }
+        }
+        _ => {
+            let py = y as f32 + 0.5;
+            for x in 0..w {
+                let (r, o) = d.dir(x as f32 + 0.5, py);
+                dx[x] = r[0];
+                dy[x] = r[1];
+                dz[x] = r[2];
+                on[x] = o;
+            }
+        }
+    }
+    let [px, py] = &mut sc.p;
+    let (wf, hf) = (s.wf, s.hf);
+    match s.m {
+        Mapping::LatLong(p) => {
+            let u0 = p.u_plus_x as f32;
+            let (i2pi, ipi) = (1.0 / std::f32::consts::TAU, 1.0 / std::f32::consts::PI);
+            for x in 0..w {
+                let (a, b, c) = (dx[x], dy[x], dz[x]);
+                let u = u0 + atan2_fast(c, a) * i2pi;
+                let u = u - floor_fast(u);
+                let v = atan2_fast((a * a + c * c).sqrt(), b) * ipi;
+                px[x] = u * wf;
+                py[x] = v * hf;
+            }
+        }
+        Mapping::Cube(_) => {
+            let m = &plan.src_frame;
+            let f = wf;
+            for x in 0..w {
+                let [a, b, c] = apply(m, [dx[x], dy[x], dz[x]]);
+                let (ax, ay, az) = (a.abs(), b.abs(), c.abs());
+                let is_x = ax >= ay && ax >= az;
+                let is_y = !is_x && ay >= az;
+                // The GL face table (crate::cube), branch-free.
+                let ma = if is_x {
+                    a
+                } else if is_y {
+                    b
+                } else {
+                    c
+                };
+                let sgn = if ma < 0.0 { -1.0 } else { 1.0 };
+                let scv = if is_x {
+                    -c * sgn
+                } else if is_y {
+                    a
+                } else {
+                    a * sgn
+                };
+                let tcv = if is_x {
+                    -b
+                } else if is_y {
+                    c * sgn
+                } else {
+                    -b
+                };
+                let axis = if is_x {
+                    0.0
+                } else if is_y {
+                    2.0
+                } else {
+                    4.0
+                };
+                let face = axis + if ma < 0.0 { 1.0 } else { 0.0 };
+                let inv = 1.0 / ma.abs();
+                let ss = (scv * inv + 1.0) * 0.5;
+                let tt = ((tcv * inv + 1.0) * 0.5).min(1.0 - 1.0 / 4096.0);
+                px[x] = ss * f;
+                py[x] = (face + tt) * f;
+            }
+        }
+        Mapping::Sphere(p) => {
+            let m = &plan.src_frame;
+            let flip = matches!(p.rows, RowOrder::TopIsT1);
+            for x in 0..w {
+                let [a, b, c] = apply(m, [dx[x], dy[x], dz[x]]);
+                let il = 1.0 / (a * a + b * b + c * c).sqrt();
+                let (a, b, c) = (a * il, b * il, c * il);
+                let q = a * a + b * b;
+                // 1 + z without cancellation (crate::sphere::dir_to_st).
+                let zp1 = if c >= 0.0 { 1.0 + c } else { q / (1.0 - c) };
+                let h2 = q + zp1 * zp1;
+                let k = 0.5 / h2.sqrt();
+                let (ss, tt) = if h2 > 0.0 {
+                    (a * k + 0.5, b * k + 0.5)
+                } else {
+                    (1.0, 0.5) // straight ahead: the rim
+                };
+                let v = if flip { 1.0 - tt } else { tt };
+                px[x] = ss * wf;
+                py[x] = v * hf;
+            }
+        }
+        _ => {
+            for x in 0..w {
+                let q = s.position([dx[x], dy[x], dz[x]]);
+                px[x] = q[0];
+                py[x] = q[1];
+            }
+        }
+    }
+}
+
+/// Pass 2b: for each position, the index of its top-left tap and the bilinear fractions
+/// when all four taps are plain texels of one tile (no wrap, not near a disc's rim, not
+/// across a cube seam) — the common case of `Src::lookup` — else `SLOW`.
+#[inline(always)]
+fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
+    // Indices are u32: a source too large for them takes the general path throughout.
+    if s.data.len() >= SLOW as usize {
+        sc.idx.fill(SLOW);
+        return;
+    }
+    let c = s.hf * 0.5;
+    let face = s.wf;
+    let r2 = s.safe_r2;
+    match s.m {
+        Mapping::LatLong(_) | Mapping::Octahedral => taps_with::<C>(s, sc, |_, _, _| true),
+        // Both tap rows on the face the position belongs to.
+        Mapping::Cube(_) => taps_with::<C>(s, sc, |_, p1, fy| {
+            let f0 = (p1 / face).floor() * face;
+            fy >= f0 && fy + 1.0 < f0 + face
+        }),
+        Mapping::Sphere(_) | Mapping::Angular => taps_with::<C>(s, sc, |p0, p1, _| {
+            let (dx, dy) = (p0 - c, p1 - c);
+            dx * dx + dy * dy <= r2
+        }),
+        Mapping::Paraboloid => sc.idx.fill(SLOW),
+    }
+}
+
+/// Pass 2b's loop; `tile_ok(px, py, floor(py − ½))` is the mapping's own condition.
+/// (`floor` here is one instruction: the callers are compiled for AVX2.)
+#[inline(always)]
+fn taps_with<const C: usize>(
+    s: &Src<f32>,
+    sc: &mut Scratch,
+    tile_ok: impl Fn(f32, f32, f32) -> bool,
+) {
+    let [px, py] = &sc.p;
+    let [ax, ay] = &mut sc.frac;
+    let idx = &mut sc.idx;
+    let (wf, hf) = (s.wf, s.hf);
+    let row = (s.w * C) as u32;
+    for x in 0..idx.len() {
+        let (p0, p1) = (px[x], py[x]);
+        let (qx, qy) = (p0 - 0.5, p1 - 0.5);
+        let (fx, fy) = (qx.floor(), qy.floor());
+        // Written as `!(in range)` so that NaN positions fail too.
+        let ok = tile_ok(p0, p1, fy) && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < wf && fy + 1.0 < hf;
+        // SAFETY: clamped into 0..=w and 0..=h first (NaN becomes 0), so the conversions
+        // are in range; plain `as` would add a saturating fix-up that stops vectorization.
+        let (xi, yi) = unsafe {
+            (
+                fx.max(0.0).min(wf).to_int_unchecked::<i32>() as u32,
+                fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
+            )
+        };
+        idx[x] = if ok { yi * row + xi * C as u32 } else { SLOW };
+        ax[x] = qx - fx;
+        ay[x] = qy - fy;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn stages_avx2<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    y: usize,
+    sc: &mut Scratch,
+) {
+    stages::<C>(s, d, plan, y, sc)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn taps_avx2<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
+    taps::<C>(s, sc)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn stages_avx512<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    y: usize,
+    sc: &mut Scratch,
+) {
+    stages::<C>(s, d, plan, y, sc);
+    taps::<C>(s, sc)
+}
+
+/// Passes 1–2 with the widest vectors this CPU has, then pass 3.
+pub(crate) fn row<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    y: usize,
+    sc: &mut Scratch,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the features were detected at run time.
+            unsafe { stages_avx512::<C>(s, d, plan, y, sc) };
+        } else if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the features were detected at run time.
+            unsafe { stages_avx2::<C>(s, d, plan, y, sc) };
+            unsafe { taps_avx2::<C>(s, sc) };
+        } else {
+            stages::<C>(s, d, plan, y, sc);
+            taps::<C>(s, sc);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        stages::<C>(s, d, plan, y, sc);
+        taps::<C>(s, sc);
+    }
+    let black = d.outside == Outside::Black;
+    let data = s.data;
+    let row = s.w * C;
+    // How far ahead (in texels) the source lines are prefetched: the gathers wait on the
+    // last-level cache otherwise (their addresses are known a whole row in advance).
+    const AHEAD: usize = 64;
+    for (x, px) in out.chunks_exact_mut(C).enumerate() {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(&j) = sc.idx.get(x + AHEAD) {
+            if j != SLOW {
+                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+                let p = data.as_ptr().wrapping_add(j as usize);
+                // SAFETY: prefetching is a hint; it never faults, whatever the address.
+                unsafe {
+                    _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
+                    // The taps' last values (on the next line 2C/16 of the time).
+                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(2 * C - 1) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 2 * C - 1) as *const i8);
+                }
+            }
+        }
+        if black && !sc.on[x] {
+            px.iter_mut().for_each(|v| {
+                v.write(0.0);
+            });
+            continue;
+        }
+        let i00 = sc.idx[x];
+        if i00 == SLOW {
+            let mut acc = [0.0f32; C];
+            s.lookup([sc.p[0][x], sc.p[1][x]], 1.0, &mut acc);
+            for k in 0..C {
+                px[k].write(acc[k]);
+            }
+            continue;
+        }
+        let (ax, ay) = (sc.frac[0][x], sc.frac[1][x]);
+        let i00 = i00 as usize;
+        let i01 = i00 + row;
+        debug_assert!(i01 + 2 * C <= data.len());
+        for k in 0..C {
+            // SAFETY: pass 2b gave an index only where 0 ≤ x0 < w − 1 and 0 ≤ y0 < h − 1,
+            // which keeps all four taps in the w×h×C slice.
+            let (a, b, c, d) = unsafe {
+                (
+                    *data.get_unchecked(i00 + k),
+                    *data.get_unchecked(i00 + C + k),
+                    *data.get_unchecked(i01 + k),
+                    *data.get_unchecked(i01 + C + k),
+                )
+            };
+            let top = a + ax * (b - a);
+            let bot = c + ax * (d - c);
+            px[k].write(top + ay * (bot - top));
+        }
+    }
+}
