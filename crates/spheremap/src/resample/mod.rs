@@ -57,10 +57,12 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 mod dest;
+mod pyramid;
 mod rows;
 mod source;
 
 pub(crate) use dest::Dst;
+use pyramid::Level;
 use source::Src;
 
 /// Reconstruction filter over the output texel's footprint.
@@ -337,7 +339,7 @@ pub fn resample(
         (Precision::F64, 2) => run::<f64, 2>(src, dst, w, h, opts, progress),
         (Precision::F64, 3) => run::<f64, 3>(src, dst, w, h, opts, progress),
         (Precision::F64, _) => run::<f64, 4>(src, dst, w, h, opts, progress),
-    };
+    }?;
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
         return Err(Error::cancelled("the conversion"));
     }
@@ -367,7 +369,7 @@ fn run<T: Real, const C: usize>(
     h: usize,
     opts: &ResampleOptions,
     progress: Option<&Progress>,
-) -> (Image, ResampleReport) {
+) -> Result<(Image, ResampleReport)> {
     let s = Src::<T>::new(src);
     let d = Dst::<T>::new(dst, w, h, &opts.rotation, opts.outside);
     if let Some(p) = progress {
@@ -416,8 +418,38 @@ fn run<T: Real, const C: usize>(
             lookups: (w * h) as u64,
             max_texel_samples: 1,
         };
-        return (out, report);
+        return Ok((out, report));
     }
+    // Filtered: the prefiltered levels this run reads, measured from every texel's footprint
+    // first (the same `footprint`/`plan` as the sampling below).
+    let depth_max = if opts.samples > 1 {
+        pyramid::max_depth(src.mapping, src.width, src.height)
+    } else {
+        0
+    };
+    let mut sp = Sampling::new(opts, depth_max);
+    let mut built = vec![];
+    if depth_max > 0 {
+        let need = pyramid::Need::new(src.mapping, depth_max, src.height);
+        (0..h).into_par_iter().with_min_len(4).for_each(|y| {
+            for x in 0..w {
+                let (lx, ly, lo, hi) = footprint(&s, &d, x, y);
+                let (_, _, lambda) = sp.plan(lx, ly);
+                mark_need(&need, lambda, reach(lo, hi, &sp));
+            }
+        });
+        sp.depth = need.depth();
+        // The output (and as much again for whoever encodes it), plus the levels.
+        crate::error::check_memory(
+            "size",
+            2 * (w * h * C) as u128 * 4 + need.bytes(src, sp.depth),
+            opts.max_memory,
+        )?;
+        built = pyramid::build(src, &need, sp.depth);
+    }
+    let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
+        .chain(built.iter().map(|l| s.level(l)))
+        .collect();
     let mut out = Image::new(w, h, C);
     out.data
         .par_chunks_mut(w * C)
@@ -430,7 +462,7 @@ fn run<T: Real, const C: usize>(
             let (l, m) = if opts.samples == 1 {
                 row_single::<T, C>(&s, &d, y, row)
             } else {
-                row_filtered::<T, C>(&s, &d, y, row, opts)
+                row_filtered::<T, C>(&levels, &d, y, row, opts, &sp)
             };
             lookups.fetch_add(l, Ordering::Relaxed);
             max_n.fetch_max(m, Ordering::Relaxed);
@@ -442,7 +474,7 @@ fn run<T: Real, const C: usize>(
         lookups: lookups.into_inner(),
         max_texel_samples: max_n.into_inner() as u32,
     };
-    (out, report)
+    Ok((out, report))
 }
 
 /// One lookup at each texel centre.
@@ -468,46 +500,146 @@ fn row_single<T: Real, const C: usize>(
     (row.len() as u64 / C as u64, 1)
 }
 
+/// The per-run constants of filtered sampling.
+#[derive(Clone, Copy)]
+pub(crate) struct Sampling {
+    /// Filter half-width and support (2 × radius), in output texels.
+    pub(crate) radius: f64,
+    pub(crate) support: f64,
+    /// Strata per axis at least (⌈√samples⌉), samples at least, samples at most.
+    pub(crate) base: usize,
+    pub(crate) samples: usize,
+    pub(crate) cap: usize,
+    /// Deepest prefiltered level available (0: none).
+    pub(crate) depth: usize,
+}
+
+impl Sampling {
+    fn new(opts: &ResampleOptions, depth: usize) -> Self {
+        let radius = opts.filter.radius();
+        Sampling {
+            radius,
+            support: 2.0 * radius,
+            base: (opts.samples as f64).sqrt().ceil() as usize,
+            samples: opts.samples as usize,
+            cap: opts.max_samples as usize,
+            depth,
+        }
+    }
+
+    /// A texel's strata and level from its footprint `lx`×`ly` (source texels across it).
+    /// Each axis gets a sample per source texel its support crosses, within `cap` in all;
+    /// where that leaves samples more than one source texel apart, they read the level
+    /// where they are one texel apart: λ = log₂(spacing), clamped to the pyramid.
+    #[inline]
+    pub(crate) fn plan(&self, lx: f64, ly: f64) -> (usize, usize, f64) {
+        let (nx, ny) = strata(
+            self.base.max((lx * self.support).ceil() as usize),
+            self.base.max((ly * self.support).ceil() as usize),
+            self.samples,
+            self.cap,
+        );
+        let spacing = (lx * self.support / nx as f64).max(ly * self.support / ny as f64);
+        let lambda = if spacing > 1.0 {
+            spacing.log2().min(self.depth as f64)
+        } else {
+            0.0
+        };
+        (nx, ny, lambda)
+    }
+}
+
+/// A texel's footprint: its extent in source texels along the canvas axes (from its edge
+/// midpoints) and the source rows its samples may reach.
+fn footprint<T: Real>(s: &Src<T>, d: &Dst<T>, x: usize, y: usize) -> (f64, f64, f64, f64) {
+    let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+    let pos = |ox: f64, oy: f64| {
+        let (dir, _) = d.dir(T::from_f64(cx + ox), T::from_f64(cy + oy));
+        (dir, s.position(dir))
+    };
+    let (dl, pl) = pos(-0.5, 0.0);
+    let (dr, pr) = pos(0.5, 0.0);
+    let (dt, pt) = pos(0.0, -0.5);
+    let (db, pb) = pos(0.0, 0.5);
+    let (lx, ly) = (s.span(pl, pr, dl, dr), s.span(pt, pb, dt, db));
+    let ys = [pl[1], pr[1], pt[1], pb[1]].map(|v| v.to_f64());
+    let (lo, hi) = ys
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    (lx, ly, lo, hi)
+}
+
+/// The source rows (level 0, continuous) that samples of a texel whose edge midpoints span
+/// rows `lo..hi` may reach: the filter's support around them, with as much again in margin.
+#[inline]
+fn reach(lo: f64, hi: f64, sp: &Sampling) -> (f64, f64) {
+    let m = 2.0 * sp.radius * (hi - lo) + 2.0;
+    (lo - m, hi + m)
+}
+
+/// Marks the levels and rows that texel (x, y) reads.
+fn mark_need(need: &pyramid::Need, lambda: f64, rows: (f64, f64)) {
+    if lambda > 0.0 {
+        let l0 = lambda.floor() as usize;
+        need.mark(l0, rows.0, rows.1);
+        if lambda > l0 as f64 {
+            need.mark(l0 + 1, rows.0, rows.1);
+        }
+    }
+}
+
+/// Bilinear lookup at level-0 position `p` read at level λ (trilinear between the two levels
+/// around it; `levels[0]` is the source itself).
+#[inline]
+fn lookup_lod<T: Real, const C: usize>(
+    levels: &[Src<T>],
+    p: [T; 2],
+    lambda: f64,
+    weight: T,
+    acc: &mut [T; C],
+) {
+    if !(lambda > 0.0) {
+        levels[0].lookup(p, weight, acc);
+        return;
+    }
+    let top = levels.len() - 1;
+    let l0 = (lambda.floor() as usize).min(top);
+    let f = if l0 < top { lambda - l0 as f64 } else { 0.0 };
+    let at = |k: usize| {
+        let sc = T::from_f64(1.0 / (1u64 << k) as f64);
+        [p[0] * sc, p[1] * sc]
+    };
+    levels[l0].lookup(at(l0), weight * T::from_f64(1.0 - f), acc);
+    if f > 0.0 {
+        levels[l0 + 1].lookup(at(l0 + 1), weight * T::from_f64(f), acc);
+    }
+}
+
 /// Footprint-adaptive stratified samples under the filter.
 fn row_filtered<T: Real, const C: usize>(
-    s: &Src<T>,
+    levels: &[Src<T>],
     d: &Dst<T>,
     y: usize,
     row: &mut [f32],
     opts: &ResampleOptions,
+    sp: &Sampling,
 ) -> (u64, usize) {
-    let radius = opts.filter.radius();
-    let base = (opts.samples as f64).sqrt().ceil() as usize;
-    let cap = opts.max_samples as usize;
+    let s = &levels[0];
+    let (radius, support) = (sp.radius, sp.support);
     let mut lookups = 0u64;
     let mut max_n = 0usize;
     let cy = y as f64 + 0.5;
     for (x, px) in row.chunks_exact_mut(C).enumerate() {
         let cx = x as f64 + 0.5;
-        // Footprint: the texel's edge midpoints in source pixels.
-        let pos = |ox: f64, oy: f64| {
-            let (dir, _) = d.dir(T::from_f64(cx + ox), T::from_f64(cy + oy));
-            (dir, s.position(dir))
-        };
-        let (lx, ly) = {
-            let (dl, pl) = pos(-0.5, 0.0);
-            let (dr, pr) = pos(0.5, 0.0);
-            let (dt, pt) = pos(0.0, -0.5);
-            let (db, pb) = pos(0.0, 0.5);
-            (s.span(pl, pr, dl, dr), s.span(pt, pb, dt, db))
-        };
-        let support = 2.0 * radius;
-        let (nx, ny) = strata(
-            base.max((lx * support).ceil() as usize),
-            base.max((ly * support).ceil() as usize),
-            opts.samples as usize,
-            cap,
-        );
+        let (lx, ly, _, _) = footprint(s, d, x, y);
+        let (nx, ny, lambda) = sp.plan(lx, ly);
         let mut acc = [T::ZERO; C];
         let mut wsum = T::ZERO;
         for j in 0..ny {
             for i in 0..nx {
-                let (jx, jy) = jitter(opts.seed, x as u64, y as u64, (j * nx + i) as u64);
+                let (jx, jy) = jitter32(opts.seed, x, y, j * nx + i);
                 let ox = -radius + (i as f64 + jx) / nx as f64 * support;
                 let oy = -radius + (j as f64 + jy) / ny as f64 * support;
                 let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
@@ -518,7 +650,7 @@ fn row_filtered<T: Real, const C: usize>(
                 if !on && d.outside == Outside::Black {
                     continue;
                 }
-                s.lookup(s.position(dir), wt, &mut acc);
+                lookup_lod(levels, s.position(dir), lambda, wt, &mut acc);
                 lookups += 1;
             }
         }
@@ -532,6 +664,32 @@ fn row_filtered<T: Real, const C: usize>(
         }
     }
     (lookups, max_n)
+}
+
+/// Deterministic jitter in [0,1)² for sample `k` of texel (x, y): a 32-bit integer hash
+/// (xor-multiply mixing, "lowbias32"), 16 bits per axis — cheap enough to vectorize.
+#[inline(always)]
+pub(crate) fn jitter32(seed: u64, x: usize, y: usize, k: usize) -> (f64, f64) {
+    let h = hash32(
+        seed as u32 ^ (seed >> 32) as u32,
+        x as u32,
+        y as u32,
+        k as u32,
+    );
+    ((h & 0xFFFF) as f64 / 65536.0, (h >> 16) as f64 / 65536.0)
+}
+
+#[inline(always)]
+pub(crate) fn hash32(seed: u32, x: u32, y: u32, k: u32) -> u32 {
+    let mut h = seed
+        ^ x.wrapping_mul(0x9E37_79B1)
+        ^ y.wrapping_mul(0x85EB_CA77)
+        ^ k.wrapping_mul(0xC2B2_AE3D);
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x7FEB_352D);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x846C_A68B);
+    h ^ (h >> 16)
 }
 
 /// The strata grid of one texel: at least `samples` in all, then kept within `cap` (the

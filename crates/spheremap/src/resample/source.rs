@@ -15,6 +15,10 @@ pub(super) struct Src<'a, T: Real> {
     /// Disc mappings: a sample this close to the centre (in pixels, squared) has all four taps
     /// inside the disc.
     pub(super) safe_r2: T,
+    /// `data` holds rows `row0 .. row0 + rows` of the canvas (a pyramid level may hold only the
+    /// rows some lookup needs; the source itself holds all).
+    pub(super) row0: usize,
+    pub(super) rows: usize,
 }
 
 impl<'a, T: Real> Src<'a, T> {
@@ -34,7 +38,35 @@ impl<'a, T: Real> Src<'a, T> {
                 0
             },
             safe_r2: T::from_f64(safe * safe),
+            row0: 0,
+            rows: e.height,
         }
+    }
+
+    /// The same map at a prefiltered level (positions scale by `level.scale()`).
+    pub(super) fn level<'b>(&self, lv: &'b Level) -> Src<'b, T> {
+        let n = lv.h as f64;
+        let safe = (0.5 * n - 1.5).max(0.0);
+        Src {
+            m: self.m,
+            w: lv.w,
+            h: lv.h,
+            data: &lv.data,
+            wf: T::from_f64(lv.w as f64),
+            hf: T::from_f64(lv.h as f64),
+            face: if self.face > 0 { lv.w } else { 0 },
+            safe_r2: T::from_f64(safe * safe),
+            row0: lv.row0,
+            rows: lv.rows,
+        }
+    }
+
+    /// A canvas texel index (`y·w + x`) as an index into the rows held (clamped into them: a
+    /// level's rows are chosen with a margin, so the clamp is a safety net, not a rule).
+    #[inline(always)]
+    fn held(&self, i: usize) -> usize {
+        i.saturating_sub(self.row0 * self.w)
+            .min(self.rows * self.w - 1)
     }
 
     /// Continuous source pixel position of a direction (NaN-free: the sphere map's single
@@ -73,7 +105,7 @@ impl<'a, T: Real> Src<'a, T> {
             ax * ay,
         ];
         if self.fast(x0, y0, p) {
-            let i00 = (y0 as usize * self.w + x0 as usize) * C;
+            let i00 = ((y0 as usize - self.row0) * self.w + x0 as usize) * C;
             let i10 = i00 + C;
             let i01 = i00 + self.w * C;
             let i11 = i01 + C;
@@ -92,13 +124,13 @@ impl<'a, T: Real> Src<'a, T> {
         let mut wsum = T::ZERO;
         for (j, &(x, y)) in taps.iter().enumerate() {
             if let Some(i) = self.tap(x, y, p) {
-                idx[j] = i;
+                idx[j] = self.held(i);
                 wsum = wsum + wts[j];
             }
         }
         if !(wsum > T::ZERO) {
             // All taps off the map (a sample in the last half texel of a tiny disc): nearest.
-            let i = self.nearest(p);
+            let i = self.held(self.nearest(p));
             for k in 0..C {
                 acc[k] = acc[k] + weight * T::from_f64(self.data[i * C + k] as f64);
             }
@@ -120,6 +152,9 @@ impl<'a, T: Real> Src<'a, T> {
     #[inline(always)]
     pub(super) fn fast(&self, x0: isize, y0: isize, p: [T; 2]) -> bool {
         if x0 < 0 || y0 < 0 || x0 as usize + 1 >= self.w || y0 as usize + 1 >= self.h {
+            return false;
+        }
+        if (y0 as usize) < self.row0 || y0 as usize + 1 >= self.row0 + self.rows {
             return false;
         }
         match self.m {
