@@ -21,12 +21,36 @@ fn noise(w: usize, h: usize, c: usize) -> Image {
 }
 
 fn job(c: &mut Criterion, name: &str, src: &str, img: &Image, dst: &str, n: usize, samples: u32) {
+    job_max(
+        c,
+        name,
+        src,
+        img,
+        dst,
+        n,
+        samples,
+        ResampleOptions::default().max_samples,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn job_max(
+    c: &mut Criterion,
+    name: &str,
+    src: &str,
+    img: &Image,
+    dst: &str,
+    n: usize,
+    samples: u32,
+    max_samples: u32,
+) {
     let sm = Mapping::parse(src, None).unwrap();
     let dm = Mapping::parse(dst, None).unwrap();
     let e = EnvMap::new(sm, img, "src").unwrap();
     let (w, h) = dm.canvas(n);
     let o = ResampleOptions {
         samples,
+        max_samples,
         ..Default::default()
     };
     c.bench_function(name, |b| {
@@ -66,9 +90,21 @@ fn bench(c: &mut Criterion) {
         1024,
         1,
     );
-    job(
+    // 16 samples in every texel (the prefiltered levels cover wider footprints).
+    job_max(
         c,
         "J4_latlong2048_to_sphere1024_s16",
+        "latlong",
+        &ll,
+        "sphere",
+        1024,
+        16,
+        16,
+    );
+    // 16 samples and more where the footprint asks (up to the default max_samples).
+    job(
+        c,
+        "J4_adaptive_latlong2048_to_sphere1024_s16",
         "latlong",
         &ll,
         "sphere",

@@ -225,7 +225,8 @@ fn f32_fast_path_matches_f64_reference() {
             Mapping::parse(dst, None).unwrap(),
         );
         let img = fill(src, 64, 3, f);
-        for samples in [1, 8] {
+        // (16, 16): the vectorized filtered path with prefiltered levels at the rim.
+        for (samples, max_samples) in [(1, 1024), (8, 1024), (16, 16)] {
             let a = convert(
                 src,
                 &img,
@@ -233,6 +234,7 @@ fn f32_fast_path_matches_f64_reference() {
                 48,
                 &ResampleOptions {
                     samples,
+                    max_samples,
                     ..Default::default()
                 },
             );
@@ -243,6 +245,7 @@ fn f32_fast_path_matches_f64_reference() {
                 48,
                 &ResampleOptions {
                     samples,
+                    max_samples,
                     precision: Precision::F64,
                     ..Default::default()
                 },

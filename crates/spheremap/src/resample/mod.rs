@@ -57,6 +57,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 mod dest;
+mod filtered;
 mod pyramid;
 mod rows;
 mod source;
@@ -362,6 +363,23 @@ pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
     Ok(())
 }
 
+/// The f32 views of a source and a destination when T is f32 (the vectorized paths).
+fn as_f32<'x, 'a, T: Real>(
+    s: &'x Src<'a, T>,
+    d: &'x Dst<T>,
+) -> Option<(&'x Src<'a, f32>, &'x Dst<f32>)> {
+    if std::any::TypeId::of::<T>() != std::any::TypeId::of::<f32>() {
+        return None;
+    }
+    // SAFETY: T is f32 (the TypeId check above), so Src<T>/Dst<T> are Src<f32>/Dst<f32>.
+    unsafe {
+        Some((
+            &*(s as *const Src<T> as *const Src<f32>),
+            &*(d as *const Dst<T> as *const Dst<f32>),
+        ))
+    }
+}
+
 fn run<T: Real, const C: usize>(
     src: &EnvMap,
     dst: Mapping,
@@ -378,10 +396,7 @@ fn run<T: Real, const C: usize>(
     let lookups = AtomicU64::new(0);
     let max_n = AtomicUsize::new(0);
     // The vectorized one-sample path (f32 only).
-    if opts.samples == 1 && std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>() {
-        // SAFETY: T is f32 (the TypeId check above), so Src<T>/Dst<T> are Src<f32>/Dst<f32>.
-        let s32: &Src<f32> = unsafe { &*(&s as *const Src<T> as *const Src<f32>) };
-        let d32: &Dst<f32> = unsafe { &*(&d as *const Dst<T> as *const Dst<f32>) };
+    if let (1, Some((s32, d32))) = (opts.samples, as_f32(&s, &d)) {
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
         // The output is not zeroed first (that pass alone cost 5–13 % of a job): every row
         // writes every one of its values, a cancelled row included.
@@ -431,13 +446,28 @@ fn run<T: Real, const C: usize>(
     let mut built = vec![];
     if depth_max > 0 {
         let need = pyramid::Need::new(src.mapping, depth_max, src.height);
-        (0..h).into_par_iter().with_min_len(4).for_each(|y| {
-            for x in 0..w {
-                let (lx, ly, lo, hi) = footprint(&s, &d, x, y);
-                let (_, _, lambda) = sp.plan(lx, ly);
-                mark_need(&need, lambda, reach(lo, hi, &sp));
-            }
-        });
+        if let Some((s32, d32)) = as_f32(&s, &d) {
+            // The vectorized path's own footprints (what its sampling will use).
+            let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
+            (0..h).into_par_iter().with_min_len(4).for_each_init(
+                || filtered::FScratch::new(w, C),
+                |f, y| {
+                    filtered::footprints::<C>(s32, d32, &plan, y, f);
+                    for x in 0..w {
+                        let (_, _, lambda) = sp.plan(f.lx[x], f.ly[x]);
+                        mark_need(&need, lambda, reach(f.lo[x], f.hi[x], &sp));
+                    }
+                },
+            );
+        } else {
+            (0..h).into_par_iter().with_min_len(4).for_each(|y| {
+                for x in 0..w {
+                    let (lx, ly, lo, hi) = footprint(&s, &d, x, y);
+                    let (_, _, lambda) = sp.plan(lx, ly);
+                    mark_need(&need, lambda, reach(lo, hi, &sp));
+                }
+            });
+        }
         sp.depth = need.depth();
         // The output (and as much again for whoever encodes it), plus the levels.
         crate::error::check_memory(
@@ -450,6 +480,50 @@ fn run<T: Real, const C: usize>(
     let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
         .chain(built.iter().map(|l| s.level(l)))
         .collect();
+    if let Some((s32, d32)) = as_f32(&s, &d) {
+        // The vectorized filtered path.
+        let lv32: Vec<Src<f32>> = std::iter::once(Src::new(src))
+            .chain(built.iter().map(|l| s32.level(l)))
+            .collect();
+        let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
+        let tab = rows::LevelTab::new::<C>(&lv32);
+        let n = w * h * C;
+        let mut data: Vec<f32> = Vec::with_capacity(n);
+        data.spare_capacity_mut()[..n]
+            .par_chunks_mut(w * C)
+            .enumerate()
+            .with_min_len(2)
+            .for_each_init(
+                || filtered::FScratch::new(w, C),
+                |f, (y, row)| {
+                    if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+                        row.iter_mut().for_each(|v| {
+                            v.write(0.0);
+                        });
+                        return;
+                    }
+                    let (l, m) = filtered::row::<C>(&lv32, &tab, d32, &plan, y, f, row, opts, &sp);
+                    lookups.fetch_add(l, Ordering::Relaxed);
+                    max_n.fetch_max(m, Ordering::Relaxed);
+                    if let Some(p) = progress {
+                        p.done.fetch_add(1, Ordering::Relaxed);
+                    }
+                },
+            );
+        // SAFETY: the loop above initialized all n values.
+        unsafe { data.set_len(n) };
+        let out = Image {
+            width: w,
+            height: h,
+            channels: C,
+            data,
+        };
+        let report = ResampleReport {
+            lookups: lookups.into_inner(),
+            max_texel_samples: max_n.into_inner() as u32,
+        };
+        return Ok((out, report));
+    }
     let mut out = Image::new(w, h, C);
     out.data
         .par_chunks_mut(w * C)
@@ -533,12 +607,18 @@ impl Sampling {
     /// where they are one texel apart: λ = log₂(spacing), clamped to the pyramid.
     #[inline]
     pub(crate) fn plan(&self, lx: f64, ly: f64) -> (usize, usize, f64) {
-        let (nx, ny) = strata(
-            self.base.max((lx * self.support).ceil() as usize),
-            self.base.max((ly * self.support).ceil() as usize),
-            self.samples,
-            self.cap,
-        );
+        let (gx, gy) = strata(self.base, self.base, self.samples, self.cap);
+        let (nx, ny) = if self.cap <= gx * gy {
+            // No room for more samples than the common grid: it stays, the levels cover.
+            (gx, gy)
+        } else {
+            strata(
+                self.base.max((lx * self.support).ceil() as usize),
+                self.base.max((ly * self.support).ceil() as usize),
+                self.samples,
+                self.cap,
+            )
+        };
         let spacing = (lx * self.support / nx as f64).max(ly * self.support / ny as f64);
         let lambda = if spacing > 1.0 {
             spacing.log2().min(self.depth as f64)
@@ -626,44 +706,60 @@ fn row_filtered<T: Real, const C: usize>(
     opts: &ResampleOptions,
     sp: &Sampling,
 ) -> (u64, usize) {
-    let s = &levels[0];
-    let (radius, support) = (sp.radius, sp.support);
     let mut lookups = 0u64;
     let mut max_n = 0usize;
-    let cy = y as f64 + 0.5;
     for (x, px) in row.chunks_exact_mut(C).enumerate() {
-        let cx = x as f64 + 0.5;
-        let (lx, ly, _, _) = footprint(s, d, x, y);
-        let (nx, ny, lambda) = sp.plan(lx, ly);
-        let mut acc = [T::ZERO; C];
-        let mut wsum = T::ZERO;
-        for j in 0..ny {
-            for i in 0..nx {
-                let (jx, jy) = jitter32(opts.seed, x, y, j * nx + i);
-                let ox = -radius + (i as f64 + jx) / nx as f64 * support;
-                let oy = -radius + (j as f64 + jy) / ny as f64 * support;
-                let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
-                let wgt = opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy);
-                let (dir, on) = d.dir(sx, sy);
-                let wt = T::from_f64(wgt);
-                wsum = wsum + wt;
-                if !on && d.outside == Outside::Black {
-                    continue;
-                }
-                lookup_lod(levels, s.position(dir), lambda, wt, &mut acc);
-                lookups += 1;
-            }
-        }
-        max_n = max_n.max(nx * ny);
-        for k in 0..C {
-            px[k] = if wsum > T::ZERO {
-                (acc[k] / wsum).to_f64() as f32
-            } else {
-                0.0
-            };
-        }
+        let (lx, ly, _, _) = footprint(&levels[0], d, x, y);
+        let plan = sp.plan(lx, ly);
+        let (v, l) = texel::<T, C>(levels, d, x, y, opts, sp, plan);
+        px.copy_from_slice(&v);
+        lookups += l;
+        max_n = max_n.max(plan.0 * plan.1);
     }
     (lookups, max_n)
+}
+
+/// Texel (x, y) sampled on its `nx`×`ny` strata at level λ; returns it and its lookups.
+fn texel<T: Real, const C: usize>(
+    levels: &[Src<T>],
+    d: &Dst<T>,
+    x: usize,
+    y: usize,
+    opts: &ResampleOptions,
+    sp: &Sampling,
+    (nx, ny, lambda): (usize, usize, f64),
+) -> ([f32; C], u64) {
+    let s = &levels[0];
+    let (radius, support) = (sp.radius, sp.support);
+    let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+    let mut acc = [T::ZERO; C];
+    let mut wsum = T::ZERO;
+    let mut lookups = 0;
+    for j in 0..ny {
+        for i in 0..nx {
+            let (jx, jy) = jitter32(opts.seed, x, y, j * nx + i);
+            let ox = -radius + (i as f64 + jx) / nx as f64 * support;
+            let oy = -radius + (j as f64 + jy) / ny as f64 * support;
+            let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
+            let wgt = opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy);
+            let (dir, on) = d.dir(sx, sy);
+            let wt = T::from_f64(wgt);
+            wsum = wsum + wt;
+            if !on && d.outside == Outside::Black {
+                continue;
+            }
+            lookup_lod(levels, s.position(dir), lambda, wt, &mut acc);
+            lookups += 1;
+        }
+    }
+    let v = std::array::from_fn(|k| {
+        if wsum > T::ZERO {
+            (acc[k] / wsum).to_f64() as f32
+        } else {
+            0.0
+        }
+    });
+    (v, lookups)
 }
 
 /// Deterministic jitter in [0,1)² for sample `k` of texel (x, y): a 32-bit integer hash

@@ -9,17 +9,28 @@ use crate::real::{atan2_fast, floor_fast};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
-    d: [Vec<f32>; 3],
-    on: Vec<bool>,
-    p: [Vec<f32>; 2],
+    pub(crate) d: [Vec<f32>; 3],
+    pub(crate) on: Vec<bool>,
+    pub(crate) p: [Vec<f32>; 2],
     /// Pass 2b: the top-left tap's index into the source data, or `SLOW` when the lookup
     /// needs the general path; and the bilinear fractions.
-    idx: Vec<u32>,
-    frac: [Vec<f32>; 2],
+    pub(crate) idx: Vec<u32>,
+    pub(crate) frac: [Vec<f32>; 2],
+    /// Canvas points for [`Points::At`] (x, y).
+    pub(crate) pts: [Vec<f32>; 2],
+}
+
+/// Which destination points passes 1–2 take.
+#[derive(Clone, Copy)]
+pub(crate) enum Points {
+    /// The texel centres of row y.
+    Row(usize),
+    /// `Scratch::pts`.
+    At,
 }
 
 /// `Scratch::idx` of a lookup that takes the general path.
-const SLOW: u32 = u32::MAX;
+pub(crate) const SLOW: u32 = u32::MAX;
 
 impl Scratch {
     pub(crate) fn new(w: usize) -> Self {
@@ -29,6 +40,7 @@ impl Scratch {
             p: [vec![0.0; w], vec![0.0; w]],
             idx: vec![SLOW; w],
             frac: [vec![0.0; w], vec![0.0; w]],
+            pts: [vec![0.0; w], vec![0.0; w]],
         }
     }
 }
@@ -85,13 +97,55 @@ fn apply(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// Passes 1 and 2 for row `y`.
+/// Passes 1 and 2 for `pts`.
 #[inline(always)]
-fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, y: usize, sc: &mut Scratch) {
+fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, sc: &mut Scratch) {
     let w = sc.on.len();
     let [dx, dy, dz] = &mut sc.d;
     let on = &mut sc.on;
+    let y = match pts {
+        Points::Row(y) => y,
+        Points::At => usize::MAX,
+    };
     match d.m {
+        Mapping::Sphere(p) if matches!(pts, Points::At) => {
+            // The same formulas as below, with a and b per point.
+            let flip = matches!(p.rows, RowOrder::TopIsT1);
+            let (kx, ky) = (2.0 / d.wf, 2.0 / d.hf);
+            let m = &plan.sphere_m;
+            let [ptx, pty] = &sc.pts;
+            for x in 0..w {
+                let a = ptx[x] * kx - 1.0;
+                let yf = pty[x] * ky - 1.0;
+                let b = if flip { -yf } else { yf };
+                let d2 = a * a + b * b;
+                let inside = d2 <= 1.0;
+                let rho = d2.sqrt();
+                let k = if inside {
+                    1.0
+                } else {
+                    (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+                };
+                let (a2, b2) = (a * k, b * k);
+                let q = a2 * a2 + b2 * b2;
+                let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
+                let r = apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]);
+                dx[x] = r[0];
+                dy[x] = r[1];
+                dz[x] = r[2];
+                on[x] = inside;
+            }
+        }
+        _ if matches!(pts, Points::At) => {
+            let [ptx, pty] = &sc.pts;
+            for x in 0..w {
+                let (r, o) = d.dir(ptx[x], pty[x]);
+                dx[x] = r[0];
+                dy[x] = r[1];
+                dz[x] = r[2];
+                on[x] = o;
+            }
+        }
         Mapping::Sphere(p) => {
             let yf = (2.0 * (y as f64 + 0.5) / d.hf as f64 - 1.0) as f32;
             let b = match p.rows {
@@ -242,26 +296,65 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, y: usize, sc:
 /// across a cube seam) — the common case of `Src::lookup` — else `SLOW`.
 #[inline(always)]
 fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
+    let [ax, ay] = &mut sc.frac;
+    let out = Taps {
+        idx: &mut sc.idx,
+        ax,
+        ay,
+    };
+    taps_at::<C>(s, &sc.p, 1.0, None, out);
+}
+
+/// Where pass 2b writes: tap indices and bilinear fractions.
+pub(crate) struct Taps<'a> {
+    pub(crate) idx: &'a mut [u32],
+    pub(crate) ax: &'a mut [f32],
+    pub(crate) ay: &'a mut [f32],
+}
+
+/// Pass 2b for level-0 positions `p` read in `s` (a pyramid level: positions × `scale`);
+/// with `only = Some((lv, k))`, only the lanes where `lv[x] == k` are written.
+#[inline(always)]
+pub(crate) fn taps_at<const C: usize>(
+    s: &Src<f32>,
+    p: &[Vec<f32>; 2],
+    scale: f32,
+    only: Option<(&[u8], u8)>,
+    out: Taps,
+) {
     // Indices are u32: a source too large for them takes the general path throughout.
     if s.data.len() >= SLOW as usize {
-        sc.idx.fill(SLOW);
+        out.idx.fill(SLOW);
         return;
     }
     let c = s.hf * 0.5;
     let face = s.wf;
     let r2 = s.safe_r2;
     match s.m {
-        Mapping::LatLong(_) | Mapping::Octahedral => taps_with::<C>(s, sc, |_, _, _| true),
+        Mapping::LatLong(_) | Mapping::Octahedral => {
+            taps_with::<C>(s, p, scale, only, out, |_, _, _| true)
+        }
         // Both tap rows on the face the position belongs to.
-        Mapping::Cube(_) => taps_with::<C>(s, sc, |_, p1, fy| {
+        Mapping::Cube(_) => taps_with::<C>(s, p, scale, only, out, |_, p1, fy| {
             let f0 = (p1 / face).floor() * face;
             fy >= f0 && fy + 1.0 < f0 + face
         }),
-        Mapping::Sphere(_) | Mapping::Angular => taps_with::<C>(s, sc, |p0, p1, _| {
-            let (dx, dy) = (p0 - c, p1 - c);
-            dx * dx + dy * dy <= r2
-        }),
-        Mapping::Paraboloid => sc.idx.fill(SLOW),
+        Mapping::Sphere(_) | Mapping::Angular => {
+            taps_with::<C>(s, p, scale, only, out, |p0, p1, _| {
+                let (dx, dy) = (p0 - c, p1 - c);
+                dx * dx + dy * dy <= r2
+            })
+        }
+        Mapping::Paraboloid => match only {
+            None => out.idx.fill(SLOW),
+            Some((lv, k)) => {
+                for x in 0..out.idx.len() {
+                    if lv[x] == k {
+                        out.idx[x] = SLOW;
+                    }
+                }
+            }
+        },
     }
 }
 
@@ -270,20 +363,30 @@ fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
 #[inline(always)]
 fn taps_with<const C: usize>(
     s: &Src<f32>,
-    sc: &mut Scratch,
+    p: &[Vec<f32>; 2],
+    scale: f32,
+    only: Option<(&[u8], u8)>,
+    out: Taps,
     tile_ok: impl Fn(f32, f32, f32) -> bool,
 ) {
-    let [px, py] = &sc.p;
-    let [ax, ay] = &mut sc.frac;
-    let idx = &mut sc.idx;
+    let [px, py] = p;
+    let Taps { idx, ax, ay } = out;
     let (wf, hf) = (s.wf, s.hf);
+    // The rows held: a level may hold a band.
+    let (r0, r1) = (s.row0 as f32, (s.row0 + s.rows) as f32);
     let row = (s.w * C) as u32;
+    let base = (s.row0 * s.w * C) as u32;
     for x in 0..idx.len() {
-        let (p0, p1) = (px[x], py[x]);
+        let (p0, p1) = (px[x] * scale, py[x] * scale);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
         // Written as `!(in range)` so that NaN positions fail too.
-        let ok = tile_ok(p0, p1, fy) && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < wf && fy + 1.0 < hf;
+        let ok = tile_ok(p0, p1, fy)
+            && fx >= 0.0
+            && fy >= r0
+            && fx + 1.0 < wf
+            && fy + 1.0 < hf
+            && fy + 1.0 < r1;
         // SAFETY: clamped into 0..=w and 0..=h first (NaN becomes 0), so the conversions
         // are in range; plain `as` would add a saturating fix-up that stops vectorization.
         let (xi, yi) = unsafe {
@@ -292,10 +395,175 @@ fn taps_with<const C: usize>(
                 fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
             )
         };
-        idx[x] = if ok { yi * row + xi * C as u32 } else { SLOW };
+        let i = if ok {
+            (yi * row + xi * C as u32).wrapping_sub(base)
+        } else {
+            SLOW
+        };
+        let keep = match only {
+            Some((lv, k)) => lv[x] == k,
+            None => true,
+        };
+        if keep {
+            idx[x] = i;
+            ax[x] = qx - fx;
+            ay[x] = qy - fy;
+        }
+    }
+}
+
+/// Per-level constants of pass 2b, indexed by level (so one pass serves lanes at any level).
+pub(crate) struct LevelTab {
+    scale: [f32; 32],
+    wf: [f32; 32],
+    hf: [f32; 32],
+    r0: [f32; 32],
+    r1: [f32; 32],
+    r2: [f32; 32],
+    row: [u32; 32],
+    base: [u32; 32],
+    /// The tap indices fit u32 at every level.
+    ok: bool,
+}
+
+impl LevelTab {
+    pub(crate) fn new<const C: usize>(levels: &[Src<f32>]) -> Self {
+        let mut t = LevelTab {
+            scale: [0.0; 32],
+            wf: [0.0; 32],
+            hf: [0.0; 32],
+            r0: [0.0; 32],
+            r1: [0.0; 32],
+            r2: [0.0; 32],
+            row: [0; 32],
+            base: [0; 32],
+            ok: levels.iter().all(|l| l.data.len() < SLOW as usize),
+        };
+        for (k, l) in levels.iter().enumerate().take(32) {
+            t.scale[k] = 1.0 / (1u64 << k) as f32;
+            t.wf[k] = l.wf;
+            t.hf[k] = l.hf;
+            t.r0[k] = l.row0 as f32;
+            t.r1[k] = (l.row0 + l.rows) as f32;
+            t.r2[k] = l.safe_r2;
+            t.row[k] = (l.w * C) as u32;
+            t.base[k] = (l.row0 * l.w * C) as u32;
+        }
+        t
+    }
+}
+
+/// Pass 2b for level-0 positions `p` with each lane at its own level `lv[x]` (lanes at
+/// `u8::MAX` get meaningless values): the index into that level's data, and the fractions.
+#[inline(always)]
+pub(crate) fn taps_levels<const C: usize>(
+    m: Mapping,
+    t: &LevelTab,
+    p: &[Vec<f32>; 2],
+    lv: &[u8],
+    out: Taps,
+) {
+    let [px, py] = p;
+    let Taps { idx, ax, ay } = out;
+    let (cube, disc) = match m {
+        Mapping::Cube(_) => (true, false),
+        Mapping::Sphere(_) | Mapping::Angular => (false, true),
+        Mapping::Paraboloid => {
+            for x in 0..idx.len() {
+                if lv[x] != u8::MAX {
+                    idx[x] = SLOW;
+                }
+            }
+            return;
+        }
+        _ => (false, false),
+    };
+    // Every lane is written (those at NONE hold garbage nobody reads): no masked stores.
+    let n = idx
+        .len()
+        .min(ax.len())
+        .min(ay.len())
+        .min(lv.len())
+        .min(px.len())
+        .min(py.len());
+    let (idx, ax, ay, lv, px, py) = (
+        &mut idx[..n],
+        &mut ax[..n],
+        &mut ay[..n],
+        &lv[..n],
+        &px[..n],
+        &py[..n],
+    );
+    for x in 0..n {
+        let k = (lv[x] & 31) as usize;
+        let (wf, hf) = (t.wf[k], t.hf[k]);
+        let (p0, p1) = (px[x] * t.scale[k], py[x] * t.scale[k]);
+        let (qx, qy) = (p0 - 0.5, p1 - 0.5);
+        let (fx, fy) = (qx.floor(), qy.floor());
+        let tile = if cube {
+            let f0 = (p1 / wf).floor() * wf;
+            fy >= f0 && fy + 1.0 < f0 + wf
+        } else if disc {
+            let c = hf * 0.5;
+            let (dx, dy) = (p0 - c, p1 - c);
+            dx * dx + dy * dy <= t.r2[k]
+        } else {
+            true
+        };
+        let ok = t.ok
+            && tile
+            && fx >= 0.0
+            && fy >= t.r0[k]
+            && fx + 1.0 < wf
+            && fy + 1.0 < hf
+            && fy + 1.0 < t.r1[k];
+        // SAFETY: clamped first (NaN becomes 0), so the conversions are in range.
+        let (xi, yi) = unsafe {
+            (
+                fx.max(0.0).min(wf).to_int_unchecked::<i32>() as u32,
+                fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
+            )
+        };
+        let i = if ok {
+            (yi * t.row[k] + xi * C as u32).wrapping_sub(t.base[k])
+        } else {
+            SLOW
+        };
+        idx[x] = i;
         ax[x] = qx - fx;
         ay[x] = qy - fy;
     }
+}
+
+/// Runs `f` compiled for the widest vectors this CPU has (`f` must be `#[inline(always)]`
+/// code: it is inlined into the feature-enabled wrapper and vectorized there).
+#[inline(always)]
+pub(crate) fn vectorized<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+        unsafe fn avx512<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        #[target_feature(enable = "avx2,fma")]
+        unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the features were detected at run time.
+            return unsafe { avx512(f) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the features were detected at run time.
+            return unsafe { avx2(f) };
+        }
+    }
+    f()
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -304,10 +572,10 @@ unsafe fn stages_avx2<const C: usize>(
     s: &Src<f32>,
     d: &Dst<f32>,
     plan: &Plan,
-    y: usize,
+    pts: Points,
     sc: &mut Scratch,
 ) {
-    stages::<C>(s, d, plan, y, sc)
+    stages::<C>(s, d, plan, pts, sc)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -322,21 +590,20 @@ unsafe fn stages_avx512<const C: usize>(
     s: &Src<f32>,
     d: &Dst<f32>,
     plan: &Plan,
-    y: usize,
+    pts: Points,
     sc: &mut Scratch,
 ) {
-    stages::<C>(s, d, plan, y, sc);
+    stages::<C>(s, d, plan, pts, sc);
     taps::<C>(s, sc)
 }
 
-/// Passes 1–2 with the widest vectors this CPU has, then pass 3.
-pub(crate) fn row<const C: usize>(
+/// Passes 1–2 and 2b for `pts`, with the widest vectors this CPU has.
+pub(crate) fn passes<const C: usize>(
     s: &Src<f32>,
     d: &Dst<f32>,
     plan: &Plan,
-    y: usize,
+    pts: Points,
     sc: &mut Scratch,
-    out: &mut [std::mem::MaybeUninit<f32>],
 ) {
     #[cfg(target_arch = "x86_64")]
     {
@@ -346,44 +613,96 @@ pub(crate) fn row<const C: usize>(
             && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the features were detected at run time.
-            unsafe { stages_avx512::<C>(s, d, plan, y, sc) };
+            unsafe { stages_avx512::<C>(s, d, plan, pts, sc) };
         } else if std::arch::is_x86_feature_detected!("avx2")
             && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the features were detected at run time.
-            unsafe { stages_avx2::<C>(s, d, plan, y, sc) };
+            unsafe { stages_avx2::<C>(s, d, plan, pts, sc) };
             unsafe { taps_avx2::<C>(s, sc) };
         } else {
-            stages::<C>(s, d, plan, y, sc);
+            stages::<C>(s, d, plan, pts, sc);
             taps::<C>(s, sc);
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        stages::<C>(s, d, plan, y, sc);
+        stages::<C>(s, d, plan, pts, sc);
         taps::<C>(s, sc);
     }
+}
+
+/// How far ahead (in texels) pass 3 prefetches the source lines: the gathers wait on the
+/// last-level cache otherwise (their addresses are known a whole row in advance).
+pub(crate) const AHEAD: usize = 64;
+
+/// Prefetches the four taps of the lookup whose top-left index is `j` (`SLOW`: nothing).
+#[inline(always)]
+pub(crate) fn prefetch<const C: usize>(data: &[f32], row: usize, j: u32) {
+    #[cfg(target_arch = "x86_64")]
+    if j != SLOW {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let p = data.as_ptr().wrapping_add(j as usize);
+        // SAFETY: prefetching is a hint; it never faults, whatever the address.
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
+            // The taps' last values (on the next line 2C/16 of the time).
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(2 * C - 1) as *const i8);
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 2 * C - 1) as *const i8);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (data, row, j);
+}
+
+/// The bilinear value at top-left index `i00` (not `SLOW`) with fractions (ax, ay).
+#[inline(always)]
+pub(crate) fn bilerp<const C: usize>(
+    data: &[f32],
+    row: usize,
+    i00: u32,
+    ax: f32,
+    ay: f32,
+) -> [f32; C] {
+    let i00 = i00 as usize;
+    let i01 = i00 + row;
+    debug_assert!(i01 + 2 * C <= data.len());
+    let mut out = [0.0f32; C];
+    for k in 0..C {
+        // SAFETY: pass 2b gave an index only where 0 ≤ x0 < w − 1 and 0 ≤ y0 < h − 1,
+        // which keeps all four taps in the w×h×C slice.
+        let (a, b, c, d) = unsafe {
+            (
+                *data.get_unchecked(i00 + k),
+                *data.get_unchecked(i00 + C + k),
+                *data.get_unchecked(i01 + k),
+                *data.get_unchecked(i01 + C + k),
+            )
+        };
+        let top = a + ax * (b - a);
+        let bot = c + ax * (d - c);
+        out[k] = top + ay * (bot - top);
+    }
+    out
+}
+
+/// One lookup at each texel centre of row `y`.
+pub(crate) fn row<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    y: usize,
+    sc: &mut Scratch,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    passes::<C>(s, d, plan, Points::Row(y), sc);
     let black = d.outside == Outside::Black;
     let data = s.data;
     let row = s.w * C;
-    // How far ahead (in texels) the source lines are prefetched: the gathers wait on the
-    // last-level cache otherwise (their addresses are known a whole row in advance).
-    const AHEAD: usize = 64;
     for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        #[cfg(target_arch = "x86_64")]
         if let Some(&j) = sc.idx.get(x + AHEAD) {
-            if j != SLOW {
-                use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                let p = data.as_ptr().wrapping_add(j as usize);
-                // SAFETY: prefetching is a hint; it never faults, whatever the address.
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
-                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
-                    // The taps' last values (on the next line 2C/16 of the time).
-                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(2 * C - 1) as *const i8);
-                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 2 * C - 1) as *const i8);
-                }
-            }
+            prefetch::<C>(data, row, j);
         }
         if black && !sc.on[x] {
             px.iter_mut().for_each(|v| {
@@ -392,32 +711,15 @@ pub(crate) fn row<const C: usize>(
             continue;
         }
         let i00 = sc.idx[x];
-        if i00 == SLOW {
+        let v = if i00 == SLOW {
             let mut acc = [0.0f32; C];
             s.lookup([sc.p[0][x], sc.p[1][x]], 1.0, &mut acc);
-            for k in 0..C {
-                px[k].write(acc[k]);
-            }
-            continue;
-        }
-        let (ax, ay) = (sc.frac[0][x], sc.frac[1][x]);
-        let i00 = i00 as usize;
-        let i01 = i00 + row;
-        debug_assert!(i01 + 2 * C <= data.len());
+            acc
+        } else {
+            bilerp::<C>(data, row, i00, sc.frac[0][x], sc.frac[1][x])
+        };
         for k in 0..C {
-            // SAFETY: pass 2b gave an index only where 0 ≤ x0 < w − 1 and 0 ≤ y0 < h − 1,
-            // which keeps all four taps in the w×h×C slice.
-            let (a, b, c, d) = unsafe {
-                (
-                    *data.get_unchecked(i00 + k),
-                    *data.get_unchecked(i00 + C + k),
-                    *data.get_unchecked(i01 + k),
-                    *data.get_unchecked(i01 + C + k),
-                )
-            };
-            let top = a + ax * (b - a);
-            let bot = c + ax * (d - c);
-            px[k].write(top + ay * (bot - top));
+            px[k].write(v[k]);
         }
     }
 }

@@ -300,6 +300,6 @@ impl<T: Real> Src<'_, T> {
             }
             _ => {}
         }
-        dx.hypot(dy)
+        (dx * dx + dy * dy).sqrt()
     }
 }
