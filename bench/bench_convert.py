@@ -104,7 +104,7 @@ def main():
                ("numpy", lambda: numpy_j1(ll, 1024))],
         "J2": [("spheremap", lambda: sm.convert(cube512, "cube", "sphere", size=1024, samples=1))],
         "J3": [("spheremap", lambda: sm.convert(sphere, "sphere", "latlong", size=1024, samples=1))],
-        "J4": [("spheremap", lambda: sm.convert(ll, "latlong", "sphere", size=1024, samples=16))],
+        "J4": [("spheremap", lambda: sm.convert(ll, "latlong", "sphere", size=1024, samples=16, max_samples=16))],
         "RT": [("spheremap", lambda: sm.convert(cube256, "cube", "sphere", size=512, samples=1))],
     }
     if "skylibs" in peers:
