@@ -97,6 +97,25 @@ fn apply(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
     ]
 }
 
+/// The sphere map's direction at disc coordinates (a, b) ∈ [−1, 1]², turned by `m`, and
+/// whether it is on the disc; off it, the gutter: the radial mirror image across the rim
+/// (see `Dst::mirrored`).  Branch-free, so the callers' loops vectorize.
+#[inline(always)]
+fn sphere_dir(m: &[[f32; 3]; 3], a: f32, b: f32) -> ([f32; 3], bool) {
+    let d2 = a * a + b * b;
+    let inside = d2 <= 1.0;
+    let rho = d2.sqrt();
+    let k = if inside {
+        1.0
+    } else {
+        (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+    };
+    let (a2, b2) = (a * k, b * k);
+    let q = a2 * a2 + b2 * b2;
+    let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
+    (apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]), inside)
+}
+
 /// Passes 1 and 2 for `pts`.
 #[inline(always)]
 fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, sc: &mut Scratch) {
@@ -118,18 +137,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
                 let a = ptx[x] * kx - 1.0;
                 let yf = pty[x] * ky - 1.0;
                 let b = if flip { -yf } else { yf };
-                let d2 = a * a + b * b;
-                let inside = d2 <= 1.0;
-                let rho = d2.sqrt();
-                let k = if inside {
-                    1.0
-                } else {
-                    (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
-                };
-                let (a2, b2) = (a * k, b * k);
-                let q = a2 * a2 + b2 * b2;
-                let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
-                let r = apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]);
+                let (r, inside) = sphere_dir(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -156,19 +164,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let m = &plan.sphere_m;
             for x in 0..w {
                 let a = x as f32 * k0 + k1;
-                let d2 = a * a + b * b;
-                let inside = d2 <= 1.0;
-                // Gutter: the radial mirror image across the rim (see `Dst::mirrored`).
-                let rho = d2.sqrt();
-                let k = if inside {
-                    1.0
-                } else {
-                    (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
-                };
-                let (a2, b2) = (a * k, b * k);
-                let q = a2 * a2 + b2 * b2;
-                let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
-                let r = apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]);
+                let (r, inside) = sphere_dir(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
