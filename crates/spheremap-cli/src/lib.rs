@@ -20,6 +20,7 @@ mod cmd_shader;
 mod cmd_texgen;
 mod job;
 pub mod progress;
+mod sampling_args;
 mod scene_args;
 
 use clap::{Parser, Subcommand};
@@ -103,7 +104,6 @@ where
             "spheremap: internal error (a bug; please report it with the command line): {info}"
         );
     }));
-    progress::INTERRUPTED.store(false, std::sync::atomic::Ordering::SeqCst);
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Texgen(a) => cmd_texgen::run(a),
         Command::Demo(a) => cmd_demo::run(a),

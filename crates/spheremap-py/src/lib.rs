@@ -656,6 +656,11 @@ fn write_image(
 #[pyfunction]
 fn _cli_main(py: Python<'_>, argv: Vec<String>) -> i32 {
     use std::sync::atomic::Ordering;
+    // Cleared here, before the command starts, and never inside it: a Ctrl-C that arrives
+    // while the arguments are parsed must still cancel (clearing it in the worker lost such
+    // an interrupt, and the command then ran to the end). The flag is process-wide, so a
+    // previous in-process call's interrupt is forgotten only at this point.
+    spheremap_cli::progress::INTERRUPTED.store(false, Ordering::SeqCst);
     py.detach(|| {
         std::thread::scope(|s| {
             let worker = s.spawn(|| spheremap_cli::main_with_args(argv));
