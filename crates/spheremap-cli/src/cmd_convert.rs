@@ -7,9 +7,7 @@ use spheremap::cube::Layout;
 use spheremap::envio::{default_size, read_env, write_env};
 use spheremap::image_io::{check_nonfinite, ReadOptions};
 use spheremap::mapping::Mapping;
-use spheremap::resample::{
-    resample, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
-};
+use spheremap::resample::{resample, EnvMap, Precision, Progress, ResampleOptions};
 use spheremap::view;
 use std::time::Instant;
 
@@ -37,20 +35,8 @@ pub struct Args {
     /// Default: the input's N (a cube face F gives 2F, and N gives cube faces of N/2).
     #[arg(long)]
     size: Option<usize>,
-    /// Samples per output texel: 1 = one lookup at the texel centre (no filtering, for
-    /// comparisons); S > 1 = at least S, more where a texel's footprint covers more source texels.
-    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
-    samples: u32,
-    /// The most samples one texel may take when adapting to its footprint.
-    #[arg(long, default_value_t = 1024)]
-    max_samples: u32,
-    /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
-    #[arg(long, default_value = "box")]
-    filter: String,
-    /// Outside a sphere/angular/paraboloid disc: gutter (mirror across the rim, no dark fringe
-    /// under GPU filtering; default) or black.
-    #[arg(long, default_value = "gutter")]
-    outside: String,
+    #[command(flatten)]
+    sampling: crate::sampling_args::SamplingArgs,
     /// The output's view: world direction of the eye's -Z (with --up).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     look: Option<Vec<f64>>,
@@ -78,9 +64,6 @@ pub struct Args {
     /// Cube layout of the input (default: from its shape; a 6:1 strip must be named).
     #[arg(long)]
     from_layout: Option<String>,
-    /// Seed of the sample jitter (results are deterministic for a seed).
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
     /// f32 (fast, default) or f64 (reference) arithmetic.
     #[arg(long, default_value = "f32")]
     precision: String,
@@ -130,12 +113,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let (w, h) = dst.canvas(n);
     let opts = ResampleOptions {
-        samples: a.samples,
-        max_samples: a.max_samples,
-        filter: Filter::parse(&a.filter)?,
-        outside: Outside::parse(&a.outside)?,
+        samples: a.sampling.samples,
+        max_samples: a.sampling.max_samples,
+        filter: a.sampling.filter()?,
+        outside: a.sampling.outside()?,
         rotation,
-        seed: a.seed,
+        seed: a.sampling.seed,
         precision,
         max_memory,
     };
@@ -155,7 +138,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "from": src.name(), "from_preset": src.preset_name(),
             "to": dst.name(), "preset": dst.preset_name(),
             "size": n, "width": w, "height": h, "channels": out.channels,
-            "samples": a.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
+            "samples": a.sampling.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
             "lookups": report.lookups, "max_texel_samples": report.max_texel_samples,
             "seconds": seconds,
         });

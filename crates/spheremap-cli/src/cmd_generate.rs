@@ -8,7 +8,7 @@ use spheremap::envio::{env_paths, write_env};
 use spheremap::generate::{generate, GenerateOptions, GenerateReport, RaySource};
 use spheremap::image_io::Image;
 use spheremap::mapping::Mapping;
-use spheremap::resample::{Filter, Outside, Precision, Progress, IDENTITY};
+use spheremap::resample::{Precision, Progress, IDENTITY};
 use spheremap::scene::Scene;
 use spheremap::view;
 use std::path::PathBuf;
@@ -39,22 +39,8 @@ pub struct Args {
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
     #[arg(long, default_value_t = 512)]
     size: usize,
-    /// Rays per texel: 1 = one ray through the texel centre; S > 1 = at least S, more where
-    /// the texel's footprint is stretched (the rim).
-    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
-    samples: u32,
-    /// The most rays one texel may take.
-    #[arg(long, default_value_t = 1024)]
-    max_samples: u32,
-    /// Reconstruction filter: box (default), tent, gaussian.
-    #[arg(long, default_value = "box")]
-    filter: String,
-    /// Outside the disc: gutter (default) or black.
-    #[arg(long, default_value = "gutter")]
-    outside: String,
-    /// Seed of the ray jitter (results are deterministic for a seed).
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: crate::sampling_args::SamplingArgs,
     /// f32 (default) or f64 arithmetic for the ray directions.
     #[arg(long, default_value = "f32")]
     precision: String,
@@ -81,18 +67,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
     let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
-    let world = a.world.load(&a.job, a.seed, &env_paths(&a.output))?;
+    let world = a
+        .world
+        .load(&a.job, a.sampling.seed, &env_paths(&a.output))?;
     let source = world.source();
     let source = source.as_ref();
     let scene = world.scene.as_ref();
     let opts = GenerateOptions {
-        samples: a.samples,
-        max_samples: a.max_samples,
-        filter: Filter::parse(&a.filter)?,
-        outside: Outside::parse(&a.outside)?,
+        samples: a.sampling.samples,
+        max_samples: a.sampling.max_samples,
+        filter: a.sampling.filter()?,
+        outside: a.sampling.outside()?,
         rotation,
         pos,
-        seed: a.seed,
+        seed: a.sampling.seed,
         precision,
         max_memory: a.job.max_memory()?,
     };
@@ -157,7 +145,7 @@ fn summary(
             "scene": a.world.scene, "env": a.world.env, "output": written,
             "to": dst.name(), "preset": dst.preset_name(),
             "size": a.size, "width": w, "height": h,
-            "samples": a.samples, "filter": a.filter, "outside": a.outside,
+            "samples": a.sampling.samples, "filter": a.sampling.filter, "outside": a.sampling.outside,
             "triangles": scene.map(|s| s.triangle_count()),
             "degenerate_triangles": scene.map(|s| s.degenerate_count()),
             "lights": scene.map(|s| s.lights.len()),

@@ -10,7 +10,7 @@ use spheremap::generate::GenerateOptions;
 use spheremap::image_io::{check_nonfinite, read_image, Image, ReadOptions};
 use spheremap::mapping::Mapping;
 use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
-use spheremap::resample::{Filter, Outside, Progress};
+use spheremap::resample::Progress;
 use spheremap::view;
 use std::path::Path;
 use std::time::Instant;
@@ -30,22 +30,8 @@ pub struct MapOut {
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
     #[arg(long, default_value_t = 512)]
     size: usize,
-    /// Samples per texel: 1 = one lookup at the texel centre; S > 1 = at least S, spread over
-    /// the texel's footprint (more where it is stretched).
-    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
-    samples: u32,
-    /// The most samples one texel may take.
-    #[arg(long, default_value_t = 1024)]
-    max_samples: u32,
-    /// Reconstruction filter: box (default), tent, gaussian.
-    #[arg(long, default_value = "box")]
-    filter: String,
-    /// Outside the disc: gutter (default) or black.
-    #[arg(long, default_value = "gutter")]
-    outside: String,
-    /// Seed of the sample jitter.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    #[command(flatten)]
+    sampling: crate::sampling_args::SamplingArgs,
     /// The output's view, in the camera's frame (the camera looks down -Z, +Y up): the
     /// direction of the output eye's -Z (with --up); default 0 0 -1, the camera's own view.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
@@ -85,12 +71,12 @@ impl MapOut {
                 width,
                 height,
                 generate: GenerateOptions {
-                    samples: self.samples,
-                    max_samples: self.max_samples,
-                    filter: Filter::parse(&self.filter)?,
-                    outside: Outside::parse(&self.outside)?,
+                    samples: self.sampling.samples,
+                    max_samples: self.sampling.max_samples,
+                    filter: self.sampling.filter()?,
+                    outside: self.sampling.outside()?,
                     rotation,
-                    seed: self.seed,
+                    seed: self.sampling.seed,
                     max_memory: self.job.max_memory()?,
                     ..Default::default()
                 },
@@ -363,7 +349,7 @@ fn summary(
         let v = serde_json::json!({
             "inputs": inputs, "output": written, "models": models,
             "to": dst.name(), "preset": dst.preset_name(), "size": out.size,
-            "samples": out.samples, "fill": out.fill,
+            "samples": out.sampling.samples, "fill": out.fill,
             "shots": shots,
             "rotation": r.rotation, "rotation_deg": r.rotation_deg,
             "alignment_rms": r.alignment_rms, "gain": r.gain,

@@ -268,10 +268,9 @@ fn f32_fast_path_matches_f64_reference() {
     }
 }
 
-/// A fine checkerboard shrunk into a small sphere map: one sample per texel aliases, the
-/// adaptive default does not (it agrees with a brute-force 64×64-sample reference).
-#[test]
-fn adaptive_sampling_does_not_alias() {
+/// A 2-px checkerboard lat-long (1024×512) and the rms difference, over the disc of a 32²
+/// sphere map, of a conversion of it from a brute-force 4096-sample reference.
+fn checkerboard_vs_reference() -> (Image, impl Fn(&Image) -> f64) {
     let ll = Mapping::parse("latlong", None).unwrap();
     let sp = Mapping::parse("sphere", None).unwrap();
     let (w, h) = (1024, 512);
@@ -292,9 +291,8 @@ fn adaptive_sampling_does_not_alias() {
             ..Default::default()
         },
     );
-    let err = |o: &Image| {
-        let mut e = 0.0f64;
-        let mut n = 0;
+    let rms = move |o: &Image| {
+        let (mut e, mut n) = (0.0f64, 0);
         for y in 0..32 {
             for x in 0..32 {
                 let (a, b) = (x as f64 - 15.5, y as f64 - 15.5);
@@ -306,6 +304,16 @@ fn adaptive_sampling_does_not_alias() {
         }
         (e / n as f64).sqrt()
     };
+    (img, rms)
+}
+
+/// A fine checkerboard shrunk into a small sphere map: one sample per texel aliases, the
+/// adaptive default does not (it agrees with a brute-force 64×64-sample reference).
+#[test]
+fn adaptive_sampling_does_not_alias() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let (img, err) = checkerboard_vs_reference();
     let one = err(&convert(ll, &img, sp, 32, &opts(1)));
     let adaptive = err(&convert(ll, &img, sp, 32, &ResampleOptions::default()));
     assert!(one > 0.2, "one sample should alias: rms {one}");
@@ -322,37 +330,7 @@ fn adaptive_sampling_does_not_alias() {
 fn prefiltered_levels_do_not_alias() {
     let ll = Mapping::parse("latlong", None).unwrap();
     let sp = Mapping::parse("sphere", None).unwrap();
-    let (w, h) = (1024, 512);
-    let mut img = Image::new(w, h, 1);
-    for y in 0..h {
-        for x in 0..w {
-            img.data[y * w + x] = ((x / 2 + y / 2) % 2) as f32;
-        }
-    }
-    let reference = convert(
-        ll,
-        &img,
-        sp,
-        32,
-        &ResampleOptions {
-            samples: 4096,
-            max_samples: 4096,
-            ..Default::default()
-        },
-    );
-    let rms = |o: &Image| {
-        let (mut e, mut n) = (0.0f64, 0);
-        for y in 0..32 {
-            for x in 0..32 {
-                let (a, b) = (x as f64 - 15.5, y as f64 - 15.5);
-                if a.hypot(b) < 15.0 {
-                    e += (o.pixel(x, y)[0] - reference.pixel(x, y)[0]).powi(2) as f64;
-                    n += 1;
-                }
-            }
-        }
-        (e / n as f64).sqrt()
-    };
+    let (img, rms) = checkerboard_vs_reference();
     for s in [4, 16] {
         let o = ResampleOptions {
             samples: s,

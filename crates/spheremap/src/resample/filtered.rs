@@ -125,7 +125,7 @@ pub(crate) fn row<const C: usize>(
     let s = &levels[0];
     let w = f.lx.len();
     footprints::<C>(s, d, plan, y, f);
-    let (gx, gy) = strata(sp.base, sp.base, sp.samples, sp.cap);
+    let (gx, gy) = sp.grid;
     let mut max_n = 0;
     let mut lookups = 0u64;
     let top = levels.len() - 1;

@@ -499,9 +499,6 @@ fn run<T: Real, const C: usize>(
         )?;
         built = pyramid::build(src, &need, sp.depth);
     }
-    let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
-        .chain(built.iter().map(|l| s.level(l)))
-        .collect();
     if let Some((s32, d32)) = as_f32(&s, &d) {
         // The vectorized filtered path.
         let lv32: Vec<Src<f32>> = std::iter::once(Src::new(src))
@@ -528,6 +525,9 @@ fn run<T: Real, const C: usize>(
         };
         return Ok((out, report));
     }
+    let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
+        .chain(built.iter().map(|l| s.level(l)))
+        .collect();
     let mut out = Image::new(w, h, C);
     out.data
         .par_chunks_mut(w * C)
@@ -590,18 +590,23 @@ pub(crate) struct Sampling {
     pub(crate) cap: usize,
     /// Deepest prefiltered level available (0: none).
     pub(crate) depth: usize,
+    /// The common strata grid: ⌈√samples⌉ per axis, grown to `samples`, within `cap`.
+    pub(crate) grid: (usize, usize),
 }
 
 impl Sampling {
     fn new(opts: &ResampleOptions, depth: usize) -> Self {
         let radius = opts.filter.radius();
+        let base = (opts.samples as f64).sqrt().ceil() as usize;
+        let (samples, cap) = (opts.samples as usize, opts.max_samples as usize);
         Sampling {
             radius,
             support: 2.0 * radius,
-            base: (opts.samples as f64).sqrt().ceil() as usize,
-            samples: opts.samples as usize,
-            cap: opts.max_samples as usize,
+            base,
+            samples,
+            cap,
             depth,
+            grid: strata(base, base, samples, cap),
         }
     }
 
@@ -611,10 +616,9 @@ impl Sampling {
     /// where they are one texel apart: λ = log₂(spacing), clamped to the pyramid.
     #[inline]
     pub(crate) fn plan(&self, lx: f64, ly: f64) -> (usize, usize, f64) {
-        let (gx, gy) = strata(self.base, self.base, self.samples, self.cap);
-        let (nx, ny) = if self.cap <= gx * gy {
+        let (nx, ny) = if self.cap <= self.grid.0 * self.grid.1 {
             // No room for more samples than the common grid: it stays, the levels cover.
-            (gx, gy)
+            self.grid
         } else {
             strata(
                 self.base.max((lx * self.support).ceil() as usize),

@@ -144,7 +144,7 @@ pub(super) fn build(src: &EnvMap, need: &Need, depth: usize) -> Vec<Level> {
             // Parent rows 2y and 2y + 1, held from prow0.
             let r0 = &pdata[(2 * y - prow0) * pw * c..][..pw * c];
             let r1 = &pdata[(2 * y + 1 - prow0) * pw * c..][..pw * c];
-            halve_row(src.mapping, (pw, ph), 2 * y, r0, r1, c, out);
+            halve_row(src.mapping, ph, 2 * y, r0, r1, c, out);
         });
         levels.push(Level {
             w,
@@ -157,16 +157,8 @@ pub(super) fn build(src: &EnvMap, need: &Need, depth: usize) -> Vec<Level> {
     levels
 }
 
-/// One output row from parent rows `py` and `py + 1` of a `pw`×`ph` canvas.
-fn halve_row(
-    m: Mapping,
-    (pw, ph): (usize, usize),
-    py: usize,
-    r0: &[f32],
-    r1: &[f32],
-    c: usize,
-    out: &mut [f32],
-) {
+/// One output row from parent rows `py` and `py + 1` of a canvas `ph` rows high.
+fn halve_row(m: Mapping, ph: usize, py: usize, r0: &[f32], r1: &[f32], c: usize, out: &mut [f32]) {
     match m {
         Mapping::LatLong(_) => {
             let wt = |y: usize| ((y as f64 + 0.5) / ph as f64 * std::f64::consts::PI).sin();
@@ -187,7 +179,6 @@ fn halve_row(
                 let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - 0.5 * n);
                 dx * dx + dy * dy <= 0.25 * n * n
             };
-            let _ = pw;
             for (x, o) in out.chunks_exact_mut(c).enumerate() {
                 let kids = [
                     (r0, 2 * x, py),
@@ -228,8 +219,7 @@ fn halve_row(
 mod tests {
     use super::*;
 
-    fn env(m: &str, w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Image {
-        let _ = Mapping::parse(m, None).unwrap();
+    fn env(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Image {
         let mut img = Image::new(w, h, 1);
         for y in 0..h {
             for x in 0..w {
@@ -254,7 +244,7 @@ mod tests {
         for m in ["latlong", "cube", "sphere", "paraboloid", "octahedral"] {
             let mp = Mapping::parse(m, None).unwrap();
             let (w, h) = mp.canvas(32);
-            let img = env(m, w, h, |_, _| 2.5);
+            let img = env(w, h, |_, _| 2.5);
             let e = EnvMap::new(mp, &img, "t").unwrap();
             let d = max_depth(mp, w, h);
             let need = Need::new(mp, d, h);
@@ -268,7 +258,7 @@ mod tests {
         }
         // Rows 0 and 1 of a 4-row lat-long: sin(π/8) and sin(3π/8).
         let mp = Mapping::parse("latlong", None).unwrap();
-        let img = env("latlong", 8, 4, |_, y| y as f32);
+        let img = env(8, 4, |_, y| y as f32);
         let e = EnvMap::new(mp, &img, "t").unwrap();
         let need = Need::new(mp, 1, 4);
         need.mark(1, 0.0, 4.0);
@@ -283,7 +273,7 @@ mod tests {
     #[test]
     fn latlong_levels_hold_only_the_rows_asked_for_and_their_parents() {
         let mp = Mapping::parse("latlong", None).unwrap();
-        let img = env("latlong", 256, 128, |x, y| (x + 1000 * y) as f32);
+        let img = env(256, 128, |x, y| (x + 1000 * y) as f32);
         let e = EnvMap::new(mp, &img, "t").unwrap();
         let need = Need::new(mp, 3, 128);
         // Level 3 (16 rows): level-0 rows 60..68 → 7.5..8.5, then ± 2 rows: 5..=11.

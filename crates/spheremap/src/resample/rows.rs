@@ -292,13 +292,29 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
 /// across a cube seam) — the common case of `Src::lookup` — else `SLOW`.
 #[inline(always)]
 fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
-    let [ax, ay] = &mut sc.frac;
-    let out = Taps {
-        idx: &mut sc.idx,
-        ax,
-        ay,
-    };
-    taps_at::<C>(s, &sc.p, 1.0, None, out);
+    // Level 0 only (pyramid levels go through `taps_levels`): all rows are held.
+    debug_assert!(s.row0 == 0 && s.rows == s.h);
+    // Indices are u32: a source too large for them takes the general path throughout.
+    if s.data.len() >= SLOW as usize {
+        sc.idx.fill(SLOW);
+        return;
+    }
+    let c = s.hf * 0.5;
+    let face = s.wf;
+    let r2 = s.safe_r2;
+    match s.m {
+        Mapping::LatLong(_) | Mapping::Octahedral => taps_with::<C>(s, sc, |_, _, _| true),
+        // Both tap rows on the face the position belongs to.
+        Mapping::Cube(_) => taps_with::<C>(s, sc, |_, p1, fy| {
+            let f0 = (p1 / face).floor() * face;
+            fy >= f0 && fy + 1.0 < f0 + face
+        }),
+        Mapping::Sphere(_) | Mapping::Angular => taps_with::<C>(s, sc, |p0, p1, _| {
+            let (dx, dy) = (p0 - c, p1 - c);
+            dx * dx + dy * dy <= r2
+        }),
+        Mapping::Paraboloid => sc.idx.fill(SLOW),
+    }
 }
 
 /// Where pass 2b writes: tap indices and bilinear fractions.
@@ -308,81 +324,25 @@ pub(crate) struct Taps<'a> {
     pub(crate) ay: &'a mut [f32],
 }
 
-/// Pass 2b for level-0 positions `p` read in `s` (a pyramid level: positions × `scale`);
-/// with `only = Some((lv, k))`, only the lanes where `lv[x] == k` are written.
-#[inline(always)]
-pub(crate) fn taps_at<const C: usize>(
-    s: &Src<f32>,
-    p: &[Vec<f32>; 2],
-    scale: f32,
-    only: Option<(&[u8], u8)>,
-    out: Taps,
-) {
-    // Indices are u32: a source too large for them takes the general path throughout.
-    if s.data.len() >= SLOW as usize {
-        out.idx.fill(SLOW);
-        return;
-    }
-    let c = s.hf * 0.5;
-    let face = s.wf;
-    let r2 = s.safe_r2;
-    match s.m {
-        Mapping::LatLong(_) | Mapping::Octahedral => {
-            taps_with::<C>(s, p, scale, only, out, |_, _, _| true)
-        }
-        // Both tap rows on the face the position belongs to.
-        Mapping::Cube(_) => taps_with::<C>(s, p, scale, only, out, |_, p1, fy| {
-            let f0 = (p1 / face).floor() * face;
-            fy >= f0 && fy + 1.0 < f0 + face
-        }),
-        Mapping::Sphere(_) | Mapping::Angular => {
-            taps_with::<C>(s, p, scale, only, out, |p0, p1, _| {
-                let (dx, dy) = (p0 - c, p1 - c);
-                dx * dx + dy * dy <= r2
-            })
-        }
-        Mapping::Paraboloid => match only {
-            None => out.idx.fill(SLOW),
-            Some((lv, k)) => {
-                for x in 0..out.idx.len() {
-                    if lv[x] == k {
-                        out.idx[x] = SLOW;
-                    }
-                }
-            }
-        },
-    }
-}
-
 /// Pass 2b's loop; `tile_ok(px, py, floor(py − ½))` is the mapping's own condition.
 /// (`floor` here is one instruction: the callers are compiled for AVX2.)
 #[inline(always)]
 fn taps_with<const C: usize>(
     s: &Src<f32>,
-    p: &[Vec<f32>; 2],
-    scale: f32,
-    only: Option<(&[u8], u8)>,
-    out: Taps,
+    sc: &mut Scratch,
     tile_ok: impl Fn(f32, f32, f32) -> bool,
 ) {
-    let [px, py] = p;
-    let Taps { idx, ax, ay } = out;
+    let [px, py] = &sc.p;
+    let [ax, ay] = &mut sc.frac;
+    let idx = &mut sc.idx;
     let (wf, hf) = (s.wf, s.hf);
-    // The rows held: a level may hold a band.
-    let (r0, r1) = (s.row0 as f32, (s.row0 + s.rows) as f32);
     let row = (s.w * C) as u32;
-    let base = (s.row0 * s.w * C) as u32;
     for x in 0..idx.len() {
-        let (p0, p1) = (px[x] * scale, py[x] * scale);
+        let (p0, p1) = (px[x], py[x]);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
         // Written as `!(in range)` so that NaN positions fail too.
-        let ok = tile_ok(p0, p1, fy)
-            && fx >= 0.0
-            && fy >= r0
-            && fx + 1.0 < wf
-            && fy + 1.0 < hf
-            && fy + 1.0 < r1;
+        let ok = tile_ok(p0, p1, fy) && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < wf && fy + 1.0 < hf;
         // SAFETY: clamped into 0..=w and 0..=h first (NaN becomes 0), so the conversions
         // are in range; plain `as` would add a saturating fix-up that stops vectorization.
         let (xi, yi) = unsafe {
@@ -391,20 +351,9 @@ fn taps_with<const C: usize>(
                 fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
             )
         };
-        let i = if ok {
-            (yi * row + xi * C as u32).wrapping_sub(base)
-        } else {
-            SLOW
-        };
-        let keep = match only {
-            Some((lv, k)) => lv[x] == k,
-            None => true,
-        };
-        if keep {
-            idx[x] = i;
-            ax[x] = qx - fx;
-            ay[x] = qy - fy;
-        }
+        idx[x] = if ok { yi * row + xi * C as u32 } else { SLOW };
+        ax[x] = qx - fx;
+        ay[x] = qy - fy;
     }
 }
 

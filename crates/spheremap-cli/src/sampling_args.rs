@@ -1,0 +1,36 @@
+//! The filtering flags of every command that fills texels from samples — `convert`,
+//! `generate`, `from-photo`, `from-fisheye`: one place for their names, defaults and help.
+
+use spheremap::resample::{Filter, Outside, DEFAULT_SAMPLES};
+
+#[derive(clap::Args, Debug)]
+pub struct SamplingArgs {
+    /// Samples per output texel (rays, for `generate`): 1 = one at the texel centre (no
+    /// filtering, for comparisons); S > 1 = at least S, more where a texel's footprint is
+    /// stretched or covers more source texels.
+    #[arg(long, default_value_t = DEFAULT_SAMPLES)]
+    pub samples: u32,
+    /// The most samples one texel may take when adapting to its footprint (conversions: beyond
+    /// it, the lookups read prefiltered source levels).
+    #[arg(long, default_value_t = 1024)]
+    pub max_samples: u32,
+    /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
+    #[arg(long, default_value = "box")]
+    pub filter: String,
+    /// Outside a sphere/angular/paraboloid disc: gutter (mirror across the rim, no dark fringe
+    /// under GPU filtering; default) or black.
+    #[arg(long, default_value = "gutter")]
+    pub outside: String,
+    /// Seed of the sample jitter (results are deterministic for a seed).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl SamplingArgs {
+    pub fn filter(&self) -> spheremap::Result<Filter> {
+        Filter::parse(&self.filter)
+    }
+    pub fn outside(&self) -> spheremap::Result<Outside> {
+        Outside::parse(&self.outside)
+    }
+}
