@@ -1,33 +1,43 @@
 //! The filtered path for f32 (`samples` > 1): the same sampling as [`super::row_filtered`]
 //! (same footprints, strata, jitter hash, levels and weights), laid out for vectors.
 //!
-//! A row is done in passes over all its texels at once: first the footprints (the texels'
-//! edge midpoints through passes 1–2 of [`super::rows`]), giving each texel its strata and
-//! level; then, for each stratum (i, j) of the common g×g grid, one sample per texel through
-//! passes 1–2b and a gather that accumulates into the texel.  Texels whose footprint asks for
-//! more strata than the common grid (only when `max_samples` allows more than `samples`) are
-//! done one by one by the generic code.
+//! A row is done in passes: first the footprints of all its texels (their edge midpoints
+//! through passes 1–2 of [`super::rows`]), giving each texel its strata and level; then, a
+//! chunk of texels at a time, every sample of the common g×g grid of every texel in the
+//! chunk (texel-major: a texel's samples are consecutive) through passes 1–2b, and a gather
+//! that sums each texel's samples in registers and writes it.  Texels whose footprint asks
+//! for more strata than the common grid (only when `max_samples` allows more than
+//! `samples`) are done one by one by the generic code.
 
 use super::rows::{
-    bilerp, passes, prefetch, taps_levels, vectorized, LevelTab, Plan, Points, Scratch, Taps,
-    AHEAD, SLOW,
+    bilerp, passes, taps_levels, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
 };
 use super::*;
 
 /// `FScratch::l1` of a texel that reads one level.
 const NONE: u8 = u8::MAX;
 
-/// Per-thread buffers of the filtered path for a row of `w` texels.
+/// About how many samples a chunk holds (its arrays stay in the first-level cache).
+const CHUNK: usize = 1024;
+
+/// Per-thread buffers of the filtered path for a row of `w` texels and a common grid of
+/// `n` strata per texel.
 pub(crate) struct FScratch {
     /// Footprint points: the 3w + 1 edge midpoints of a row.
     fp: Scratch,
-    /// One sample per texel.
+    /// The samples of a chunk of `per` texels, texel-major.
     sc: Scratch,
+    per: usize,
+    /// Per sample of a chunk: its texel (from the chunk's first), its stratum k = j·gx + i,
+    /// and i, j as floats.
+    pt_t: Vec<u32>,
+    pt_k: Vec<u32>,
+    pt_i: Vec<f32>,
+    pt_j: Vec<f32>,
     pub(crate) lx: Vec<f64>,
     pub(crate) ly: Vec<f64>,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
-    lambda: Vec<f64>,
     grid: Vec<bool>,
     /// The two levels a texel reads (`NONE`: none) and the weight of the upper one.
     l0: Vec<u8>,
@@ -35,38 +45,56 @@ pub(crate) struct FScratch {
     l0s: Vec<u8>,
     l1: Vec<u8>,
     frac: Vec<f32>,
-    /// Pass 2b at those levels (level 0 uses the scratch's own).
+    /// `l0s` and `l1` per sample of a chunk.
+    pl0: Vec<u8>,
+    pl1: Vec<u8>,
+    /// Pass 2b at those levels, per sample (level 0 uses the scratch's own).
     lo_f: [Vec<f32>; 2],
     lo_idx: Vec<u32>,
     hi_f: [Vec<f32>; 2],
     hi_idx: Vec<u32>,
+    /// Filter weights per sample (all 1 for the plain box).
     wt: Vec<f32>,
-    acc: Vec<f32>,
-    wsum: Vec<f32>,
 }
 
 impl FScratch {
-    pub(crate) fn new(w: usize, c: usize) -> Self {
+    pub(crate) fn new(w: usize, (gx, gy): (usize, usize)) -> Self {
+        let n = (gx * gy).max(1);
+        let per = (CHUNK / n).clamp(1, w.max(1));
+        let m = per * n;
+        let (mut pt_t, mut pt_k, mut pt_i, mut pt_j) = (vec![], vec![], vec![], vec![]);
+        for t in 0..per {
+            for k in 0..n {
+                pt_t.push(t as u32);
+                pt_k.push(k as u32);
+                pt_i.push((k % gx.max(1)) as f32);
+                pt_j.push((k / gx.max(1)) as f32);
+            }
+        }
         FScratch {
             fp: Scratch::new(3 * w + 1),
-            sc: Scratch::new(w),
+            sc: Scratch::new(m),
+            per,
+            pt_t,
+            pt_k,
+            pt_i,
+            pt_j,
             lx: vec![0.0; w],
             ly: vec![0.0; w],
             lo: vec![0.0; w],
             hi: vec![0.0; w],
-            lambda: vec![0.0; w],
             grid: vec![false; w],
             l0: vec![0; w],
             l0s: vec![NONE; w],
             l1: vec![NONE; w],
             frac: vec![0.0; w],
-            lo_f: [vec![0.0; w], vec![0.0; w]],
-            lo_idx: vec![SLOW; w],
-            hi_f: [vec![0.0; w], vec![0.0; w]],
-            hi_idx: vec![SLOW; w],
-            wt: vec![1.0; w],
-            acc: vec![0.0; w * c],
-            wsum: vec![0.0; w],
+            pl0: vec![NONE; m],
+            pl1: vec![NONE; m],
+            lo_f: [vec![0.0; m], vec![0.0; m]],
+            lo_idx: vec![SLOW; m],
+            hi_f: [vec![0.0; m], vec![0.0; m]],
+            hi_idx: vec![SLOW; m],
+            wt: vec![1.0; m],
         }
     }
 }
@@ -126,14 +154,13 @@ pub(crate) fn row<const C: usize>(
     let w = f.lx.len();
     footprints::<C>(s, d, plan, y, f);
     let (gx, gy) = sp.grid;
+    let n = gx * gy;
     let mut max_n = 0;
     let mut lookups = 0u64;
     let top = levels.len() - 1;
-    let mut deepest = 0;
     for x in 0..w {
         let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
         f.grid[x] = (nx, ny) == (gx, gy);
-        f.lambda[x] = lambda;
         // The levels around λ, as `lookup_lod` reads them.
         let l0 = (lambda.max(0.0).floor() as usize).min(top);
         let fr = if l0 < top { lambda - l0 as f64 } else { 0.0 };
@@ -145,141 +172,249 @@ pub(crate) fn row<const C: usize>(
         } else {
             NONE
         };
-        if f.grid[x] {
-            deepest = deepest.max(l0 + usize::from(fr > 0.0));
-        }
     }
-    f.acc.fill(0.0);
-    f.wsum.fill(0.0);
     let seed = opts.seed as u32 ^ (opts.seed >> 32) as u32;
     let (r, support) = (sp.radius as f32, sp.support as f32);
     let plain = opts.filter == Filter::Box && !d.weighted;
     let black = d.outside == Outside::Black;
-    let data = s.data;
-    let row = s.w * C;
+    let (kx, ky) = (support / gx as f32, support / gy as f32);
     let (yc, yu) = (y as f32 + 0.5, y as u32);
-    for j in 0..gy {
-        for i in 0..gx {
-            let k = (j * gx + i) as u32;
-            let sc = &mut f.sc;
-            {
-                let [px, py] = &mut sc.pts;
-                let (kx, ky) = (support / gx as f32, support / gy as f32);
-                vectorized(
-                    #[inline(always)]
-                    || {
-                        strata_points(
-                            &mut px[..w],
-                            &mut py[..w],
-                            seed,
-                            yu,
-                            k,
-                            [i, j],
-                            [kx, ky],
-                            r,
-                            yc,
-                        )
-                    },
-                );
-            }
-            if !plain {
-                for x in 0..w {
-                    let (sx, sy) = (sc.pts[0][x], sc.pts[1][x]);
-                    let (ox, oy) = ((sx - x as f32 - 0.5) as f64, (sy - yc) as f64);
-                    f.wt[x] = (opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy))
-                        as f32;
-                }
-            }
-            passes::<C>(s, d, plan, Points::At, sc);
-            // Pass 2b at the levels this row's texels read (lanes at level 0 use the above).
-            if deepest > 0 {
-                let (p, l0, l1) = (&sc.p, &f.l0s, &f.l1);
-                let [lax, lay] = &mut f.lo_f;
-                let [hax, hay] = &mut f.hi_f;
-                let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
-                vectorized(
-                    #[inline(always)]
-                    || {
-                        let lo = Taps {
-                            idx: lo_idx,
-                            ax: lax,
-                            ay: lay,
-                        };
-                        taps_levels::<C>(s.m, tab, p, l0, lo);
-                        let hi = Taps {
-                            idx: hi_idx,
-                            ax: hax,
-                            ay: hay,
-                        };
-                        taps_levels::<C>(s.m, tab, p, l1, hi);
-                    },
-                );
-            }
-            for x in 0..w {
-                if let Some(&jn) = sc.idx.get(x + AHEAD) {
-                    prefetch::<C>(data, row, jn);
-                }
-                if !f.grid[x] {
-                    continue;
-                }
-                let wt = f.wt[x];
-                f.wsum[x] += wt;
-                if black && !sc.on[x] {
-                    continue;
-                }
-                lookups += 1;
-                let acc: &mut [f32; C] = (&mut f.acc[x * C..x * C + C]).try_into().unwrap();
-                let p = [sc.p[0][x], sc.p[1][x]];
-                let (l0, fr) = (f.l0[x] as usize, f.frac[x]);
-                if l0 == 0 {
-                    let i00 = sc.idx[x];
-                    let w0 = wt * (1.0 - fr);
-                    if i00 == SLOW {
-                        levels[0].lookup(p, w0, acc);
-                    } else {
-                        let v = bilerp::<C>(data, row, i00, sc.frac[0][x], sc.frac[1][x]);
-                        for c in 0..C {
-                            acc[c] += w0 * v[c];
-                        }
+    let per = f.per;
+    for x0 in (0..w).step_by(per) {
+        let cnt = per.min(w - x0);
+        if !f.grid[x0..x0 + cnt].iter().any(|&g| g) {
+            continue;
+        }
+        let sc = &mut f.sc;
+        {
+            // Every sample of the chunk's texels (a short last chunk repeats its last texel).
+            let [px, py] = &mut sc.pts;
+            let (pt_t, pt_k, pt_i, pt_j) = (&f.pt_t, &f.pt_k, &f.pt_i, &f.pt_j);
+            let last = (w - 1) as u32;
+            vectorized(
+                #[inline(always)]
+                || {
+                    let m = px.len().min(py.len()).min(pt_t.len());
+                    let (px, py) = (&mut px[..m], &mut py[..m]);
+                    let (pt_t, pt_k, pt_i, pt_j) = (&pt_t[..m], &pt_k[..m], &pt_i[..m], &pt_j[..m]);
+                    for p in 0..m {
+                        let x = (x0 as u32 + pt_t[p]).min(last);
+                        let h = hash32(seed, x, yu, pt_k[p]);
+                        // Through i32: exact (< 2¹⁶), and signed conversions vectorize.
+                        let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
+                        let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
+                        px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
+                        py[p] = yc - r + (pt_j[p] + jy) * ky;
                     }
-                } else {
-                    let (ax, ay) = (f.lo_f[0][x], f.lo_f[1][x]);
-                    level_lookup::<C>(
-                        &levels[l0],
-                        l0,
-                        p,
-                        f.lo_idx[x],
-                        ax,
-                        ay,
-                        wt * (1.0 - fr),
-                        acc,
-                    );
+                },
+            );
+        }
+        if !plain {
+            for p in 0..cnt * n {
+                let (sx, sy) = (sc.pts[0][p], sc.pts[1][p]);
+                let x = x0 + p / n;
+                let (ox, oy) = ((sx - x as f32 - 0.5) as f64, (sy - yc) as f64);
+                f.wt[p] =
+                    (opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy)) as f32;
+            }
+        }
+        passes::<C>(s, d, plan, Points::At, sc);
+        // Pass 2b at the levels the chunk's texels read (lanes at level 0 use the above).
+        let deep = (x0..x0 + cnt).any(|x| f.l0s[x] != NONE || f.l1[x] != NONE);
+        if deep {
+            for p in 0..f.pl0.len() {
+                let x = (x0 + f.pt_t[p] as usize).min(w - 1);
+                f.pl0[p] = f.l0s[x];
+                f.pl1[p] = f.l1[x];
+            }
+            let (p, l0, l1) = (&sc.p, &f.pl0, &f.pl1);
+            let [lax, lay] = &mut f.lo_f;
+            let [hax, hay] = &mut f.hi_f;
+            let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
+            vectorized(
+                #[inline(always)]
+                || {
+                    let lo = Taps {
+                        idx: lo_idx,
+                        ax: lax,
+                        ay: lay,
+                    };
+                    taps_levels::<C>(s.m, tab, p, l0, lo);
+                    let hi = Taps {
+                        idx: hi_idx,
+                        ax: hax,
+                        ay: hay,
+                    };
+                    taps_levels::<C>(s.m, tab, p, l1, hi);
+                },
+            );
+        }
+        let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
+        for (t, px) in chunk_out.chunks_exact_mut(C).enumerate() {
+            let x = x0 + t;
+            if !f.grid[x] {
+                continue;
+            }
+            max_n = max_n.max(n);
+            let b = t * n;
+            let (l0, fr) = (f.l0[x] as usize, f.frac[x]);
+            let mut acc = [0.0f32; C];
+            let wsum;
+            if l0 == 0 && fr == 0.0 && plain && !black {
+                // The common case: unit weights, level 0 only (the same sums as below).
+                lookups += n as u64;
+                wsum = n as f32;
+                gather0::<C>(s, &sc.p, &sc.idx, &sc.frac, b, n, &mut acc);
+            } else {
+                let mut ws = 0.0f32;
+                for q in b..b + n {
+                    let wt = if plain { 1.0 } else { f.wt[q] };
+                    ws += wt;
+                    if black && !sc.on[q] {
+                        continue;
+                    }
+                    lookups += 1;
+                    let p = [sc.p[0][q], sc.p[1][q]];
+                    if l0 == 0 {
+                        let w0 = wt * (1.0 - fr);
+                        lookup0::<C>(s, p, sc.idx[q], sc.frac[0][q], sc.frac[1][q], w0, &mut acc);
+                    } else {
+                        let (ax, ay) = (f.lo_f[0][q], f.lo_f[1][q]);
+                        let i = f.lo_idx[q];
+                        level_lookup::<C>(&levels[l0], l0, p, i, ax, ay, wt * (1.0 - fr), &mut acc);
+                    }
+                    if fr > 0.0 {
+                        let l1 = f.l1[x] as usize;
+                        let (ax, ay) = (f.hi_f[0][q], f.hi_f[1][q]);
+                        let i = f.hi_idx[q];
+                        level_lookup::<C>(&levels[l1], l1, p, i, ax, ay, wt * fr, &mut acc);
+                    }
                 }
-                if fr > 0.0 {
-                    let l1 = f.l1[x] as usize;
-                    let (ax, ay) = (f.hi_f[0][x], f.hi_f[1][x]);
-                    level_lookup::<C>(&levels[l1], l1, p, f.hi_idx[x], ax, ay, wt * fr, acc);
-                }
+                wsum = ws;
+            }
+            for c in 0..C {
+                px[c].write(if wsum > 0.0 { acc[c] / wsum } else { 0.0 });
             }
         }
     }
+    // Texels with their own strata, one by one.
     for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        let v: [f32; C] = if f.grid[x] {
-            max_n = max_n.max(gx * gy);
-            let ws = f.wsum[x];
-            std::array::from_fn(|c| if ws > 0.0 { f.acc[x * C + c] / ws } else { 0.0 })
-        } else {
-            let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-            max_n = max_n.max(nx * ny);
-            let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, (nx, ny, lambda));
-            lookups += l;
-            v
-        };
+        if f.grid[x] {
+            continue;
+        }
+        let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
+        max_n = max_n.max(nx * ny);
+        let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, (nx, ny, lambda));
+        lookups += l;
         for c in 0..C {
             px[c].write(v[c]);
         }
     }
     (lookups, max_n)
+}
+
+/// The sum of samples `b..b + n` (level 0, unit weights) into `acc`.  (No software
+/// prefetch: a texel's samples share their cache lines, and the texels follow each other
+/// along the source closely enough for the hardware's prefetcher; measured no faster.)
+#[inline(always)]
+fn gather0<const C: usize>(
+    s: &Src<f32>,
+    p: &[Vec<f32>; 2],
+    idx: &[u32],
+    frac: &[Vec<f32>; 2],
+    b: usize,
+    n: usize,
+    acc: &mut [f32; C],
+) {
+    let (data, row) = (s.data, s.w * C);
+    if C == 3 || C == 4 {
+        // A texel's channels as one 4-lane vector (for C = 3 the lane after its blue is the
+        // next texel's red, unused): 4 loads and 6 vector operations per lookup.  The last
+        // lookups of the data would read one value past its end; they go the scalar way.
+        let lim = data.len().saturating_sub(row + C + 4) as u32;
+        let mut a4 = [0.0f32; 4];
+        for q in b..b + n {
+            let i00 = idx[q];
+            if i00 <= lim {
+                let v = bilerp4::<C>(data, row, i00 as usize, frac[0][q], frac[1][q]);
+                for c in 0..4 {
+                    a4[c] += v[c];
+                }
+            } else {
+                lookup0::<C>(s, [p[0][q], p[1][q]], i00, frac[0][q], frac[1][q], 1.0, acc);
+            }
+        }
+        for c in 0..C {
+            acc[c] += a4[c];
+        }
+        return;
+    }
+    for q in b..b + n {
+        lookup0::<C>(
+            s,
+            [p[0][q], p[1][q]],
+            idx[q],
+            frac[0][q],
+            frac[1][q],
+            1.0,
+            acc,
+        );
+    }
+}
+
+/// [`bilerp`] for C = 3 or 4 on 4-lane vectors; needs `i00 + row + C + 4 ≤ data.len()`.
+#[inline(always)]
+fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f32) -> [f32; 4] {
+    debug_assert!(i00 + row + C + 4 <= data.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Written with SSE (x86-64's baseline): left to itself, the compiler splits the
+        // vectors into pairs and singles here.
+        use std::arch::x86_64::*;
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        unsafe {
+            let p = data.as_ptr().add(i00);
+            let (a, b) = (_mm_loadu_ps(p), _mm_loadu_ps(p.add(C)));
+            let (c, d) = (_mm_loadu_ps(p.add(row)), _mm_loadu_ps(p.add(row + C)));
+            let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
+            let top = _mm_add_ps(a, _mm_mul_ps(vx, _mm_sub_ps(b, a)));
+            let bot = _mm_add_ps(c, _mm_mul_ps(vx, _mm_sub_ps(d, c)));
+            let v = _mm_add_ps(top, _mm_mul_ps(vy, _mm_sub_ps(bot, top)));
+            std::mem::transmute::<__m128, [f32; 4]>(v)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        let ld = |i: usize| unsafe { (data.as_ptr().add(i) as *const [f32; 4]).read_unaligned() };
+        let (a, b, c, d) = (ld(i00), ld(i00 + C), ld(i00 + row), ld(i00 + row + C));
+        std::array::from_fn(|k| {
+            let top = a[k] + ax * (b[k] - a[k]);
+            let bot = c[k] + ax * (d[k] - c[k]);
+            top + ay * (bot - top)
+        })
+    }
+}
+
+/// A level-0 bilinear lookup (`i00`, `ax`, `ay` from pass 2b), weighted into `acc`.
+#[inline(always)]
+fn lookup0<const C: usize>(
+    s: &Src<f32>,
+    p: [f32; 2],
+    i00: u32,
+    ax: f32,
+    ay: f32,
+    wt: f32,
+    acc: &mut [f32; C],
+) {
+    if i00 == SLOW {
+        s.lookup(p, wt, acc);
+    } else {
+        let v = bilerp::<C>(s.data, s.w * C, i00, ax, ay);
+        for c in 0..C {
+            acc[c] += wt * v[c];
+        }
+    }
 }
 
 /// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there), weighted into `acc`.
@@ -303,30 +438,5 @@ fn level_lookup<const C: usize>(
         for c in 0..C {
             acc[c] += wt * v[c];
         }
-    }
-}
-
-/// Stratum `ij` of every texel of row `yu` (jittered by the hash): canvas points into px, py.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn strata_points(
-    px: &mut [f32],
-    py: &mut [f32],
-    seed: u32,
-    yu: u32,
-    k: u32,
-    [i, j]: [usize; 2],
-    [kx, ky]: [f32; 2],
-    r: f32,
-    yc: f32,
-) {
-    let (fi, fj) = (i as f32, j as f32);
-    for x in 0..px.len().min(py.len()) {
-        let h = hash32(seed, x as u32, yu, k);
-        // Through i32: exact (< 2¹⁶), and signed conversions vectorize.
-        let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
-        let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
-        px[x] = x as i32 as f32 + 0.5 - r + (fi + jx) * kx;
-        py[x] = yc - r + (fj + jy) * ky;
     }
 }

@@ -466,13 +466,20 @@ fn run<T: Real, const C: usize>(
     };
     let mut sp = Sampling::new(opts, depth_max);
     let mut built = vec![];
-    if depth_max > 0 {
+    let whole = pyramid::Need::everything(src.mapping, depth_max, src.height);
+    if depth_max > 0 && whole.bytes(src, depth_max) <= SMALL_PYRAMID {
+        // A small source: its whole pyramid costs less memory than the pre-pass costs time
+        // (the pre-pass measures every footprint; the results are the same either way, as
+        // no texel's λ exceeds the deepest level the pre-pass would mark).
+        check_memory_filtered(w * h * C, whole.bytes(src, depth_max), opts)?;
+        built = pyramid::build(src, &whole, depth_max);
+    } else if depth_max > 0 {
         let need = pyramid::Need::new(src.mapping, depth_max, src.height);
         if let Some((s32, d32)) = as_f32(&s, &d) {
             // The vectorized path's own footprints (what its sampling will use).
             let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
             (0..h).into_par_iter().with_min_len(4).for_each_init(
-                || filtered::FScratch::new(w, C),
+                || filtered::FScratch::new(w, sp.grid),
                 |f, y| {
                     filtered::footprints::<C>(s32, d32, &plan, y, f);
                     for x in 0..w {
@@ -491,12 +498,7 @@ fn run<T: Real, const C: usize>(
             });
         }
         sp.depth = need.depth();
-        // The output (and as much again for whoever encodes it), plus the levels.
-        crate::error::check_memory(
-            "size",
-            2 * (w * h * C) as u128 * 4 + need.bytes(src, sp.depth),
-            opts.max_memory,
-        )?;
+        check_memory_filtered(w * h * C, need.bytes(src, sp.depth), opts)?;
         built = pyramid::build(src, &need, sp.depth);
     }
     if let Some((s32, d32)) = as_f32(&s, &d) {
@@ -512,7 +514,7 @@ fn run<T: Real, const C: usize>(
             C,
             2,
             progress,
-            || filtered::FScratch::new(w, C),
+            || filtered::FScratch::new(w, sp.grid),
             |f, y, row| {
                 let (l, m) = filtered::row::<C>(&lv32, &tab, d32, &plan, y, f, row, opts, &sp);
                 lookups.fetch_add(l, Ordering::Relaxed);
@@ -576,6 +578,16 @@ fn row_single<T: Real, const C: usize>(
         }
     }
     (row.len() as u64 / C as u64, 1)
+}
+
+/// The most memory the prefiltered levels may take to be built whole, without measuring
+/// which rows the footprints reach (a 4096×2048 RGB lat-long's pyramid is 32 MiB).
+const SMALL_PYRAMID: u128 = 32 << 20;
+
+/// The memory check of a filtered conversion: the output (and as much again for whoever
+/// encodes it), plus the levels.
+fn check_memory_filtered(out_values: usize, levels: u128, opts: &ResampleOptions) -> Result<()> {
+    crate::error::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
 }
 
 /// The per-run constants of filtered sampling.

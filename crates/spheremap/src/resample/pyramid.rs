@@ -64,6 +64,15 @@ impl Need {
         }
     }
 
+    /// Every row of every level 1..=depth (no footprint pre-pass).
+    pub(super) fn everything(m: Mapping, depth: usize, h: usize) -> Self {
+        let need = Need::new(m, depth, h);
+        for k in 1..=depth {
+            need.mark(k, 0.0, h as f64);
+        }
+        need
+    }
+
     /// Lookups at level `k` ≥ 1 touch level-0 rows `y0 ..= y1` (continuous, any margin added
     /// here).
     pub(super) fn mark(&self, k: usize, y0: f64, y1: f64) {

@@ -282,6 +282,7 @@ impl<'a, T: Real> Src<'a, T> {
 impl<T: Real> Src<'_, T> {
     /// How many source texels lie between two source positions (the directions `da`, `db` are
     /// used where pixel distance means nothing: across a cube seam).
+    #[inline]
     pub(super) fn span(&self, a: [T; 2], b: [T; 2], da: [T; 3], db: [T; 3]) -> f64 {
         let (mut dx, dy) = ((b[0] - a[0]).to_f64().abs(), (b[1] - a[1]).to_f64().abs());
         match self.m {
