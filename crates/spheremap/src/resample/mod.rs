@@ -63,7 +63,7 @@ mod rows;
 mod source;
 
 pub(crate) use dest::Dst;
-use pyramid::Level;
+use pyramid::{Level, NO_ROW};
 use source::Src;
 
 /// Reconstruction filter over the output texel's footprint.

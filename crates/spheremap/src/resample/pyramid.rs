@@ -13,21 +13,26 @@
 //! * octahedral: the plain 2×2 average.
 //!
 //! A level exists while both canvas sides (a cube's face) halve exactly and stay ≥ 2.  A
-//! lat-long level may hold only a band of rows (`row0 .. row0 + rows`): the rows that the
-//! lookups of this conversion need (measured beforehand from the texels' footprints), so
-//! that shrinking a large lat-long into a small sphere map does not allocate a third of the
-//! input again for the few rim texels that read the coarse levels.
+//! lat-long level may hold only some of its rows: those that the lookups of this conversion
+//! need (measured beforehand from the texels' footprints), and the parents of the next
+//! level's.  The rows held need not be contiguous — a sphere map's rim and the texels that
+//! see the two poles ask for three separate bands — so shrinking a large lat-long into a
+//! smaller sphere map does not allocate a third of the input again for the few texels that
+//! read the coarse levels.  `Level::rowmap` says where each held canvas row lies in `data`.
 
 use super::*;
 
-/// One level: a canvas of `w`×`h` of which rows `row0 .. row0 + rows` are held in `data`.
+/// One level: a canvas of `w`×`h` of which the rows with `rowmap[y] != NO_ROW` are held, row
+/// y at `data[rowmap[y]·w·C ..]`, in canvas order.
 pub(crate) struct Level {
     pub(crate) w: usize,
     pub(crate) h: usize,
-    pub(crate) row0: usize,
-    pub(crate) rows: usize,
+    pub(crate) rowmap: Vec<u32>,
     pub(crate) data: Vec<f32>,
 }
+
+/// `Level::rowmap` of a row that is not held.
+pub(crate) const NO_ROW: u32 = u32::MAX;
 
 /// How many times a `w`×`h` canvas of `m` halves exactly.
 pub(super) fn max_depth(m: Mapping, w: usize, h: usize) -> usize {
@@ -45,10 +50,11 @@ pub(super) fn max_depth(m: Mapping, w: usize, h: usize) -> usize {
     k
 }
 
-/// Rows of each level that lookups need: `lo[k]..=hi[k]` for level k + 1 (empty when lo > hi).
+/// Rows of each level that lookups need: `rows[k − 1][y]` for level k.
 pub(super) struct Need {
-    lo: Vec<AtomicUsize>,
-    hi: Vec<AtomicUsize>,
+    rows: Vec<Vec<AtomicBool>>,
+    /// Level k is read at all.
+    used: Vec<AtomicBool>,
     /// The level's rows in all (the other mappings: their wrap rules reach any row).
     whole: bool,
     h: usize,
@@ -56,10 +62,16 @@ pub(super) struct Need {
 
 impl Need {
     pub(super) fn new(m: Mapping, depth: usize, h: usize) -> Self {
+        let whole = !matches!(m, Mapping::LatLong(_));
         Need {
-            lo: (0..depth).map(|_| AtomicUsize::new(usize::MAX)).collect(),
-            hi: (0..depth).map(|_| AtomicUsize::new(0)).collect(),
-            whole: !matches!(m, Mapping::LatLong(_)),
+            rows: (1..=depth)
+                .map(|k| {
+                    let n = if whole { 0 } else { h >> k };
+                    (0..n).map(|_| AtomicBool::new(false)).collect()
+                })
+                .collect(),
+            used: (0..depth).map(|_| AtomicBool::new(false)).collect(),
+            whole,
             h,
         }
     }
@@ -76,7 +88,11 @@ impl Need {
     /// Lookups at level `k` ≥ 1 touch level-0 rows `y0 ..= y1` (continuous, any margin added
     /// here).
     pub(super) fn mark(&self, k: usize, y0: f64, y1: f64) {
-        if k == 0 || k > self.lo.len() {
+        if k == 0 || k > self.used.len() {
+            return;
+        }
+        self.used[k - 1].store(true, Ordering::Relaxed);
+        if self.whole {
             return;
         }
         let hk = (self.h >> k) as f64;
@@ -85,52 +101,59 @@ impl Need {
         // the lookups.
         let a = (y0 * s - 2.0).floor().clamp(0.0, hk - 1.0) as usize;
         let b = (y1 * s + 2.0).ceil().clamp(0.0, hk - 1.0) as usize;
-        self.lo[k - 1].fetch_min(a, Ordering::Relaxed);
-        self.hi[k - 1].fetch_max(b, Ordering::Relaxed);
+        for r in &self.rows[k - 1][a..=b.max(a)] {
+            // Read first: most rows are marked many times, and a store would bounce the
+            // cache line between the threads.
+            if !r.load(Ordering::Relaxed) {
+                r.store(true, Ordering::Relaxed);
+            }
+        }
     }
 
     /// The deepest level marked.
     pub(super) fn depth(&self) -> usize {
-        (1..=self.lo.len())
+        (1..=self.used.len())
             .rev()
-            .find(|&k| self.lo[k - 1].load(Ordering::Relaxed) != usize::MAX)
+            .find(|&k| self.used[k - 1].load(Ordering::Relaxed))
             .unwrap_or(0)
     }
 
-    /// Held rows per level 1..=depth: each level also holds the parents of the next one's.
-    fn windows(&self, depth: usize) -> Vec<(usize, usize)> {
-        let mut win = vec![(0usize, 0usize); depth];
-        let mut below: Option<(usize, usize)> = None;
+    /// Held rows per level 1..=depth: its own, and the parents of the next level's.
+    fn held(&self, depth: usize) -> Vec<Vec<bool>> {
+        let mut held: Vec<Vec<bool>> = vec![vec![]; depth];
         for k in (1..=depth).rev() {
             let hk = self.h >> k;
-            let own = if self.whole {
-                Some((0, hk - 1))
+            let mut own: Vec<bool> = if self.whole {
+                vec![true; hk]
             } else {
-                let (a, b) = (
-                    self.lo[k - 1].load(Ordering::Relaxed),
-                    self.hi[k - 1].load(Ordering::Relaxed),
-                );
-                (a <= b).then_some((a, b))
+                self.rows[k - 1]
+                    .iter()
+                    .map(|r| r.load(Ordering::Relaxed))
+                    .collect()
             };
-            // Level k + 1 rows c..=d are built from level-k rows 2c ..= 2d + 1.
-            let parents = below.map(|(c, d)| (2 * c, 2 * d + 1));
-            let (a, b) = match (own, parents) {
-                (Some((a, b)), Some((c, d))) => (a.min(c), b.max(d)),
-                (Some(w), None) | (None, Some(w)) => w,
-                (None, None) => (0, 0),
-            };
-            win[k - 1] = (a.min(hk - 1), b.min(hk - 1));
-            below = Some(win[k - 1]);
+            if k < depth {
+                // Level k + 1 row y is built from level-k rows 2y and 2y + 1.
+                for (y, &h) in held[k].iter().enumerate() {
+                    if h {
+                        own[2 * y] = true;
+                        own[2 * y + 1] = true;
+                    }
+                }
+            }
+            held[k - 1] = own;
         }
-        win
+        held
     }
 
-    /// Bytes the levels up to `depth` would take with these windows.
+    /// Bytes the levels up to `depth` would take.
     pub(super) fn bytes(&self, src: &EnvMap, depth: usize) -> u128 {
-        self.windows(depth)
+        self.held(depth)
             .iter()
             .enumerate()
-            .map(|(i, &(a, b))| ((src.width >> (i + 1)) * (b - a + 1) * src.channels) as u128 * 4)
+            .map(|(i, rows)| {
+                let n = rows.iter().filter(|&&h| h).count();
+                ((src.width >> (i + 1)) * n * src.channels) as u128 * 4
+            })
             .sum()
     }
 }
@@ -139,29 +162,36 @@ impl Need {
 pub(super) fn build(src: &EnvMap, need: &Need, depth: usize) -> Vec<Level> {
     let c = src.channels;
     let mut levels: Vec<Level> = Vec::with_capacity(depth);
-    for (i, (a, b)) in need.windows(depth).into_iter().enumerate() {
+    for (i, held) in need.held(depth).into_iter().enumerate() {
         let k = i + 1;
         let (w, h) = (src.width >> k, src.height >> k);
-        let (pw, ph, prow0, pdata) = match levels.last() {
-            Some(l) => (l.w, l.h, l.row0, &l.data[..]),
-            None => (src.width, src.height, 0, src.data),
+        let ys: Vec<usize> = (0..h).filter(|&y| held[y]).collect();
+        let mut rowmap = vec![NO_ROW; h];
+        for (j, &y) in ys.iter().enumerate() {
+            rowmap[y] = j as u32;
+        }
+        // The parent canvas: the source (all rows) or the previous level (its rowmap).
+        let (pw, ph, pdata, pmap) = match levels.last() {
+            Some(l) => (l.w, l.h, &l.data[..], Some(&l.rowmap[..])),
+            None => (src.width, src.height, src.data, None),
         };
-        let rows = b - a + 1;
-        let mut data = vec![0.0f32; w * rows * c];
-        data.par_chunks_mut(w * c).enumerate().for_each(|(j, out)| {
-            let y = a + j;
-            // Parent rows 2y and 2y + 1, held from prow0.
-            let r0 = &pdata[(2 * y - prow0) * pw * c..][..pw * c];
-            let r1 = &pdata[(2 * y + 1 - prow0) * pw * c..][..pw * c];
-            halve_row(src.mapping, ph, 2 * y, r0, r1, c, out);
+        let parent = |y: usize| {
+            let r = pmap.map_or(y, |m| m[y] as usize);
+            &pdata[r * pw * c..][..pw * c]
+        };
+        let mut data = vec![0.0f32; w * ys.len() * c];
+        data.par_chunks_mut(w * c).zip(&ys).for_each(|(out, &y)| {
+            halve_row(
+                src.mapping,
+                ph,
+                2 * y,
+                parent(2 * y),
+                parent(2 * y + 1),
+                c,
+                out,
+            );
         });
-        levels.push(Level {
-            w,
-            h,
-            row0: a,
-            rows,
-            data,
-        });
+        levels.push(Level { w, h, rowmap, data });
     }
     levels
 }
@@ -279,6 +309,11 @@ mod tests {
         assert!((l[0].data[0] as f64 - b / (a + b)).abs() < 1e-6);
     }
 
+    /// The rows level k holds.
+    fn held_rows(l: &Level) -> Vec<usize> {
+        (0..l.h).filter(|&y| l.rowmap[y] != NO_ROW).collect()
+    }
+
     #[test]
     fn latlong_levels_hold_only_the_rows_asked_for_and_their_parents() {
         let mp = Mapping::parse("latlong", None).unwrap();
@@ -287,11 +322,13 @@ mod tests {
         let need = Need::new(mp, 3, 128);
         // Level 3 (16 rows): level-0 rows 60..68 → 7.5..8.5, then ± 2 rows: 5..=11.
         need.mark(3, 60.0, 68.0);
+        assert_eq!(need.depth(), 3);
         let l = build(&e, &need, 3);
-        assert_eq!((l[2].row0, l[2].rows), (5, 7));
+        assert_eq!(held_rows(&l[2]), (5..=11).collect::<Vec<_>>());
         // Level 2 holds their parents 10..=23, level 1 theirs, 20..=47.
-        assert_eq!((l[1].row0, l[1].rows), (10, 14));
-        assert_eq!((l[0].row0, l[0].rows), (20, 28));
+        assert_eq!(held_rows(&l[1]), (10..=23).collect::<Vec<_>>());
+        assert_eq!(held_rows(&l[0]), (20..=47).collect::<Vec<_>>());
+        assert_eq!(l[0].data.len(), 28 * 128);
         assert!(need.bytes(&e, 3) < (256 * 128 * 4 / 4) as u128);
         // Values: level 1 row 20 col 0 averages level-0 rows 40, 41, columns 0, 1.
         let sin = |y: f64| ((y + 0.5) / 128.0 * std::f64::consts::PI).sin();
@@ -299,5 +336,38 @@ mod tests {
         let want = 0.5 + 1000.0 * (40.0 * w0 + 41.0 * w1) / (w0 + w1);
         let v = l[0].data[0] as f64;
         assert!((v - want).abs() < 0.01, "{v} {want}");
+    }
+
+    #[test]
+    fn separate_bands_stay_separate() {
+        // The two poles and the equator (what a sphere map's rim and pole texels ask for):
+        // three bands, not one window over the whole height.
+        let mp = Mapping::parse("latlong", None).unwrap();
+        let img = env(256, 128, |x, y| (x + 1000 * y) as f32);
+        let e = EnvMap::new(mp, &img, "t").unwrap();
+        let need = Need::new(mp, 1, 128);
+        need.mark(1, 0.0, 2.0);
+        need.mark(1, 62.0, 66.0);
+        need.mark(1, 126.0, 128.0);
+        let l = build(&e, &need, 1);
+        let want: Vec<usize> = (0..=3).chain(29..=35).chain(61..=63).collect();
+        assert_eq!(held_rows(&l[0]), want);
+        assert_eq!(l[0].data.len(), want.len() * 128);
+        // Each held row holds its own values: row 61 averages level-0 rows 122 and 123.
+        let r = l[0].rowmap[61] as usize;
+        let sin = |y: f64| ((y + 0.5) / 128.0 * std::f64::consts::PI).sin();
+        let (w0, w1) = (sin(122.0), sin(123.0));
+        let want = 0.5 + 1000.0 * (122.0 * w0 + 123.0 * w1) / (w0 + w1);
+        let v = l[0].data[r * 128] as f64;
+        assert!((v - want).abs() < 0.05, "{v} {want}");
+        // Other mappings hold every row.
+        let sp = Mapping::parse("sphere", None).unwrap();
+        let img = env(64, 64, |_, _| 1.0);
+        let e = EnvMap::new(sp, &img, "t").unwrap();
+        let need = Need::new(sp, 2, 64);
+        need.mark(2, 10.0, 12.0);
+        let l = build(&e, &need, 2);
+        assert_eq!(held_rows(&l[0]).len(), 32);
+        assert_eq!(held_rows(&l[1]).len(), 16);
     }
 }

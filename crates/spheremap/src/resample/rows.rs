@@ -293,7 +293,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
 #[inline(always)]
 fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
     // Level 0 only (pyramid levels go through `taps_levels`): all rows are held.
-    debug_assert!(s.row0 == 0 && s.rows == s.h);
+    debug_assert!(s.rowmap.is_empty());
     // Indices are u32: a source too large for them takes the general path throughout.
     if s.data.len() >= SLOW as usize {
         sc.idx.fill(SLOW);
@@ -362,11 +362,13 @@ pub(crate) struct LevelTab {
     scale: [f32; 32],
     wf: [f32; 32],
     hf: [f32; 32],
-    r0: [f32; 32],
-    r1: [f32; 32],
     r2: [f32; 32],
     row: [u32; 32],
-    base: [u32; 32],
+    /// Level k's canvas row y at `pair[off[k] + y]`: where it lies in the level's data when
+    /// rows y and y + 1 are both held (so a lookup's two tap rows are consecutive there),
+    /// else `SLOW`.  One table for all levels, so the lanes' reads are one gather.
+    off: [u32; 32],
+    pair: Vec<u32>,
     /// The tap indices fit u32 at every level.
     ok: bool,
 }
@@ -377,23 +379,30 @@ impl LevelTab {
             scale: [0.0; 32],
             wf: [0.0; 32],
             hf: [0.0; 32],
-            r0: [0.0; 32],
-            r1: [0.0; 32],
             r2: [0.0; 32],
             row: [0; 32],
-            base: [0; 32],
+            off: [0; 32],
+            pair: vec![],
             ok: levels.iter().all(|l| l.data.len() < SLOW as usize),
         };
         for (k, l) in levels.iter().enumerate().take(32) {
             t.scale[k] = 1.0 / (1u64 << k) as f32;
             t.wf[k] = l.wf;
             t.hf[k] = l.hf;
-            t.r0[k] = l.row0 as f32;
-            t.r1[k] = (l.row0 + l.rows) as f32;
             t.r2[k] = l.safe_r2;
             t.row[k] = (l.w * C) as u32;
-            t.base[k] = (l.row0 * l.w * C) as u32;
+            t.off[k] = t.pair.len() as u32;
+            // h + 1 entries: pass 2b clamps a row into 0..=h before reading.
+            for y in 0..=l.h {
+                let r = if y + 1 < l.h {
+                    l.held_pair(y).map_or(SLOW, |r| r as u32)
+                } else {
+                    SLOW
+                };
+                t.pair.push(r);
+            }
         }
+        t.ok &= t.pair.len() < SLOW as usize;
         t
     }
 }
@@ -439,6 +448,7 @@ pub(crate) fn taps_levels<const C: usize>(
         &px[..n],
         &py[..n],
     );
+    let pair = &t.pair[..];
     for x in 0..n {
         let k = (lv[x] & 31) as usize;
         let (wf, hf) = (t.wf[k], t.hf[k]);
@@ -455,13 +465,7 @@ pub(crate) fn taps_levels<const C: usize>(
         } else {
             true
         };
-        let ok = t.ok
-            && tile
-            && fx >= 0.0
-            && fy >= t.r0[k]
-            && fx + 1.0 < wf
-            && fy + 1.0 < hf
-            && fy + 1.0 < t.r1[k];
+        let ok = t.ok && tile && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < wf && fy + 1.0 < hf;
         // SAFETY: clamped first (NaN becomes 0), so the conversions are in range.
         let (xi, yi) = unsafe {
             (
@@ -469,8 +473,10 @@ pub(crate) fn taps_levels<const C: usize>(
                 fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
             )
         };
-        let i = if ok {
-            (yi * t.row[k] + xi * C as u32).wrapping_sub(t.base[k])
+        // SAFETY: yi ≤ h, and the table holds h + 1 entries from `off[k]`.
+        let r = unsafe { *pair.get_unchecked((t.off[k] + yi) as usize) };
+        let i = if ok && r != SLOW {
+            r * t.row[k] + xi * C as u32
         } else {
             SLOW
         };

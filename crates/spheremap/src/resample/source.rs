@@ -15,10 +15,10 @@ pub(super) struct Src<'a, T: Real> {
     /// Disc mappings: a sample this close to the centre (in pixels, squared) has all four taps
     /// inside the disc.
     pub(super) safe_r2: T,
-    /// `data` holds rows `row0 .. row0 + rows` of the canvas (a pyramid level may hold only the
-    /// rows some lookup needs; the source itself holds all).
-    pub(super) row0: usize,
-    pub(super) rows: usize,
+    /// Where each canvas row lies in `data` (`pyramid::NO_ROW`: not held), or empty when all
+    /// are held in order (the source itself; a pyramid level may hold only the rows some
+    /// lookup needs).
+    pub(super) rowmap: &'a [u32],
 }
 
 impl<'a, T: Real> Src<'a, T> {
@@ -38,8 +38,7 @@ impl<'a, T: Real> Src<'a, T> {
                 0
             },
             safe_r2: T::from_f64(safe * safe),
-            row0: 0,
-            rows: e.height,
+            rowmap: &[],
         }
     }
 
@@ -56,17 +55,43 @@ impl<'a, T: Real> Src<'a, T> {
             hf: T::from_f64(lv.h as f64),
             face: if self.face > 0 { lv.w } else { 0 },
             safe_r2: T::from_f64(safe * safe),
-            row0: lv.row0,
-            rows: lv.rows,
+            rowmap: &lv.rowmap,
         }
     }
 
-    /// A canvas texel index (`y·w + x`) as an index into the rows held (clamped into them: a
-    /// level's rows are chosen with a margin, so the clamp is a safety net, not a rule).
+    /// A canvas texel index (`y·w + x`) as an index into the rows held.  A row not held is
+    /// replaced by the nearest held one: a level's rows are chosen with a margin, so this is
+    /// a safety net, not a rule.
     #[inline(always)]
     fn held(&self, i: usize) -> usize {
-        i.saturating_sub(self.row0 * self.w)
-            .min(self.rows * self.w - 1)
+        if self.rowmap.is_empty() {
+            return i;
+        }
+        let (y, x) = (i / self.w, i % self.w);
+        let r = self.rowmap[y];
+        let r = if r != NO_ROW {
+            r
+        } else {
+            let near = (1..self.h).find_map(|d| {
+                [y.checked_sub(d), Some(y + d)]
+                    .into_iter()
+                    .flatten()
+                    .find_map(|yy| self.rowmap.get(yy).copied().filter(|&r| r != NO_ROW))
+            });
+            near.unwrap_or(0)
+        };
+        r as usize * self.w + x
+    }
+
+    /// Where canvas row `y0` lies in `data` when rows `y0` and `y0 + 1` are both held (and
+    /// so consecutive there).
+    #[inline(always)]
+    pub(super) fn held_pair(&self, y0: usize) -> Option<usize> {
+        if self.rowmap.is_empty() {
+            return Some(y0);
+        }
+        let r = self.rowmap[y0];
+        (r != NO_ROW && self.rowmap[y0 + 1] == r + 1).then_some(r as usize)
     }
 
     /// Continuous source pixel position of a direction (NaN-free: the sphere map's single
@@ -105,7 +130,9 @@ impl<'a, T: Real> Src<'a, T> {
             ax * ay,
         ];
         if self.fast(x0, y0, p) {
-            let i00 = ((y0 as usize - self.row0) * self.w + x0 as usize) * C;
+            // `fast` checked that the pair is held.
+            let r0 = self.held_pair(y0 as usize).unwrap_or(0);
+            let i00 = (r0 * self.w + x0 as usize) * C;
             let i10 = i00 + C;
             let i01 = i00 + self.w * C;
             let i11 = i01 + C;
@@ -154,7 +181,7 @@ impl<'a, T: Real> Src<'a, T> {
         if x0 < 0 || y0 < 0 || x0 as usize + 1 >= self.w || y0 as usize + 1 >= self.h {
             return false;
         }
-        if (y0 as usize) < self.row0 || y0 as usize + 1 >= self.row0 + self.rows {
+        if self.held_pair(y0 as usize).is_none() {
             return false;
         }
         match self.m {
