@@ -10,7 +10,7 @@
 //! `samples`) are done one by one by the generic code.
 
 use super::rows::{
-    bilerp, passes, taps_levels, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
+    bilerp, passes, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
 };
 use super::*;
 
@@ -45,9 +45,6 @@ pub(crate) struct FScratch {
     l0s: Vec<u8>,
     l1: Vec<u8>,
     frac: Vec<f32>,
-    /// `l0s` and `l1` per sample of a chunk.
-    pl0: Vec<u8>,
-    pl1: Vec<u8>,
     /// Pass 2b at those levels, per sample (level 0 uses the scratch's own).
     lo_f: [Vec<f32>; 2],
     lo_idx: Vec<u32>,
@@ -88,8 +85,6 @@ impl FScratch {
             l0s: vec![NONE; w],
             l1: vec![NONE; w],
             frac: vec![0.0; w],
-            pl0: vec![NONE; m],
-            pl1: vec![NONE; m],
             lo_f: [vec![0.0; m], vec![0.0; m]],
             lo_idx: vec![SLOW; m],
             hi_f: [vec![0.0; m], vec![0.0; m]],
@@ -220,32 +215,34 @@ pub(crate) fn row<const C: usize>(
         }
         passes::<C>(s, d, plan, Points::At, sc);
         // Pass 2b at the levels the chunk's texels read (lanes at level 0 use the above).
-        let deep = (x0..x0 + cnt).any(|x| f.l0s[x] != NONE || f.l1[x] != NONE);
-        if deep {
-            for p in 0..f.pl0.len() {
-                let x = (x0 + f.pt_t[p] as usize).min(w - 1);
-                f.pl0[p] = f.l0s[x];
-                f.pl1[p] = f.l1[x];
-            }
-            let (p, l0, l1) = (&sc.p, &f.pl0, &f.pl1);
+        // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above).
+        if (x0..x0 + cnt).any(|x| f.l0s[x] != NONE || f.l1[x] != NONE) {
+            let (p, l0s, l1s) = (&sc.p, &f.l0s[x0..x0 + cnt], &f.l1[x0..x0 + cnt]);
             let [lax, lay] = &mut f.lo_f;
             let [hax, hay] = &mut f.hi_f;
             let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
             vectorized(
                 #[inline(always)]
                 || {
-                    let lo = Taps {
-                        idx: lo_idx,
-                        ax: lax,
-                        ay: lay,
-                    };
-                    taps_levels::<C>(s.m, tab, p, l0, lo);
-                    let hi = Taps {
-                        idx: hi_idx,
-                        ax: hax,
-                        ay: hay,
-                    };
-                    taps_levels::<C>(s.m, tab, p, l1, hi);
+                    for t in 0..l0s.len().min(l1s.len()) {
+                        let range = t * n..(t + 1) * n;
+                        if l0s[t] != NONE {
+                            let lo = Taps {
+                                idx: lo_idx,
+                                ax: lax,
+                                ay: lay,
+                            };
+                            taps_level::<C>(s.m, tab, l0s[t] as usize, p, range.clone(), lo);
+                        }
+                        if l1s[t] != NONE {
+                            let hi = Taps {
+                                idx: hi_idx,
+                                ax: hax,
+                                ay: hay,
+                            };
+                            taps_level::<C>(s.m, tab, l1s[t] as usize, p, range, hi);
+                        }
+                    }
                 },
             );
         }
@@ -277,7 +274,8 @@ pub(crate) fn row<const C: usize>(
                     let p = [sc.p[0][q], sc.p[1][q]];
                     if l0 == 0 {
                         let w0 = wt * (1.0 - fr);
-                        lookup0::<C>(s, p, sc.idx[q], sc.frac[0][q], sc.frac[1][q], w0, &mut acc);
+                        let (i, ax, ay) = (sc.idx[q], sc.frac[0][q], sc.frac[1][q]);
+                        level_lookup::<C>(s, 0, p, i, ax, ay, w0, &mut acc);
                     } else {
                         let (ax, ay) = (f.lo_f[0][q], f.lo_f[1][q]);
                         let i = f.lo_idx[q];
@@ -341,7 +339,8 @@ fn gather0<const C: usize>(
                     a4[c] += v[c];
                 }
             } else {
-                lookup0::<C>(s, [p[0][q], p[1][q]], i00, frac[0][q], frac[1][q], 1.0, acc);
+                let (ax, ay) = (frac[0][q], frac[1][q]);
+                level_lookup::<C>(s, 0, [p[0][q], p[1][q]], i00, ax, ay, 1.0, acc);
             }
         }
         for c in 0..C {
@@ -350,15 +349,8 @@ fn gather0<const C: usize>(
         return;
     }
     for q in b..b + n {
-        lookup0::<C>(
-            s,
-            [p[0][q], p[1][q]],
-            idx[q],
-            frac[0][q],
-            frac[1][q],
-            1.0,
-            acc,
-        );
+        let (ax, ay) = (frac[0][q], frac[1][q]);
+        level_lookup::<C>(s, 0, [p[0][q], p[1][q]], idx[q], ax, ay, 1.0, acc);
     }
 }
 
@@ -396,28 +388,8 @@ fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f3
     }
 }
 
-/// A level-0 bilinear lookup (`i00`, `ax`, `ay` from pass 2b), weighted into `acc`.
-#[inline(always)]
-fn lookup0<const C: usize>(
-    s: &Src<f32>,
-    p: [f32; 2],
-    i00: u32,
-    ax: f32,
-    ay: f32,
-    wt: f32,
-    acc: &mut [f32; C],
-) {
-    if i00 == SLOW {
-        s.lookup(p, wt, acc);
-    } else {
-        let v = bilerp::<C>(s.data, s.w * C, i00, ax, ay);
-        for c in 0..C {
-            acc[c] += wt * v[c];
-        }
-    }
-}
-
-/// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there), weighted into `acc`.
+/// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there; level-0 position
+/// `p` for the general path), weighted into `acc`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn level_lookup<const C: usize>(
@@ -433,6 +405,11 @@ fn level_lookup<const C: usize>(
     if i00 == SLOW {
         let sc = 1.0 / (1u32 << k) as f32;
         s.lookup([p[0] * sc, p[1] * sc], wt, acc);
+    } else if (C == 3 || C == 4) && (i00 as usize) + s.w * C + C + 4 <= s.data.len() {
+        let v = bilerp4::<C>(s.data, s.w * C, i00 as usize, ax, ay);
+        for c in 0..C {
+            acc[c] += wt * v[c];
+        }
     } else {
         let v = bilerp::<C>(s.data, s.w * C, i00, ax, ay);
         for c in 0..C {

@@ -407,52 +407,46 @@ impl LevelTab {
     }
 }
 
-/// Pass 2b for level-0 positions `p` with each lane at its own level `lv[x]` (lanes at
-/// `u8::MAX` get meaningless values): the index into that level's data, and the fractions.
+/// Pass 2b at level `k` for the level-0 positions `p[range]`: the index into that level's
+/// data (or `SLOW`), and the fractions, into `out[range]`.
 #[inline(always)]
-pub(crate) fn taps_levels<const C: usize>(
+pub(crate) fn taps_level<const C: usize>(
     m: Mapping,
     t: &LevelTab,
+    k: usize,
     p: &[Vec<f32>; 2],
-    lv: &[u8],
+    range: std::ops::Range<usize>,
     out: Taps,
 ) {
-    let [px, py] = p;
     let Taps { idx, ax, ay } = out;
+    let (idx, ax, ay) = (
+        &mut idx[range.clone()],
+        &mut ax[range.clone()],
+        &mut ay[range.clone()],
+    );
+    let (px, py) = (&p[0][range.clone()], &p[1][range]);
     let (cube, disc) = match m {
         Mapping::Cube(_) => (true, false),
         Mapping::Sphere(_) | Mapping::Angular => (false, true),
         Mapping::Paraboloid => {
-            for x in 0..idx.len() {
-                if lv[x] != u8::MAX {
-                    idx[x] = SLOW;
-                }
-            }
+            idx.fill(SLOW);
             return;
         }
         _ => (false, false),
     };
-    // Every lane is written (those at NONE hold garbage nobody reads): no masked stores.
+    let k = k.min(31);
+    let (wf, hf, sc, r2, row) = (t.wf[k], t.hf[k], t.scale[k], t.r2[k], t.row[k]);
+    let pair = &t.pair[t.off[k] as usize..];
+    // The table holds h + 1 entries from `off[k]` (checked once here, not per lane).
+    let pair = &pair[..=(hf as usize).min(pair.len() - 1)];
     let n = idx
         .len()
         .min(ax.len())
         .min(ay.len())
-        .min(lv.len())
         .min(px.len())
         .min(py.len());
-    let (idx, ax, ay, lv, px, py) = (
-        &mut idx[..n],
-        &mut ax[..n],
-        &mut ay[..n],
-        &lv[..n],
-        &px[..n],
-        &py[..n],
-    );
-    let pair = &t.pair[..];
     for x in 0..n {
-        let k = (lv[x] & 31) as usize;
-        let (wf, hf) = (t.wf[k], t.hf[k]);
-        let (p0, p1) = (px[x] * t.scale[k], py[x] * t.scale[k]);
+        let (p0, p1) = (px[x] * sc, py[x] * sc);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
         let tile = if cube {
@@ -461,7 +455,7 @@ pub(crate) fn taps_levels<const C: usize>(
         } else if disc {
             let c = hf * 0.5;
             let (dx, dy) = (p0 - c, p1 - c);
-            dx * dx + dy * dy <= t.r2[k]
+            dx * dx + dy * dy <= r2
         } else {
             true
         };
@@ -473,14 +467,12 @@ pub(crate) fn taps_levels<const C: usize>(
                 fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
             )
         };
-        // SAFETY: yi ≤ h, and the table holds h + 1 entries from `off[k]`.
-        let r = unsafe { *pair.get_unchecked((t.off[k] + yi) as usize) };
-        let i = if ok && r != SLOW {
-            r * t.row[k] + xi * C as u32
+        let r = pair[(yi as usize).min(pair.len() - 1)];
+        idx[x] = if ok && r != SLOW {
+            r * row + xi * C as u32
         } else {
             SLOW
         };
-        idx[x] = i;
         ax[x] = qx - fx;
         ay[x] = qy - fy;
     }
