@@ -94,6 +94,46 @@ def test_errors_name_the_argument(hdri):
         spheremap.convert(hdri, "sphere", "latlong")
 
 
+def test_out_buffer_is_written_and_returned(hdri):
+    want = spheremap.convert(hdri, "latlong", "sphere", size=48)
+    buf = np.full((48, 48, 3), np.nan, np.float32)
+    got = spheremap.convert(hdri, "latlong", "sphere", size=48, out=buf)
+    assert got is buf
+    np.testing.assert_array_equal(buf, want)
+    # One sample, and again into the same buffer (every value rewritten).
+    want1 = spheremap.convert(hdri, "latlong", "sphere", size=48, samples=1)
+    spheremap.convert(hdri, "latlong", "sphere", size=48, samples=1, out=buf)
+    np.testing.assert_array_equal(buf, want1)
+    # f64 reference path, and a cube as (6, N, N, C).
+    want64 = spheremap.convert(hdri, "latlong", "sphere", size=16, precision="f64")
+    b64 = np.empty((16, 16, 3), np.float32)
+    spheremap.convert(hdri, "latlong", "sphere", size=16, precision="f64", out=b64)
+    np.testing.assert_array_equal(b64, want64)
+    cube = spheremap.convert(hdri, "latlong", "cube", size=8)
+    cb = np.empty((6, 8, 8, 3), np.float32)
+    assert spheremap.convert(hdri, "latlong", "cube", size=8, out=cb) is cb
+    np.testing.assert_array_equal(cb, cube)
+
+
+def test_out_buffer_errors_name_out(hdri):
+    bad = [
+        np.empty((48, 48, 3), np.float64),
+        np.empty((48, 47, 3), np.float32),
+        np.empty((48, 48, 4), np.float32),
+        np.empty((48, 96, 3), np.float32)[:, ::2],
+        [[0.0]],
+    ]
+    ro = np.empty((48, 48, 3), np.float32)
+    ro.flags.writeable = False
+    bad.append(ro)
+    for b in bad:
+        with pytest.raises(ValueError, match="^out: "):
+            spheremap.convert(hdri, "latlong", "sphere", size=48, out=b)
+    img = np.ones((48, 48, 3), np.float32)
+    with pytest.raises(ValueError, match="^out: overlaps image"):
+        spheremap.convert(img, "sphere", "sphere", size=48, out=img)
+
+
 def test_solid_angles_every_mapping():
     for m in spheremap.MAPPINGS:
         sa = spheremap.texel_solid_angles(m, 16)

@@ -338,6 +338,8 @@ def _nonfinite(a: np.ndarray, policy: str, name: str) -> np.ndarray:
     _choice(policy, "nonfinite", ("error", "zero", "keep"))
     if policy == "keep":
         return a
+    if a.dtype == np.float32 and a.flags.c_contiguous and _ext._all_finite(a):
+        return a  # the common case, in one parallel pass (np.isfinite: ~4x slower)
     bad = ~np.isfinite(a)
     if not bad.any():
         return a
@@ -368,7 +370,7 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
             roll: float | None = None, src_look=None, src_up=None,
             src_preset: str | None = None, dst_preset: str | None = None,
             seed: int = 0, precision: str = "f32", nonfinite: str = "error",
-            max_memory: int | None = None) -> np.ndarray:
+            max_memory: int | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Converts an environment map between mappings (the engine of ``spheremap convert``).
 
     image: (H, W, C) float32/float64, C = 1..4 (an (H, W) array is one channel), in `src`'s
@@ -389,6 +391,11 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
         location), "zero" (replaced by 0) or "keep".
     max_memory: refuse (spheremap.LimitError) a job needing more bytes (default
         $SPHEREMAP_MAX_MEMORY or 16 GiB).
+
+    out: an array to write the result into and return (float32, C-contiguous, writeable, of
+        the result's shape; not overlapping `image`). Reusing one saves the first touch of a
+        fresh result (page faults: 2-3 ms for a 1024^2 RGB sphere map). On an error or
+        Ctrl-C its contents are unspecified.
 
     Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
     """
@@ -423,6 +430,18 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     ypr = None
     if (yaw, pitch, roll) != (None, None, None):
         ypr = _vec3([yaw or 0.0, pitch or 0.0, roll or 0.0], "yaw")
+    if out is not None:
+        if not isinstance(out, np.ndarray) or out.dtype != np.float32:
+            raise ValueError(f"out: expected a float32 numpy array, got "
+                             f"{getattr(out, 'dtype', type(out).__name__)}")
+        if not out.flags.c_contiguous or not out.flags.writeable:
+            raise ValueError("out: must be C-contiguous and writeable")
+        if np.shares_memory(out, a):
+            raise ValueError("out: overlaps image")
+        return _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples,
+                            max_samples, filter, outside, int(seed), precision, src_preset,
+                            dst_preset, _vec3(look, "look"), _vec3(up, "up"), ypr,
+                            _vec3(src_look, "src_look"), _vec3(src_up, "src_up"), max_memory, out)
     out = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
                        filter, outside, int(seed), precision, src_preset, dst_preset,
                        _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),

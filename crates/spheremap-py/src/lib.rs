@@ -432,12 +432,19 @@ fn texel_solid_angles<'py>(
         .into_any())
 }
 
+/// Whether every value of a float32 array is finite (the fast check before NaN/Inf policies).
+#[pyfunction]
+fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool> {
+    let data = contiguous(&a, "a")?;
+    Ok(py.detach(|| spheremap::image_io::all_finite(data)))
+}
+
 /// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
 /// Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
 #[pyfunction]
 #[pyo3(signature = (image, src, dst, size, samples, max_samples, filter, outside, seed, precision,
                     src_preset=None, dst_preset=None, look=None, up=None, ypr=None,
-                    src_look=None, src_up=None, max_memory=None))]
+                    src_look=None, src_up=None, max_memory=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 fn convert<'py>(
     py: Python<'py>,
@@ -459,6 +466,7 @@ fn convert<'py>(
     src_look: Option<[f64; 3]>,
     src_up: Option<[f64; 3]>,
     max_memory: Option<u64>,
+    out: Option<Bound<'py, PyArrayDyn<f32>>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
     let sm = parse_mapping(src, src_preset)?;
@@ -496,6 +504,34 @@ fn convert<'py>(
         data,
     };
     let (env, opts) = (&env, &opts);
+    if let Some(arr) = out {
+        // The caller's buffer: (H', W', C) float32, C-contiguous, writeable (for a cube also
+        // (6, N, N, C)); the result is written into it and it is returned.
+        let shape = arr.shape().to_vec();
+        let cube_shape = [6, dw, dw, c];
+        if shape != [dh, dw, c] && !(dm.name() == "cube" && shape == cube_shape) {
+            return Err(PyValueError::new_err(format!(
+                "out: expected shape {:?}, got {shape:?}",
+                if dm.name() == "cube" {
+                    cube_shape.to_vec()
+                } else {
+                    vec![dh, dw, c]
+                }
+            )));
+        }
+        {
+            let mut rw = arr
+                .try_readwrite()
+                .map_err(|e| PyValueError::new_err(format!("out: {e}")))?;
+            let buf = rw
+                .as_slice_mut()
+                .map_err(|_| PyValueError::new_err("out: must be C-contiguous".to_string()))?;
+            run_cancellable(py, &progress, "the conversion", |p| {
+                rs::resample_into(env, dm, dw, dh, opts, Some(p), buf)
+            })?;
+        }
+        return Ok(arr.into_any());
+    }
     let (img, _report) = run_cancellable(py, &progress, "the conversion", |p| {
         rs::resample(env, dm, dw, dh, opts, Some(p))
     })?;
@@ -692,6 +728,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
     m.add("LimitError", m.py().get_type::<LimitError>())?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
+    m.add_function(wrap_pyfunction!(_all_finite, m)?)?;
     m.add_function(wrap_pyfunction!(dir_to_sphere, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(reflect, m)?)?;

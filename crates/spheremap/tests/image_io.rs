@@ -309,3 +309,31 @@ fn truncated_and_garbage_files_are_data_errors() {
         assert!(e.starts_with(name), "{name}: {e}");
     }
 }
+
+#[test]
+fn all_finite_finds_any_nan_or_inf_in_any_block() {
+    use spheremap::image_io::{all_finite, find_nonfinite};
+    // Several parallel blocks (65536 values each) and a ragged end.
+    let n = 3 * 65536 + 17;
+    let mut v = vec![1.5f32; n];
+    v[7] = f32::MAX;
+    v[8] = f32::MIN_POSITIVE / 4.0; // subnormal: finite
+    assert!(all_finite(&v));
+    assert!(all_finite(&[]));
+    for (i, bad) in [
+        (0, f32::NAN),
+        (65536 * 2 + 3, f32::INFINITY),
+        (n - 1, f32::NEG_INFINITY),
+    ] {
+        let mut w = v.clone();
+        w[i] = bad;
+        assert!(!all_finite(&w), "{i}");
+        let img = Image {
+            width: n,
+            height: 1,
+            channels: 1,
+            data: w,
+        };
+        assert_eq!(find_nonfinite(&img), Some((1, i, 0)));
+    }
+}

@@ -4,7 +4,9 @@
 
 use spheremap::image_io::Image;
 use spheremap::mapping::Mapping;
-use spheremap::resample::{resample, EnvMap, Filter, Outside, Precision, ResampleOptions};
+use spheremap::resample::{
+    resample, resample_into, EnvMap, Filter, Outside, Precision, ResampleOptions,
+};
 use spheremap::view;
 
 fn mappings() -> Vec<Mapping> {
@@ -363,6 +365,39 @@ fn deterministic_for_a_seed() {
     assert_eq!(a.data, b.data);
     let c = convert(ll, &img, sp, 32, &ResampleOptions { seed: 7, ..opts(8) });
     assert_ne!(a.data, c.data);
+}
+
+#[test]
+fn resample_into_writes_every_value_of_the_same_result() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let img = fill(ll, 64, 3, |d| {
+        vec![d[0] + 2.0, d[1] * d[2], (5.0 * d[2]).cos()]
+    });
+    let e = EnvMap::new(ll, &img, "src").unwrap();
+    for dst in mappings() {
+        let (w, h) = dst.canvas(16);
+        for o in [
+            opts(1),
+            opts(4),
+            ResampleOptions {
+                precision: Precision::F64,
+                ..opts(4)
+            },
+        ] {
+            let (want, r1) = resample(&e, dst, w, h, &o, None).unwrap();
+            // NaN first: a value left unwritten would show.
+            let mut buf = vec![f32::NAN; w * h * 3];
+            let r2 = resample_into(&e, dst, w, h, &o, None, &mut buf).unwrap();
+            assert_eq!(buf, want.data, "{}", nm(&dst));
+            assert_eq!(r1, r2);
+        }
+    }
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let mut short = vec![0.0f32; 16 * 16 * 3 - 1];
+    let err = resample_into(&e, sp, 16, 16, &opts(1), None, &mut short)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("out:"), "{err}");
 }
 
 #[test]

@@ -54,6 +54,7 @@ use crate::image_io::Image;
 use crate::mapping::Mapping;
 use crate::real::Real;
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 mod dest;
@@ -309,6 +310,65 @@ pub fn resample(
     opts: &ResampleOptions,
     progress: Option<&Progress>,
 ) -> Result<(Image, ResampleReport)> {
+    let n = width
+        .checked_mul(height)
+        .and_then(|v| v.checked_mul(src.channels))
+        .ok_or_else(|| Error::param("size", "too large"))?;
+    check_job(src, dst, width, height, opts)?;
+    let mut data: Vec<f32> = Vec::with_capacity(n);
+    let report = resample_uninit(src, dst, width, height, opts, progress, {
+        &mut data.spare_capacity_mut()[..n]
+    })?;
+    // SAFETY: resample_uninit wrote all n values (every path writes every value of every
+    // row, a cancelled row included).
+    unsafe { data.set_len(n) };
+    let img = Image {
+        width,
+        height,
+        channels: src.channels,
+        data,
+    };
+    Ok((img, report))
+}
+
+/// [`resample`] into `out` (`width`·`height`·channels values, row-major, channels last), for
+/// callers that reuse one buffer: a fresh output's first touch costs page faults (2–3 ms for
+/// 12 MB).  On an error or a cancel, `out`'s contents are unspecified.
+pub fn resample_into(
+    src: &EnvMap,
+    dst: Mapping,
+    width: usize,
+    height: usize,
+    opts: &ResampleOptions,
+    progress: Option<&Progress>,
+    out: &mut [f32],
+) -> Result<ResampleReport> {
+    let n = width as u128 * height as u128 * src.channels as u128;
+    if out.len() as u128 != n {
+        return Err(Error::param(
+            "out",
+            format!(
+                "holds {} values; a {width}x{height}x{} result needs {n}",
+                out.len(),
+                src.channels
+            ),
+        ));
+    }
+    check_job(src, dst, width, height, opts)?;
+    // SAFETY: f32 and MaybeUninit<f32> have the same layout, and only initialized values are
+    // ever written through the view.
+    let view = unsafe { &mut *(out as *mut [f32] as *mut [std::mem::MaybeUninit<f32>]) };
+    resample_uninit(src, dst, width, height, opts, progress, view)
+}
+
+/// The checks before a conversion starts.
+fn check_job(
+    src: &EnvMap,
+    dst: Mapping,
+    width: usize,
+    height: usize,
+    opts: &ResampleOptions,
+) -> Result<()> {
     dst.size_of(width, height, "size")
         .map_err(|e| Error::param("size", e.to_string()))?;
     if opts.samples == 0 || opts.samples > SAMPLE_CAP {
@@ -329,22 +389,33 @@ pub fn resample(
         "size",
         2 * (width as u128 * height as u128 * src.channels as u128 * 4),
         opts.max_memory,
-    )?;
-    let (w, h) = (width, height);
-    let (out, report) = match (opts.precision, src.channels) {
-        (Precision::F32, 1) => run::<f32, 1>(src, dst, w, h, opts, progress),
-        (Precision::F32, 2) => run::<f32, 2>(src, dst, w, h, opts, progress),
-        (Precision::F32, 3) => run::<f32, 3>(src, dst, w, h, opts, progress),
-        (Precision::F32, _) => run::<f32, 4>(src, dst, w, h, opts, progress),
-        (Precision::F64, 1) => run::<f64, 1>(src, dst, w, h, opts, progress),
-        (Precision::F64, 2) => run::<f64, 2>(src, dst, w, h, opts, progress),
-        (Precision::F64, 3) => run::<f64, 3>(src, dst, w, h, opts, progress),
-        (Precision::F64, _) => run::<f64, 4>(src, dst, w, h, opts, progress),
+    )
+}
+
+/// The conversion into `out` (checked: `check_job`, and its length); writes every value.
+fn resample_uninit(
+    src: &EnvMap,
+    dst: Mapping,
+    w: usize,
+    h: usize,
+    opts: &ResampleOptions,
+    progress: Option<&Progress>,
+    out: &mut [MaybeUninit<f32>],
+) -> Result<ResampleReport> {
+    let report = match (opts.precision, src.channels) {
+        (Precision::F32, 1) => run::<f32, 1>(src, dst, w, h, opts, progress, out),
+        (Precision::F32, 2) => run::<f32, 2>(src, dst, w, h, opts, progress, out),
+        (Precision::F32, 3) => run::<f32, 3>(src, dst, w, h, opts, progress, out),
+        (Precision::F32, _) => run::<f32, 4>(src, dst, w, h, opts, progress, out),
+        (Precision::F64, 1) => run::<f64, 1>(src, dst, w, h, opts, progress, out),
+        (Precision::F64, 2) => run::<f64, 2>(src, dst, w, h, opts, progress, out),
+        (Precision::F64, 3) => run::<f64, 3>(src, dst, w, h, opts, progress, out),
+        (Precision::F64, _) => run::<f64, 4>(src, dst, w, h, opts, progress, out),
     }?;
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
         return Err(Error::cancelled("the conversion"));
     }
-    Ok((out, report))
+    Ok(report)
 }
 
 pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
@@ -363,23 +434,20 @@ pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
     Ok(())
 }
 
-/// A `w`×`h`×`c` image whose rows `row(scratch, y, row)` writes in parallel (every value of
-/// its row), with progress and cancellation (a cancelled row is zero-filled).  The output is
-/// not zeroed first: that pass alone cost 5–13 % of a one-sample job.
+/// Fills `out` (`w`×`h`×`c`) with rows that `row(scratch, y, row)` writes in parallel (every
+/// value of its row), with progress and cancellation (a cancelled row is zero-filled).  The
+/// output need not be zeroed first: that pass alone cost 5–13 % of a one-sample job.
 #[allow(clippy::too_many_arguments)]
-fn unzeroed_rows<S>(
+fn fill_rows<S>(
+    out: &mut [MaybeUninit<f32>],
     w: usize,
-    h: usize,
     c: usize,
     min_rows: usize,
     progress: Option<&Progress>,
     scratch: impl Fn() -> S + Send + Sync,
-    row: impl Fn(&mut S, usize, &mut [std::mem::MaybeUninit<f32>]) + Send + Sync,
-) -> Image {
-    let n = w * h * c;
-    let mut data: Vec<f32> = Vec::with_capacity(n);
-    data.spare_capacity_mut()[..n]
-        .par_chunks_mut(w * c)
+    row: impl Fn(&mut S, usize, &mut [MaybeUninit<f32>]) + Send + Sync,
+) {
+    out.par_chunks_mut(w * c)
         .enumerate()
         .with_min_len(min_rows)
         .for_each_init(scratch, |sc, (y, out)| {
@@ -394,15 +462,6 @@ fn unzeroed_rows<S>(
                 p.done.fetch_add(1, Ordering::Relaxed);
             }
         });
-    // SAFETY: every row above wrote all its values (the row functions' contract), so all n
-    // values are initialized.
-    unsafe { data.set_len(n) };
-    Image {
-        width: w,
-        height: h,
-        channels: c,
-        data,
-    }
 }
 
 /// The f32 views of a source and a destination when T is f32 (the vectorized paths).
@@ -429,7 +488,8 @@ fn run<T: Real, const C: usize>(
     h: usize,
     opts: &ResampleOptions,
     progress: Option<&Progress>,
-) -> Result<(Image, ResampleReport)> {
+    out: &mut [MaybeUninit<f32>],
+) -> Result<ResampleReport> {
     let s = Src::<T>::new(src);
     let d = Dst::<T>::new(dst, w, h, &opts.rotation, opts.outside);
     if let Some(p) = progress {
@@ -440,9 +500,9 @@ fn run<T: Real, const C: usize>(
     // The vectorized one-sample path (f32 only).
     if let (1, Some((s32, d32))) = (opts.samples, as_f32(&s, &d)) {
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
-        let out = unzeroed_rows(
+        fill_rows(
+            out,
             w,
-            h,
             C,
             4,
             progress,
@@ -455,7 +515,7 @@ fn run<T: Real, const C: usize>(
             lookups: (w * h) as u64,
             max_texel_samples: 1,
         };
-        return Ok((out, report));
+        return Ok(report);
     }
     // Filtered: the prefiltered levels this run reads, measured from every texel's footprint
     // first (the same `footprint`/`plan` as the sampling below).
@@ -508,9 +568,9 @@ fn run<T: Real, const C: usize>(
             .collect();
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
         let tab = rows::LevelTab::new::<C>(&lv32);
-        let out = unzeroed_rows(
+        fill_rows(
+            out,
             w,
-            h,
             C,
             2,
             progress,
@@ -525,14 +585,18 @@ fn run<T: Real, const C: usize>(
             lookups: lookups.into_inner(),
             max_texel_samples: max_n.into_inner() as u32,
         };
-        return Ok((out, report));
+        return Ok(report);
     }
     let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
         .chain(built.iter().map(|l| s.level(l)))
         .collect();
-    let mut out = Image::new(w, h, C);
-    out.data
-        .par_chunks_mut(w * C)
+    // The generic path zeroes first (a cancelled row is left as zeros).
+    out.iter_mut().for_each(|v| {
+        v.write(0.0);
+    });
+    // SAFETY: every value was just initialized; f32 and MaybeUninit<f32> share their layout.
+    let out = unsafe { &mut *(out as *mut [MaybeUninit<f32>] as *mut [f32]) };
+    out.par_chunks_mut(w * C)
         .enumerate()
         .with_min_len(4)
         .for_each(|(y, row)| {
@@ -554,7 +618,7 @@ fn run<T: Real, const C: usize>(
         lookups: lookups.into_inner(),
         max_texel_samples: max_n.into_inner() as u32,
     };
-    Ok((out, report))
+    Ok(report)
 }
 
 /// One lookup at each texel centre.
