@@ -2,12 +2,12 @@
 //! (same footprints, strata, jitter hash, levels and weights), laid out for vectors.
 //!
 //! A row is done in passes: first the footprints of all its texels (their edge midpoints
-//! through passes 1–2 of [`super::rows`]), giving each texel its strata and level; then, a
-//! chunk of texels at a time, every sample of the common g×g grid of every texel in the
-//! chunk (texel-major: a texel's samples are consecutive) through passes 1–2b, and a gather
-//! that sums each texel's samples in registers and writes it.  Texels whose footprint asks
-//! for more strata than the common grid (only when `max_samples` allows more than
-//! `samples`) are done one by one by the generic code.
+//! through passes 1–2 of [`super::rows`]), giving each texel its strata nx×ny and level; then,
+//! a chunk of texels at a time (as many as fit [`CHUNK`] samples), every sample of every
+//! texel in the chunk (texel-major: a texel's samples are consecutive) through passes 1–2b,
+//! and a gather that sums each texel's samples in registers and writes it.  Only texels with
+//! more strata than a chunk holds (`max_samples` > 1024) go one by one through the generic
+//! code.
 
 use super::rows::{
     bilerp, passes, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
@@ -17,19 +17,21 @@ use super::*;
 /// `FScratch::l1` of a texel that reads one level.
 const NONE: u8 = u8::MAX;
 
-/// About how many samples a chunk holds (its arrays stay in the first-level cache).
+/// How many samples a chunk holds at least (its arrays stay in the first-level cache).
 const CHUNK: usize = 1024;
 
 /// Per-thread buffers of the filtered path for a row of `w` texels and a common grid of
-/// `n` strata per texel.
+/// gx×gy strata per texel.
 pub(crate) struct FScratch {
     /// Footprint points: the 3w + 1 edge midpoints of a row.
     fp: Scratch,
-    /// The samples of a chunk of `per` texels, texel-major.
+    /// The samples of a chunk, texel-major (`cap` of them).
     sc: Scratch,
+    cap: usize,
+    /// How many texels on the common grid fill a chunk (the tables below).
     per: usize,
-    /// Per sample of a chunk: its texel (from the chunk's first), its stratum k = j·gx + i,
-    /// and i, j as floats.
+    /// Per sample of a chunk of `per` common-grid texels: its texel (from the chunk's first),
+    /// its stratum k = j·gx + i, and i, j as floats (so its points are one flat loop).
     pt_t: Vec<u32>,
     pt_k: Vec<u32>,
     pt_i: Vec<f32>,
@@ -38,7 +40,11 @@ pub(crate) struct FScratch {
     pub(crate) ly: Vec<f64>,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
-    grid: Vec<bool>,
+    /// A texel's strata (0 × 0: too many for a chunk; the generic code does it).
+    nx: Vec<u32>,
+    ny: Vec<u32>,
+    /// Where a texel's samples start in its chunk.
+    start: Vec<usize>,
     /// The two levels a texel reads (`NONE`: none) and the weight of the upper one.
     l0: Vec<u8>,
     /// `l0` with NONE for level 0 (those lanes read pass 2b's own result).
@@ -58,7 +64,7 @@ impl FScratch {
     pub(crate) fn new(w: usize, (gx, gy): (usize, usize)) -> Self {
         let n = (gx * gy).max(1);
         let per = (CHUNK / n).clamp(1, w.max(1));
-        let m = per * n;
+        let cap = (per * n).max(CHUNK);
         let (mut pt_t, mut pt_k, mut pt_i, mut pt_j) = (vec![], vec![], vec![], vec![]);
         for t in 0..per {
             for k in 0..n {
@@ -70,7 +76,8 @@ impl FScratch {
         }
         FScratch {
             fp: Scratch::new(3 * w + 1),
-            sc: Scratch::new(m),
+            sc: Scratch::new(cap),
+            cap,
             per,
             pt_t,
             pt_k,
@@ -80,16 +87,18 @@ impl FScratch {
             ly: vec![0.0; w],
             lo: vec![0.0; w],
             hi: vec![0.0; w],
-            grid: vec![false; w],
+            nx: vec![0; w],
+            ny: vec![0; w],
+            start: vec![0; w],
             l0: vec![0; w],
             l0s: vec![NONE; w],
             l1: vec![NONE; w],
             frac: vec![0.0; w],
-            lo_f: [vec![0.0; m], vec![0.0; m]],
-            lo_idx: vec![SLOW; m],
-            hi_f: [vec![0.0; m], vec![0.0; m]],
-            hi_idx: vec![SLOW; m],
-            wt: vec![1.0; m],
+            lo_f: [vec![0.0; cap], vec![0.0; cap]],
+            lo_idx: vec![SLOW; cap],
+            hi_f: [vec![0.0; cap], vec![0.0; cap]],
+            hi_idx: vec![SLOW; cap],
+            wt: vec![1.0; cap],
         }
     }
 }
@@ -149,20 +158,20 @@ pub(crate) fn row<const C: usize>(
     let w = f.lx.len();
     footprints::<C>(s, d, plan, y, f);
     let (gx, gy) = sp.grid;
-    let n = gx * gy;
     let mut max_n = 0;
     let mut lookups = 0u64;
     let top = levels.len() - 1;
     for x in 0..w {
         let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-        f.grid[x] = (nx, ny) == (gx, gy);
+        let vec = nx * ny <= f.cap;
+        (f.nx[x], f.ny[x]) = if vec { (nx as u32, ny as u32) } else { (0, 0) };
         // The levels around λ, as `lookup_lod` reads them.
         let l0 = (lambda.max(0.0).floor() as usize).min(top);
         let fr = if l0 < top { lambda - l0 as f64 } else { 0.0 };
         f.l0[x] = l0 as u8;
-        f.l0s[x] = if l0 > 0 && f.grid[x] { l0 as u8 } else { NONE };
+        f.l0s[x] = if l0 > 0 && vec { l0 as u8 } else { NONE };
         f.frac[x] = if fr > 0.0 { fr as f32 } else { 0.0 };
-        f.l1[x] = if fr > 0.0 && f.grid[x] {
+        f.l1[x] = if fr > 0.0 && vec {
             (l0 + 1) as u8
         } else {
             NONE
@@ -172,20 +181,35 @@ pub(crate) fn row<const C: usize>(
     let (r, support) = (sp.radius as f32, sp.support as f32);
     let plain = opts.filter == Filter::Box && !d.weighted;
     let black = d.outside == Outside::Black;
-    let (kx, ky) = (support / gx as f32, support / gy as f32);
     let (yc, yu) = (y as f32 + 0.5, y as u32);
-    let per = f.per;
-    for x0 in (0..w).step_by(per) {
-        let cnt = per.min(w - x0);
-        if !f.grid[x0..x0 + cnt].iter().any(|&g| g) {
+    let mut x1 = 0;
+    while x1 < w {
+        // The next chunk: texels x0..x1 whose samples fit.
+        let x0 = x1;
+        let mut tot = 0;
+        let mut uniform = true;
+        while x1 < w {
+            let n = (f.nx[x1] * f.ny[x1]) as usize;
+            if tot + n > f.cap {
+                break;
+            }
+            uniform &= (f.nx[x1] as usize, f.ny[x1] as usize) == (gx, gy);
+            f.start[x1 - x0] = tot;
+            tot += n;
+            x1 += 1;
+        }
+        let cnt = x1 - x0;
+        if tot == 0 {
             continue;
         }
         let sc = &mut f.sc;
-        {
-            // Every sample of the chunk's texels (a short last chunk repeats its last texel).
-            let [px, py] = &mut sc.pts;
+        let [px, py] = &mut sc.pts;
+        if uniform && cnt <= f.per {
+            // All on the common grid: every sample in one flat loop (a short last chunk
+            // repeats its last texel).
             let (pt_t, pt_k, pt_i, pt_j) = (&f.pt_t, &f.pt_k, &f.pt_i, &f.pt_j);
             let last = (w - 1) as u32;
+            let (kx, ky) = (support / gx as f32, support / gy as f32);
             vectorized(
                 #[inline(always)]
                 || {
@@ -194,38 +218,65 @@ pub(crate) fn row<const C: usize>(
                     let (pt_t, pt_k, pt_i, pt_j) = (&pt_t[..m], &pt_k[..m], &pt_i[..m], &pt_j[..m]);
                     for p in 0..m {
                         let x = (x0 as u32 + pt_t[p]).min(last);
-                        let h = hash32(seed, x, yu, pt_k[p]);
-                        // Through i32: exact (< 2¹⁶), and signed conversions vectorize.
-                        let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
-                        let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
+                        let (jx, jy) = jitter_f32(hash32(seed, x, yu, pt_k[p]));
                         px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
                         py[p] = yc - r + (pt_j[p] + jy) * ky;
                     }
                 },
             );
+        } else {
+            // Texel by texel, each on its own strata (the same formulas).
+            let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
+            vectorized(
+                #[inline(always)]
+                || {
+                    for t in 0..cnt {
+                        let (nx, ny) = (nxs[t] as usize, nys[t] as usize);
+                        if nx * ny == 0 {
+                            continue;
+                        }
+                        let x = (x0 + t) as u32;
+                        let (kx, ky) = (support / nx as f32, support / ny as f32);
+                        for j in 0..ny {
+                            let b = start[t] + j * nx;
+                            let (px, py) = (&mut px[b..b + nx], &mut py[b..b + nx]);
+                            for i in 0..nx {
+                                let k = (j * nx + i) as u32;
+                                let (jx, jy) = jitter_f32(hash32(seed, x, yu, k));
+                                px[i] = x as i32 as f32 + 0.5 - r + (i as f32 + jx) * kx;
+                                py[i] = yc - r + (j as f32 + jy) * ky;
+                            }
+                        }
+                    }
+                },
+            );
         }
         if !plain {
-            for p in 0..cnt * n {
-                let (sx, sy) = (sc.pts[0][p], sc.pts[1][p]);
-                let x = x0 + p / n;
-                let (ox, oy) = ((sx - x as f32 - 0.5) as f64, (sy - yc) as f64);
-                f.wt[p] =
-                    (opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy)) as f32;
+            for t in 0..cnt {
+                let x = x0 + t;
+                let b = f.start[t];
+                for q in b..b + (f.nx[x] * f.ny[x]) as usize {
+                    let (sx, sy) = (sc.pts[0][q], sc.pts[1][q]);
+                    let (ox, oy) = ((sx - x as f32 - 0.5) as f64, (sy - yc) as f64);
+                    f.wt[q] = (opts.filter.weight(ox) * opts.filter.weight(oy) * d.density(sx, sy))
+                        as f32;
+                }
             }
         }
         passes::<C>(s, d, plan, Points::At, sc);
-        // Pass 2b at the levels the chunk's texels read (lanes at level 0 use the above).
         // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above).
         if (x0..x0 + cnt).any(|x| f.l0s[x] != NONE || f.l1[x] != NONE) {
-            let (p, l0s, l1s) = (&sc.p, &f.l0s[x0..x0 + cnt], &f.l1[x0..x0 + cnt]);
+            let (p, l0s, l1s) = (&sc.p, &f.l0s[x0..x1], &f.l1[x0..x1]);
+            let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
             let [lax, lay] = &mut f.lo_f;
             let [hax, hay] = &mut f.hi_f;
             let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
             vectorized(
                 #[inline(always)]
                 || {
-                    for t in 0..l0s.len().min(l1s.len()) {
-                        let range = t * n..(t + 1) * n;
+                    for t in 0..cnt {
+                        let b = start[t];
+                        let range = b..b + (nxs[t] * nys[t]) as usize;
                         if l0s[t] != NONE {
                             let lo = Taps {
                                 idx: lo_idx,
@@ -249,11 +300,12 @@ pub(crate) fn row<const C: usize>(
         let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
         for (t, px) in chunk_out.chunks_exact_mut(C).enumerate() {
             let x = x0 + t;
-            if !f.grid[x] {
+            let n = (f.nx[x] * f.ny[x]) as usize;
+            if n == 0 {
                 continue;
             }
             max_n = max_n.max(n);
-            let b = t * n;
+            let b = f.start[t];
             let (l0, fr) = (f.l0[x] as usize, f.frac[x]);
             let mut acc = [0.0f32; C];
             let wsum;
@@ -297,7 +349,7 @@ pub(crate) fn row<const C: usize>(
     }
     // Texels with their own strata, one by one.
     for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        if f.grid[x] {
+        if f.nx[x] > 0 {
             continue;
         }
         let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
@@ -386,6 +438,15 @@ fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f3
             top + ay * (bot - top)
         })
     }
+}
+
+/// The jitter in [0, 1)² of a sample from its hash (16 bits per axis, as `jitter32`).
+#[inline(always)]
+fn jitter_f32(h: u32) -> (f32, f32) {
+    // Through i32: exact (< 2¹⁶), and signed conversions vectorize.
+    let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
+    let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
+    (jx, jy)
 }
 
 /// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there; level-0 position
