@@ -227,29 +227,32 @@ fn f32_fast_path_matches_f64_reference() {
             Mapping::parse(dst, None).unwrap(),
         );
         let img = fill(src, 64, 3, f);
-        // (16, 16): the vectorized filtered path with prefiltered levels at the rim.
-        for (samples, max_samples) in [(1, 1024), (8, 1024), (16, 16)] {
-            let a = convert(
-                src,
-                &img,
-                dst,
-                48,
-                &ResampleOptions {
-                    samples,
-                    max_samples,
-                    ..Default::default()
-                },
-            );
+        // (8, 1024): adaptive strata; (16, 16): prefiltered levels at the rim; tent and
+        // black: weighted samples and lanes off the disc, through the same vectorized chunks.
+        let (bx, gutter) = (Filter::Box, Outside::Gutter);
+        for (samples, max_samples, filter, outside) in [
+            (1, 1024, bx, gutter),
+            (8, 1024, bx, gutter),
+            (16, 16, bx, gutter),
+            (4, 1024, Filter::Tent, Outside::Black),
+            (9, 9, Filter::Gaussian, gutter),
+        ] {
+            let o = ResampleOptions {
+                samples,
+                max_samples,
+                filter,
+                outside,
+                ..Default::default()
+            };
+            let a = convert(src, &img, dst, 48, &o);
             let b = convert(
                 src,
                 &img,
                 dst,
                 48,
                 &ResampleOptions {
-                    samples,
-                    max_samples,
                     precision: Precision::F64,
-                    ..Default::default()
+                    ..o
                 },
             );
             let (mut worst, mut at) = (0.0f32, 0);
@@ -260,7 +263,7 @@ fn f32_fast_path_matches_f64_reference() {
             }
             assert!(
                 worst < 2e-3,
-                "{} -> {} samples {samples}: {worst} at texel ({}, {})",
+                "{} -> {} samples {samples} {filter:?} {outside:?}: {worst} at texel ({}, {})",
                 nm(&src),
                 nm(&dst),
                 at % a.width,

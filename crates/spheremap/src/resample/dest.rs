@@ -64,18 +64,20 @@ impl<T: Real> Dst<T> {
     #[cold]
     fn mirrored(&self, uv: [T; 2]) -> [T; 3] {
         let one = T::ONE;
-        let (half, back) = match self.m {
+        // A point beyond the canvas (a tent or Gaussian sample of an edge texel) is mirrored
+        // radially like any other: clamping it onto the canvas first would turn its angle
+        // (and the vectorized path, `rows::sphere_dir`, does not clamp).  The paraboloid
+        // keeps its clamp of v (as before; it has no vectorized path to agree with).
+        let clamp = |v: T| v.max(T::ZERO).min(one);
+        let (half, v, back) = match self.m {
             Mapping::Paraboloid => {
                 let back = uv[0] >= T::HALF;
                 let uh = if back { uv[0] - T::HALF } else { uv[0] } * T::TWO;
-                (uh, back)
+                (uh, clamp(uv[1]), back)
             }
-            _ => (uv[0].max(T::ZERO).min(one), false),
+            _ => (uv[0], uv[1], false),
         };
-        let (a, b) = (
-            T::TWO * half - one,
-            T::TWO * uv[1].max(T::ZERO).min(one) - one,
-        );
+        let (a, b) = (T::TWO * half - one, T::TWO * v - one);
         let rho = a.hypot(b);
         if !(rho > T::ZERO) {
             return self
