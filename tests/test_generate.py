@@ -263,9 +263,13 @@ def test_cli_ctrl_c_cancels_and_writes_nothing(tmp_path):
     import signal
     import time
     out = tmp_path / "big.exr"
+    # The child gets Ctrl-C's default disposition: a shell starts background jobs with SIGINT
+    # ignored, the child would inherit that, and Python (rightly) keeps an ignored SIGINT
+    # ignored — the cause of this test hanging when the suite ran in the background.
     p = subprocess.Popen([sys.executable, "-m", "spheremap", "generate", "--scene", "builtin:demo",
                           "--size", "2048", "--samples", "256", "-q", "-o", str(out)],
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # Long enough for the interpreter to start and enter the command even on a loaded
     # machine (the work itself runs for minutes); before that, Ctrl-C is Python's own.
     time.sleep(3)

@@ -357,7 +357,7 @@ pub fn resample_into(
     check_job(src, dst, width, height, opts)?;
     // SAFETY: f32 and MaybeUninit<f32> have the same layout, and only initialized values are
     // ever written through the view.
-    let view = unsafe { &mut *(out as *mut [f32] as *mut [std::mem::MaybeUninit<f32>]) };
+    let view = unsafe { &mut *(out as *mut [f32] as *mut [MaybeUninit<f32>]) };
     resample_uninit(src, dst, width, height, opts, progress, view)
 }
 

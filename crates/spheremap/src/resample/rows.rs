@@ -292,7 +292,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
 /// across a cube seam) — the common case of `Src::lookup` — else `SLOW`.
 #[inline(always)]
 fn taps<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
-    // Level 0 only (pyramid levels go through `taps_levels`): all rows are held.
+    // Level 0 only (pyramid levels go through `taps_level`): all rows are held.
     debug_assert!(s.rowmap.is_empty());
     // Indices are u32: a source too large for them takes the general path throughout.
     if s.data.len() >= SLOW as usize {
@@ -366,7 +366,7 @@ pub(crate) struct LevelTab {
     row: [u32; 32],
     /// Level k's canvas row y at `pair[off[k] + y]`: where it lies in the level's data when
     /// rows y and y + 1 are both held (so a lookup's two tap rows are consecutive there),
-    /// else `SLOW`.  One table for all levels, so the lanes' reads are one gather.
+    /// else `SLOW`.  One table for all levels, sliced by `off`.
     off: [u32; 32],
     pair: Vec<u32>,
     /// The tap indices fit u32 at every level.
