@@ -275,6 +275,47 @@ fn f32_fast_path_matches_f64_reference() {
 
 /// A 2-px checkerboard lat-long (1024×512) and the rms difference, over the disc of a 32²
 /// sphere map, of a conversion of it from a brute-force 4096-sample reference.
+#[test]
+fn integer_shrinks_and_pole_edges_agree_in_both_precisions() {
+    // A lat-long shrunk 16× and 64× (integer ratios: footprints of exactly 16 or 64 texels)
+    // whose bottom texel edges lie on the south pole: the strata counts and the levels must
+    // not depend on rounding, so f32 and f64 sample alike. Fine detail makes any difference
+    // in where they sample show.
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let img = fill(ll, 256, 3, |d| {
+        let h = (97.0 * d[0] + 31.0 * d[1]).sin() * (71.0 * d[2] + 13.0 * d[1]).cos();
+        vec![h, (53.0 * d[1]).sin(), d[0] * (89.0 * d[2]).sin()]
+    });
+    for (n, samples, max_samples) in [(16, 4, 4096), (16, 4, 1024), (4, 4, 4), (4, 4, 4096)] {
+        let o = ResampleOptions {
+            samples,
+            max_samples,
+            ..Default::default()
+        };
+        let a = convert(ll, &img, ll, n, &o);
+        let b = convert(
+            ll,
+            &img,
+            ll,
+            n,
+            &ResampleOptions {
+                precision: Precision::F64,
+                ..o
+            },
+        );
+        let worst = a
+            .data
+            .iter()
+            .zip(&b.data)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst < 1e-4,
+            "size {n}, samples {samples}/{max_samples}: {worst}"
+        );
+    }
+}
+
 fn checkerboard_vs_reference() -> (Image, impl Fn(&Image) -> f64) {
     let ll = Mapping::parse("latlong", None).unwrap();
     let sp = Mapping::parse("sphere", None).unwrap();

@@ -696,12 +696,11 @@ impl Sampling {
             // No room for more samples than the common grid: it stays, the levels cover.
             self.grid
         } else {
-            strata(
-                self.base.max((lx * self.support).ceil() as usize),
-                self.base.max((ly * self.support).ceil() as usize),
-                self.samples,
-                self.cap,
-            )
+            // A thousandth of a texel of slack: an integer ratio (a 32× shrink), measured as
+            // 32.0000001 in one precision and 32 in the other, must not get 33 strata in one
+            // path and 32 in the other (they would then sample differently).
+            let per_axis = |l: f64| self.base.max((l * self.support - 1e-3).ceil() as usize);
+            strata(per_axis(lx), per_axis(ly), self.samples, self.cap)
         };
         let spacing = (lx * self.support / nx as f64).max(ly * self.support / ny as f64);
         let lambda = if spacing > 1.0 {

@@ -313,7 +313,20 @@ impl<T: Real> Src<'_, T> {
     pub(super) fn span(&self, a: [T; 2], b: [T; 2], da: [T; 3], db: [T; 3]) -> f64 {
         let (mut dx, dy) = ((b[0] - a[0]).to_f64().abs(), (b[1] - a[1]).to_f64().abs());
         match self.m {
-            Mapping::LatLong(_) => dx = dx.min(self.w as f64 - dx),
+            Mapping::LatLong(_) => {
+                // At a pole a direction has no azimuth: its column is rounding noise (sin π
+                // is 1e-16 in f64, −9e-8 in f32), so a footprint edge there (a lat-long
+                // texel's top or bottom edge) measures rows only — the same in both paths.
+                let at_pole = |d: [T; 3]| {
+                    let [x, y, z] = d.map(|v| v.to_f64());
+                    x * x + z * z <= 1e-12 * (x * x + y * y + z * z)
+                };
+                dx = if at_pole(da) || at_pole(db) {
+                    0.0
+                } else {
+                    dx.min(self.w as f64 - dx)
+                };
+            }
             Mapping::Cube(_) => {
                 let f = self.face as f64;
                 if (a[1].to_f64() / f).floor() != (b[1].to_f64() / f).floor() {
