@@ -438,18 +438,14 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
             raise ValueError("out: must be C-contiguous and writeable")
         if np.shares_memory(out, a):
             raise ValueError("out: overlaps image")
-        return _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples,
-                            max_samples, filter, outside, int(seed), precision, src_preset,
-                            dst_preset, _vec3(look, "look"), _vec3(up, "up"), ypr,
-                            _vec3(src_look, "src_look"), _vec3(src_up, "src_up"), max_memory, out)
-    out = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
+    res = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
                        filter, outside, int(seed), precision, src_preset, dst_preset,
                        _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),
-                       _vec3(src_up, "src_up"), max_memory)
-    if dst == "cube":
-        f = out.shape[1]
-        out = out.reshape(6, f, f, out.shape[2])
-    return out
+                       _vec3(src_up, "src_up"), max_memory, out)
+    if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
+        f = res.shape[1]
+        res = res.reshape(6, f, f, res.shape[2])
+    return res
 
 
 def cube_from_layout(image, layout: str) -> np.ndarray:
