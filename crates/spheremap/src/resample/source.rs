@@ -309,7 +309,7 @@ impl<'a, T: Real> Src<'a, T> {
 impl<T: Real> Src<'_, T> {
     /// How many source texels lie between two source positions (the directions `da`, `db` are
     /// used where pixel distance means nothing: across a cube seam).
-    #[inline]
+    #[inline(always)]
     pub(super) fn span(&self, a: [T; 2], b: [T; 2], da: [T; 3], db: [T; 3]) -> f64 {
         let (mut dx, dy) = ((b[0] - a[0]).to_f64().abs(), (b[1] - a[1]).to_f64().abs());
         match self.m {
@@ -317,11 +317,16 @@ impl<T: Real> Src<'_, T> {
                 // At a pole a direction has no azimuth: its column is rounding noise (sin π
                 // is 1e-16 in f64, −9e-8 in f32), so a footprint edge there (a lat-long
                 // texel's top or bottom edge) measures rows only — the same in both paths.
-                let at_pole = |d: [T; 3]| {
-                    let [x, y, z] = d.map(|v| v.to_f64());
-                    x * x + z * z <= 1e-12 * (x * x + y * y + z * z)
+                // "There": within 1e-6 rad, i.e. that close to row 0 or row h.
+                let (h, eps) = (
+                    self.hf.to_f64(),
+                    self.hf.to_f64() * (1e-6 / std::f64::consts::PI),
+                );
+                let at_pole = |p: [T; 2]| {
+                    let v = p[1].to_f64();
+                    v <= eps || v >= h - eps
                 };
-                dx = if at_pole(da) || at_pole(db) {
+                dx = if at_pole(a) || at_pole(b) {
                     0.0
                 } else {
                     dx.min(self.w as f64 - dx)
