@@ -24,6 +24,8 @@ python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" 
 
 echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q
+echo "== the conversion tests again on the portable code (as CPUs without AVX2 run it)"
+SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --test resample
 
 echo "== building and installing the Python package (pip install .)"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" python3 -m pip install -q --disable-pip-version-check .

@@ -5,13 +5,13 @@
 //! through passes 1–2 of [`super::rows`]), giving each texel its strata nx×ny and level; then,
 //! a chunk of texels at a time (as many as fit [`CHUNK`] samples), every sample of every
 //! texel in the chunk (texel-major: a texel's samples are consecutive) through passes 1–2b,
-//! and a gather that sums each texel's samples in registers and writes it.  Only texels with
+//! and a gather ([`super::gather`]) that sums each texel's samples in registers and writes
+//! it.  Only texels with
 //! more strata than a chunk holds (`max_samples` > 1024) go one by one through the generic
 //! code.
 
-use super::rows::{
-    bilerp, passes, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
-};
+use super::gather::{self, gather0, level_lookup, sum_level, Acc};
+use super::rows::{passes, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW};
 use super::*;
 
 /// `FScratch::l1` of a texel that reads one level.
@@ -182,6 +182,7 @@ pub(crate) fn row<const C: usize>(
     let plain = opts.filter == Filter::Box && !d.weighted;
     let black = d.outside == Outside::Black;
     let (yc, yu) = (y as f32 + 0.5, y as u32);
+    let avx = gather::has_avx2();
     let mut x1 = 0;
     while x1 < w {
         // The next chunk: texels x0..x1 whose samples fit.
@@ -298,8 +299,67 @@ pub(crate) fn row<const C: usize>(
             );
         }
         let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
-        for (t, px) in chunk_out.chunks_exact_mut(C).enumerate() {
-            let x = x0 + t;
+        let g = Gather {
+            levels,
+            f,
+            x0,
+            plain,
+            black,
+        };
+        let (l, m) = if avx {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `avx`: this CPU has AVX2 and FMA.
+            unsafe {
+                gather_avx2::<C>(&g, chunk_out)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            unreachable!()
+        } else {
+            g.texels::<C, false>(chunk_out)
+        };
+        lookups += l;
+        max_n = max_n.max(m);
+    }
+    // Texels with their own strata, one by one.
+    for (x, px) in out.chunks_exact_mut(C).enumerate() {
+        if f.nx[x] > 0 {
+            continue;
+        }
+        let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
+        max_n = max_n.max(nx * ny);
+        let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, (nx, ny, lambda));
+        lookups += l;
+        for c in 0..C {
+            px[c].write(v[c]);
+        }
+    }
+    (lookups, max_n)
+}
+
+/// What the gather of a chunk (texels `x0..`) reads.
+struct Gather<'a, 'b> {
+    levels: &'a [Src<'b, f32>],
+    f: &'a FScratch,
+    x0: usize,
+    /// Unit weights (the box filter on an unweighted canvas).
+    plain: bool,
+    /// Outside the disc is black (those samples are not looked up).
+    black: bool,
+}
+
+impl Gather<'_, '_> {
+    /// Sums each texel's samples into its value in `out`; returns (lookups, the most samples
+    /// a texel took).  `AVX`: the caller is compiled for AVX2 and FMA.
+    #[inline(always)]
+    fn texels<const C: usize, const AVX: bool>(
+        &self,
+        out: &mut [std::mem::MaybeUninit<f32>],
+    ) -> (u64, usize) {
+        let (levels, f, plain, black) = (self.levels, self.f, self.plain, self.black);
+        let (s, sc) = (&levels[0], &f.sc);
+        let (mut lookups, mut max_n) = (0u64, 0);
+        for (t, px) in out.chunks_exact_mut(C).enumerate() {
+            let x = self.x0 + t;
             let n = (f.nx[x] * f.ny[x]) as usize;
             if n == 0 {
                 continue;
@@ -307,11 +367,35 @@ pub(crate) fn row<const C: usize>(
             max_n = max_n.max(n);
             let b = f.start[t];
             let (l0, fr) = (f.l0[x] as usize, f.frac[x]);
+            if plain && !black && (AVX || l0 > 0 || fr > 0.0) {
+                // Unit weights: each level's lanes summed at once.
+                lookups += n as u64;
+                let mut acc = Acc::<C>::new();
+                let r = b..b + n;
+                let (p, w0) = (&sc.p, 1.0 - fr);
+                if l0 == 0 {
+                    let (i, [ax, ay]) = (&sc.idx, &sc.frac);
+                    sum_level::<C, AVX>(s, 0, p, i, ax, ay, r.clone(), w0, &mut acc);
+                } else {
+                    let (i, [ax, ay]) = (&f.lo_idx, &f.lo_f);
+                    let l = &levels[l0];
+                    sum_level::<C, AVX>(l, l0, p, i, ax, ay, r.clone(), w0, &mut acc);
+                }
+                if fr > 0.0 {
+                    let l1 = f.l1[x] as usize;
+                    let (i, [ax, ay]) = (&f.hi_idx, &f.hi_f);
+                    sum_level::<C, AVX>(&levels[l1], l1, p, i, ax, ay, r, fr, &mut acc);
+                }
+                let v = acc.scaled::<AVX>(1.0 / n as f32);
+                for c in 0..C {
+                    px[c].write(v[c]);
+                }
+                continue;
+            }
             let mut acc = [0.0f32; C];
             let wsum;
             if l0 == 0 && fr == 0.0 && plain && !black {
-                // The common case: unit weights, level 0 only (the same lookups as below,
-                // summed in a 4-lane register).
+                // The same without AVX2, in a 4-lane register.
                 lookups += n as u64;
                 wsum = n as f32;
                 gather0::<C>(s, &sc.p, &sc.idx, &sc.frac, b, n, &mut acc);
@@ -331,8 +415,8 @@ pub(crate) fn row<const C: usize>(
                         level_lookup::<C>(s, 0, p, i, ax, ay, w0, &mut acc);
                     } else {
                         let (ax, ay) = (f.lo_f[0][q], f.lo_f[1][q]);
-                        let i = f.lo_idx[q];
-                        level_lookup::<C>(&levels[l0], l0, p, i, ax, ay, wt * (1.0 - fr), &mut acc);
+                        let (i, w) = (f.lo_idx[q], wt * (1.0 - fr));
+                        level_lookup::<C>(&levels[l0], l0, p, i, ax, ay, w, &mut acc);
                     }
                     if fr > 0.0 {
                         let l1 = f.l1[x] as usize;
@@ -347,98 +431,21 @@ pub(crate) fn row<const C: usize>(
                 px[c].write(if wsum > 0.0 { acc[c] / wsum } else { 0.0 });
             }
         }
-    }
-    // Texels with their own strata, one by one.
-    for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        if f.nx[x] > 0 {
-            continue;
-        }
-        let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-        max_n = max_n.max(nx * ny);
-        let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, (nx, ny, lambda));
-        lookups += l;
-        for c in 0..C {
-            px[c].write(v[c]);
-        }
-    }
-    (lookups, max_n)
-}
-
-/// The sum of samples `b..b + n` (level 0, unit weights) into `acc`.  (No software
-/// prefetch: a texel's samples share their cache lines, and the texels follow each other
-/// along the source closely enough for the hardware's prefetcher; measured no faster.)
-#[inline(always)]
-fn gather0<const C: usize>(
-    s: &Src<f32>,
-    p: &[Vec<f32>; 2],
-    idx: &[u32],
-    frac: &[Vec<f32>; 2],
-    b: usize,
-    n: usize,
-    acc: &mut [f32; C],
-) {
-    let (data, row) = (s.data, s.w * C);
-    if C == 3 || C == 4 {
-        // A texel's channels as one 4-lane vector (for C = 3 the lane after its blue is the
-        // next texel's red, unused): 4 loads and 6 vector operations per lookup.  The last
-        // lookups of the data would read one value past its end; they go the scalar way.
-        let lim = data.len().saturating_sub(row + C + 4) as u32;
-        let mut a4 = [0.0f32; 4];
-        for q in b..b + n {
-            let i00 = idx[q];
-            if i00 <= lim {
-                let v = bilerp4::<C>(data, row, i00 as usize, frac[0][q], frac[1][q]);
-                for c in 0..4 {
-                    a4[c] += v[c];
-                }
-            } else {
-                let (ax, ay) = (frac[0][q], frac[1][q]);
-                level_lookup::<C>(s, 0, [p[0][q], p[1][q]], i00, ax, ay, 1.0, acc);
-            }
-        }
-        for c in 0..C {
-            acc[c] += a4[c];
-        }
-        return;
-    }
-    for q in b..b + n {
-        let (ax, ay) = (frac[0][q], frac[1][q]);
-        level_lookup::<C>(s, 0, [p[0][q], p[1][q]], idx[q], ax, ay, 1.0, acc);
+        (lookups, max_n)
     }
 }
 
-/// [`bilerp`] for C = 3 or 4 on 4-lane vectors; needs `i00 + row + C + 4 ≤ data.len()`.
-#[inline(always)]
-fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f32) -> [f32; 4] {
-    debug_assert!(i00 + row + C + 4 <= data.len());
-    #[cfg(target_arch = "x86_64")]
-    {
-        // Written with SSE (x86-64's baseline): left to itself, the compiler splits the
-        // vectors into pairs and singles here.
-        use std::arch::x86_64::*;
-        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
-        unsafe {
-            let p = data.as_ptr().add(i00);
-            let (a, b) = (_mm_loadu_ps(p), _mm_loadu_ps(p.add(C)));
-            let (c, d) = (_mm_loadu_ps(p.add(row)), _mm_loadu_ps(p.add(row + C)));
-            let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
-            let top = _mm_add_ps(a, _mm_mul_ps(vx, _mm_sub_ps(b, a)));
-            let bot = _mm_add_ps(c, _mm_mul_ps(vx, _mm_sub_ps(d, c)));
-            let v = _mm_add_ps(top, _mm_mul_ps(vy, _mm_sub_ps(bot, top)));
-            std::mem::transmute::<__m128, [f32; 4]>(v)
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
-        let ld = |i: usize| unsafe { (data.as_ptr().add(i) as *const [f32; 4]).read_unaligned() };
-        let (a, b, c, d) = (ld(i00), ld(i00 + C), ld(i00 + row), ld(i00 + row + C));
-        std::array::from_fn(|k| {
-            let top = a[k] + ax * (b[k] - a[k]);
-            let bot = c[k] + ax * (d[k] - c[k]);
-            top + ay * (bot - top)
-        })
-    }
+/// [`Gather::texels`] compiled for AVX2 and FMA.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn gather_avx2<const C: usize>(
+    g: &Gather,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) -> (u64, usize) {
+    g.texels::<C, true>(out)
 }
 
 /// The jitter in [0, 1)² of a sample from its hash (16 bits per axis, as `jitter32`).
@@ -448,34 +455,4 @@ fn jitter_f32(h: u32) -> (f32, f32) {
     let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
     let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
     (jx, jy)
-}
-
-/// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there; level-0 position
-/// `p` for the general path), weighted into `acc`.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn level_lookup<const C: usize>(
-    s: &Src<f32>,
-    k: usize,
-    p: [f32; 2],
-    i00: u32,
-    ax: f32,
-    ay: f32,
-    wt: f32,
-    acc: &mut [f32; C],
-) {
-    if i00 == SLOW {
-        let sc = 1.0 / (1u32 << k) as f32;
-        s.lookup([p[0] * sc, p[1] * sc], wt, acc);
-    } else if (C == 3 || C == 4) && (i00 as usize) + s.w * C + C + 4 <= s.data.len() {
-        let v = bilerp4::<C>(s.data, s.w * C, i00 as usize, ax, ay);
-        for c in 0..C {
-            acc[c] += wt * v[c];
-        }
-    } else {
-        let v = bilerp::<C>(s.data, s.w * C, i00, ax, ay);
-        for c in 0..C {
-            acc[c] += wt * v[c];
-        }
-    }
 }

@@ -59,6 +59,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 mod dest;
 mod filtered;
+mod gather;
 mod pyramid;
 mod rows;
 mod source;

@@ -5,7 +5,7 @@
 //! per-texel functions in passes 1–2.  Same formulas as the generic path (tested equal).
 
 use super::*;
-use crate::real::{atan2_fast, floor_fast};
+use crate::real::{atan2_poly, floor_fast, mad};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
@@ -88,21 +88,18 @@ impl Plan {
 }
 
 #[inline(always)]
-fn apply(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
+fn apply<const F: bool>(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
     // Written out: `[0, 1, 2].map(..)` is not inlined and stops vectorization.
-    [
-        m[0][0] * e[0] + m[0][1] * e[1] + m[0][2] * e[2],
-        m[1][0] * e[0] + m[1][1] * e[1] + m[1][2] * e[2],
-        m[2][0] * e[0] + m[2][1] * e[1] + m[2][2] * e[2],
-    ]
+    let row = |r: &[f32; 3]| mad::<F>(r[0], e[0], mad::<F>(r[1], e[1], r[2] * e[2]));
+    [row(&m[0]), row(&m[1]), row(&m[2])]
 }
 
 /// The sphere map's direction at disc coordinates (a, b) ∈ [−1, 1]², turned by `m`, and
 /// whether it is on the disc; off it, the gutter: the radial mirror image across the rim
 /// (see `Dst::mirrored`).  Branch-free, so the callers' loops vectorize.
 #[inline(always)]
-fn sphere_dir(m: &[[f32; 3]; 3], a: f32, b: f32) -> ([f32; 3], bool) {
-    let d2 = a * a + b * b;
+fn sphere_dir<const F: bool>(m: &[[f32; 3]; 3], a: f32, b: f32) -> ([f32; 3], bool) {
+    let d2 = mad::<F>(a, a, b * b);
     let inside = d2 <= 1.0;
     let rho = d2.sqrt();
     let k = if inside {
@@ -113,12 +110,18 @@ fn sphere_dir(m: &[[f32; 3]; 3], a: f32, b: f32) -> ([f32; 3], bool) {
     let (a2, b2) = (a * k, b * k);
     let q = a2 * a2 + b2 * b2;
     let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
-    (apply(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]), inside)
+    (apply::<F>(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]), inside)
 }
 
-/// Passes 1 and 2 for `pts`.
+/// Passes 1 and 2 for `pts`; `F`: compiled for FMA (see [`mad`]).
 #[inline(always)]
-fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, sc: &mut Scratch) {
+fn stages<const C: usize, const F: bool>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    pts: Points,
+    sc: &mut Scratch,
+) {
     let w = sc.on.len();
     let [dx, dy, dz] = &mut sc.d;
     let on = &mut sc.on;
@@ -134,10 +137,10 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let m = &plan.sphere_m;
             let [ptx, pty] = &sc.pts;
             for x in 0..w {
-                let a = ptx[x] * kx - 1.0;
-                let yf = pty[x] * ky - 1.0;
+                let a = mad::<F>(ptx[x], kx, -1.0);
+                let yf = mad::<F>(pty[x], ky, -1.0);
                 let b = if flip { -yf } else { yf };
-                let (r, inside) = sphere_dir(m, a, b);
+                let (r, inside) = sphere_dir::<F>(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -164,7 +167,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let m = &plan.sphere_m;
             for x in 0..w {
                 let a = x as f32 * k0 + k1;
-                let (r, inside) = sphere_dir(m, a, b);
+                let (r, inside) = sphere_dir::<F>(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -176,7 +179,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let (st, ct) = (theta.sin() as f32, theta.cos() as f32);
             let m = &plan.sphere_m;
             for x in 0..w {
-                let r = apply(m, [st * plan.cos_phi[x], ct, st * plan.sin_phi[x]]);
+                let r = apply::<F>(m, [st * plan.cos_phi[x], ct, st * plan.sin_phi[x]]);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -202,9 +205,9 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let (i2pi, ipi) = (1.0 / std::f32::consts::TAU, 1.0 / std::f32::consts::PI);
             for x in 0..w {
                 let (a, b, c) = (dx[x], dy[x], dz[x]);
-                let u = u0 + atan2_fast(c, a) * i2pi;
+                let u = mad::<F>(atan2_poly::<F>(c, a), i2pi, u0);
                 let u = u - floor_fast(u);
-                let v = atan2_fast((a * a + c * c).sqrt(), b) * ipi;
+                let v = atan2_poly::<F>(mad::<F>(a, a, c * c).sqrt(), b) * ipi;
                 px[x] = u * wf;
                 py[x] = v * hf;
             }
@@ -213,7 +216,7 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let m = &plan.src_frame;
             let f = wf;
             for x in 0..w {
-                let [a, b, c] = apply(m, [dx[x], dy[x], dz[x]]);
+                let [a, b, c] = apply::<F>(m, [dx[x], dy[x], dz[x]]);
                 let (ax, ay, az) = (a.abs(), b.abs(), c.abs());
                 let is_x = ax >= ay && ax >= az;
                 let is_y = !is_x && ay >= az;
@@ -249,8 +252,8 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
                 };
                 let face = axis + if ma < 0.0 { 1.0 } else { 0.0 };
                 let inv = 1.0 / ma.abs();
-                let ss = (scv * inv + 1.0) * 0.5;
-                let tt = ((tcv * inv + 1.0) * 0.5).min(1.0 - 1.0 / 4096.0);
+                let ss = mad::<F>(scv, inv, 1.0) * 0.5;
+                let tt = (mad::<F>(tcv, inv, 1.0) * 0.5).min(1.0 - 1.0 / 4096.0);
                 px[x] = ss * f;
                 py[x] = (face + tt) * f;
             }
@@ -259,13 +262,13 @@ fn stages<const C: usize>(s: &Src<f32>, d: &Dst<f32>, plan: &Plan, pts: Points, 
             let m = &plan.src_frame;
             let flip = matches!(p.rows, RowOrder::TopIsT1);
             for x in 0..w {
-                let [a, b, c] = apply(m, [dx[x], dy[x], dz[x]]);
-                let il = 1.0 / (a * a + b * b + c * c).sqrt();
+                let [a, b, c] = apply::<F>(m, [dx[x], dy[x], dz[x]]);
+                let il = 1.0 / mad::<F>(a, a, mad::<F>(b, b, c * c)).sqrt();
                 let (a, b, c) = (a * il, b * il, c * il);
-                let q = a * a + b * b;
+                let q = mad::<F>(a, a, b * b);
                 // 1 + z without cancellation (crate::sphere::dir_to_st).
                 let zp1 = if c >= 0.0 { 1.0 + c } else { q / (1.0 - c) };
-                let h2 = q + zp1 * zp1;
+                let h2 = mad::<F>(zp1, zp1, q);
                 let k = 0.5 / h2.sqrt();
                 let (ss, tt) = if h2 > 0.0 {
                     (a * k + 0.5, b * k + 0.5)
@@ -478,6 +481,40 @@ pub(crate) fn taps_level<const C: usize>(
     }
 }
 
+/// The vector instructions the f32 passes and gathers use, chosen once per process: the
+/// widest this CPU has, or none when the environment variable `SPHEREMAP_PORTABLE` is set
+/// (to anything) — the code CPUs without AVX2 run, which `scripts/test.sh` tests this way.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) enum Simd {
+    Portable,
+    /// AVX2 and FMA.
+    Avx2,
+    /// AVX-512 F/VL/DQ, AVX2 and FMA.
+    Avx512,
+}
+
+pub(crate) fn simd() -> Simd {
+    static SIMD: std::sync::OnceLock<Simd> = std::sync::OnceLock::new();
+    *SIMD.get_or_init(|| {
+        if std::env::var_os("SPHEREMAP_PORTABLE").is_some() {
+            return Simd::Portable;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            let fma = has!("avx2") && has!("fma");
+            if fma && has!("avx512f") && has!("avx512vl") && has!("avx512dq") {
+                return Simd::Avx512;
+            }
+            if fma {
+                return Simd::Avx2;
+            }
+        }
+        Simd::Portable
+    })
+}
+
 /// Runs `f` compiled for the widest vectors this CPU has (`f` must be `#[inline(always)]`
 /// code: it is inlined into the feature-enabled wrapper and vectorized there).
 #[inline(always)]
@@ -492,18 +529,12 @@ pub(crate) fn vectorized<R>(f: impl FnOnce() -> R) -> R {
         unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
             f()
         }
-        if std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512vl")
-            && std::arch::is_x86_feature_detected!("avx512dq")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
+        match simd() {
             // SAFETY: the features were detected at run time.
-            return unsafe { avx512(f) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
+            Simd::Avx512 => return unsafe { avx512(f) },
             // SAFETY: the features were detected at run time.
-            return unsafe { avx2(f) };
+            Simd::Avx2 => return unsafe { avx2(f) },
+            Simd::Portable => {}
         }
     }
     f()
@@ -518,7 +549,7 @@ unsafe fn stages_avx2<const C: usize>(
     pts: Points,
     sc: &mut Scratch,
 ) {
-    stages::<C>(s, d, plan, pts, sc)
+    stages::<C, true>(s, d, plan, pts, sc)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -536,7 +567,7 @@ unsafe fn stages_avx512<const C: usize>(
     pts: Points,
     sc: &mut Scratch,
 ) {
-    stages::<C>(s, d, plan, pts, sc);
+    stages::<C, true>(s, d, plan, pts, sc);
     taps::<C>(s, sc)
 }
 
@@ -549,28 +580,23 @@ pub(crate) fn passes<const C: usize>(
     sc: &mut Scratch,
 ) {
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512vl")
-            && std::arch::is_x86_feature_detected!("avx512dq")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the features were detected at run time.
-            unsafe { stages_avx512::<C>(s, d, plan, pts, sc) };
-        } else if std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
+    match simd() {
+        // SAFETY: the features were detected at run time.
+        Simd::Avx512 => unsafe { stages_avx512::<C>(s, d, plan, pts, sc) },
+        Simd::Avx2 => {
             // SAFETY: the features were detected at run time.
             unsafe { stages_avx2::<C>(s, d, plan, pts, sc) };
+            // SAFETY: as above.
             unsafe { taps_avx2::<C>(s, sc) };
-        } else {
-            stages::<C>(s, d, plan, pts, sc);
+        }
+        Simd::Portable => {
+            stages::<C, false>(s, d, plan, pts, sc);
             taps::<C>(s, sc);
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        stages::<C>(s, d, plan, pts, sc);
+        stages::<C, false>(s, d, plan, pts, sc);
         taps::<C>(s, sc);
     }
 }

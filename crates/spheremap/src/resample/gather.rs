@@ -1,0 +1,274 @@
+//! The gathers of the filtered f32 path: a texel's samples, already turned into tap indices
+//! and bilinear fractions at the level they read (pass 2b), summed into its value.
+//!
+//! Three ways, fastest first:
+//! - [`sum8`]: AVX2 + FMA, for 3 or 4 channels.  One 8-lane load per tap row holds both taps
+//!   of that row (`[r₀ g₀ b₀ r₁ g₁ b₁ · ·]` for RGB), so a sample is two loads and four
+//!   vector operations: `m = top + ay·(bottom − top)` per column, then
+//!   `acc += x·m` with `x = [wl·(1−ax) ×C, wl·ax ×C, 0 …]` from one FMA.  The left and right
+//!   columns are added at the end.  Four accumulators, so no sample waits on the previous.
+//! - [`gather0`]: SSE (x86-64's baseline), level 0 and unit weights only: one 4-lane
+//!   vector per tap.
+//! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
+
+use super::rows::{bilerp, simd, Simd, SLOW};
+use super::source::Src;
+
+/// Whether this CPU runs [`sum8`] (AVX2 and FMA, not turned off: see [`simd`]); checked
+/// once per row by the callers.
+#[inline]
+pub(crate) fn has_avx2() -> bool {
+    simd() != Simd::Portable
+}
+
+/// A texel's running sum: channel c in `s[c]`, plus (after [`sum_level`] with AVX) in lanes
+/// c and C + c of `v` (the left and right tap columns).
+#[derive(Clone, Copy)]
+pub(crate) struct Acc<const C: usize> {
+    pub(crate) s: [f32; C],
+    #[cfg(target_arch = "x86_64")]
+    v: std::arch::x86_64::__m256,
+}
+
+impl<const C: usize> Acc<C> {
+    #[inline(always)]
+    pub(crate) fn new() -> Self {
+        Acc {
+            s: [0.0; C],
+            // SAFETY: SSE (of which this is one instruction) is x86-64's baseline.
+            #[cfg(target_arch = "x86_64")]
+            v: unsafe { std::arch::x86_64::_mm256_setzero_ps() },
+        }
+    }
+
+    /// The sum times `k`, per channel.  `AVX`: the caller is compiled for AVX2.
+    #[inline(always)]
+    pub(crate) fn scaled<const AVX: bool>(&self, k: f32) -> [f32; C] {
+        #[cfg(target_arch = "x86_64")]
+        if AVX && (C == 3 || C == 4) {
+            use std::arch::x86_64::*;
+            // SAFETY: AVX2 is enabled in the caller (AVX).
+            let v = unsafe {
+                // Lanes C.. onto lanes 0.. (a lane-crossing permute), then the first four.
+                let c = C as i32;
+                let right = _mm256_setr_epi32(c, c + 1, c + 2, c + 3, 0, 0, 0, 0);
+                let sum = _mm256_add_ps(self.v, _mm256_permutevar8x32_ps(self.v, right));
+                std::mem::transmute::<__m128, [f32; 4]>(_mm256_castps256_ps128(sum))
+            };
+            return std::array::from_fn(|c| (v[c] + self.s[c]) * k);
+        }
+        self.s.map(|v| v * k)
+    }
+}
+
+/// Samples `range` of a texel at level `k` (`s`), weighted by `wl`, added to `acc`: its tap
+/// indices `idx` and fractions `ax`, `ay` from pass 2b at that level, its level-0 positions
+/// `p` for the lanes that take the general path.  With `AVX` (the caller is compiled for
+/// AVX2 and FMA: see `filtered::gather_avx2`) and C = 3 or 4, [`sum8`] when all the lanes
+/// are plain; otherwise one by one ([`level_lookup`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn sum_level<const C: usize, const AVX: bool>(
+    s: &Src<f32>,
+    k: usize,
+    p: &[Vec<f32>; 2],
+    idx: &[u32],
+    ax: &[f32],
+    ay: &[f32],
+    range: std::ops::Range<usize>,
+    wl: f32,
+    acc: &mut Acc<C>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if AVX && (C == 3 || C == 4) {
+        let row = s.w * C;
+        // A lane is plain when both its 8-value reads end inside the data; the largest
+        // index decides (SLOW is larger than any plain one).
+        let lim = s
+            .data
+            .len()
+            .checked_sub(row + 8)
+            .map(|l| l.min(SLOW as usize - 1));
+        let (i, x, y) = (&idx[range.clone()], &ax[range.clone()], &ay[range.clone()]);
+        if lim.is_some_and(|l| i.iter().fold(0, |m, &v| m.max(v)) as usize <= l) {
+            // SAFETY: AVX2 and FMA are enabled in the caller (AVX); every lane's two 8-value
+            // reads end inside the data (checked just above).
+            acc.v = unsafe { sum8::<C>(s.data, row, i, x, y, wl, acc.v) };
+            return;
+        }
+    }
+    for q in range {
+        let pq = [p[0][q], p[1][q]];
+        level_lookup::<C>(s, k, pq, idx[q], ax[q], ay[q], wl, &mut acc.s);
+    }
+}
+
+/// `acc` + Σ wl·bilerp over the lanes, as 8 lanes: channel c of the left taps' column in
+/// lane c, of the right ones' in lane C + c.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; every `idx[q] + row + 8 ≤ data.len()`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn sum8<const C: usize>(
+    data: &[f32],
+    row: usize,
+    idx: &[u32],
+    ax: &[f32],
+    ay: &[f32],
+    wl: f32,
+    acc: std::arch::x86_64::__m256,
+) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    debug_assert!(C == 3 || C == 4);
+    let n = idx.len().min(ax.len()).min(ay.len());
+    let d = data.as_ptr();
+    // x = ax·sx + tx = [wl(1 − ax) ×C, wl·ax ×C, 0 …].
+    let (sx, tx) = if C == 3 {
+        (
+            _mm256_setr_ps(-1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 0.0, 0.0),
+            _mm256_setr_ps(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        )
+    } else {
+        (
+            _mm256_setr_ps(-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0),
+            _mm256_setr_ps(1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0),
+        )
+    };
+    let w = _mm256_set1_ps(wl);
+    let (sx, tx) = (_mm256_mul_ps(sx, w), _mm256_mul_ps(tx, w));
+    let one = |q: usize, acc: __m256| {
+        let i = *idx.get_unchecked(q) as usize;
+        let x = _mm256_fmadd_ps(_mm256_set1_ps(*ax.get_unchecked(q)), sx, tx);
+        let top = _mm256_loadu_ps(d.add(i));
+        let bot = _mm256_loadu_ps(d.add(i + row));
+        let m = _mm256_fmadd_ps(
+            _mm256_set1_ps(*ay.get_unchecked(q)),
+            _mm256_sub_ps(bot, top),
+            top,
+        );
+        _mm256_fmadd_ps(x, m, acc)
+    };
+    let z = _mm256_setzero_ps();
+    let (mut a0, mut a1, mut a2, mut a3) = (acc, z, z, z);
+    let mut q = 0;
+    while q + 4 <= n {
+        a0 = one(q, a0);
+        a1 = one(q + 1, a1);
+        a2 = one(q + 2, a2);
+        a3 = one(q + 3, a3);
+        q += 4;
+    }
+    while q < n {
+        a0 = one(q, a0);
+        q += 1;
+    }
+    _mm256_add_ps(_mm256_add_ps(a0, a1), _mm256_add_ps(a2, a3))
+}
+
+/// The sum of samples `b..b + n` (level 0, unit weights) into `acc`.  (No software
+/// prefetch: a texel's samples share their cache lines, and the texels follow each other
+/// along the source closely enough for the hardware's prefetcher; measured no faster.)
+#[inline(always)]
+pub(crate) fn gather0<const C: usize>(
+    s: &Src<f32>,
+    p: &[Vec<f32>; 2],
+    idx: &[u32],
+    frac: &[Vec<f32>; 2],
+    b: usize,
+    n: usize,
+    acc: &mut [f32; C],
+) {
+    let (data, row) = (s.data, s.w * C);
+    if C == 3 || C == 4 {
+        // A texel's channels as one 4-lane vector (for C = 3 the lane after its blue is the
+        // next texel's red, unused): 4 loads and 6 vector operations per lookup.  The last
+        // lookups of the data would read one value past its end; they go the scalar way.
+        let lim = data.len().saturating_sub(row + C + 4) as u32;
+        let mut a4 = [0.0f32; 4];
+        for q in b..b + n {
+            let i00 = idx[q];
+            if i00 <= lim {
+                let v = bilerp4::<C>(data, row, i00 as usize, frac[0][q], frac[1][q]);
+                for c in 0..4 {
+                    a4[c] += v[c];
+                }
+            } else {
+                let (ax, ay) = (frac[0][q], frac[1][q]);
+                level_lookup::<C>(s, 0, [p[0][q], p[1][q]], i00, ax, ay, 1.0, acc);
+            }
+        }
+        for c in 0..C {
+            acc[c] += a4[c];
+        }
+        return;
+    }
+    for q in b..b + n {
+        let (ax, ay) = (frac[0][q], frac[1][q]);
+        level_lookup::<C>(s, 0, [p[0][q], p[1][q]], idx[q], ax, ay, 1.0, acc);
+    }
+}
+
+/// [`bilerp`] for C = 3 or 4 on 4-lane vectors; needs `i00 + row + C + 4 ≤ data.len()`.
+#[inline(always)]
+fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f32) -> [f32; 4] {
+    debug_assert!(i00 + row + C + 4 <= data.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Written with SSE (x86-64's baseline): left to itself, the compiler splits the
+        // vectors into pairs and singles here.
+        use std::arch::x86_64::*;
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        unsafe {
+            let p = data.as_ptr().add(i00);
+            let (a, b) = (_mm_loadu_ps(p), _mm_loadu_ps(p.add(C)));
+            let (c, d) = (_mm_loadu_ps(p.add(row)), _mm_loadu_ps(p.add(row + C)));
+            let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
+            let top = _mm_add_ps(a, _mm_mul_ps(vx, _mm_sub_ps(b, a)));
+            let bot = _mm_add_ps(c, _mm_mul_ps(vx, _mm_sub_ps(d, c)));
+            let v = _mm_add_ps(top, _mm_mul_ps(vy, _mm_sub_ps(bot, top)));
+            std::mem::transmute::<__m128, [f32; 4]>(v)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        let ld = |i: usize| unsafe { (data.as_ptr().add(i) as *const [f32; 4]).read_unaligned() };
+        let (a, b, c, d) = (ld(i00), ld(i00 + C), ld(i00 + row), ld(i00 + row + C));
+        std::array::from_fn(|k| {
+            let top = a[k] + ax * (b[k] - a[k]);
+            let bot = c[k] + ax * (d[k] - c[k]);
+            top + ay * (bot - top)
+        })
+    }
+}
+
+/// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there; level-0 position
+/// `p` for the general path), weighted into `acc`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn level_lookup<const C: usize>(
+    s: &Src<f32>,
+    k: usize,
+    p: [f32; 2],
+    i00: u32,
+    ax: f32,
+    ay: f32,
+    wt: f32,
+    acc: &mut [f32; C],
+) {
+    if i00 == SLOW {
+        let sc = 1.0 / (1u32 << k) as f32;
+        s.lookup([p[0] * sc, p[1] * sc], wt, acc);
+    } else if (C == 3 || C == 4) && (i00 as usize) + s.w * C + C + 4 <= s.data.len() {
+        let v = bilerp4::<C>(s.data, s.w * C, i00 as usize, ax, ay);
+        for c in 0..C {
+            acc[c] += wt * v[c];
+        }
+    } else {
+        let v = bilerp::<C>(s.data, s.w * C, i00, ax, ay);
+        for c in 0..C {
+            acc[c] += wt * v[c];
+        }
+    }
+}
