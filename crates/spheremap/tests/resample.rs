@@ -470,3 +470,66 @@ fn bad_parameters_are_named() {
         .to_string();
     assert!(err.starts_with("in.exr: a cube map is"), "{err}");
 }
+
+/// The two ways to the prefiltered levels: a small source builds its whole pyramid; under a
+/// tight `max_memory` the footprint pre-pass builds only the rows its texels read (so those
+/// levels are partial: the tap-row tables, not the plain layout).  Same result, both
+/// precisions.
+#[test]
+fn partial_levels_give_the_whole_pyramids_result() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let img = fill(ll, 256, 3, |d| {
+        vec![
+            (9.0 * d[0]).sin() * (7.0 * d[1]).cos(),
+            d[2],
+            (5.0 * d[1]).sin(),
+        ]
+    });
+    let e = EnvMap::new(ll, &img, "src").unwrap();
+    for precision in [Precision::F32, Precision::F64] {
+        let o = ResampleOptions {
+            samples: 16,
+            max_samples: 16,
+            // Tipped on its side: only the texels that see the source's poles (whose
+            // columns crowd together) read its deeper levels, from its top and bottom rows.
+            rotation: view::look_up([0.0, -1.0, 0.0], [0.0, 0.0, -1.0]).unwrap(),
+            precision,
+            ..Default::default()
+        };
+        let run = |m: Mapping, n: usize, max_memory: u64| {
+            let (w, h) = m.canvas(n);
+            resample(&e, m, w, h, &ResampleOptions { max_memory, ..o }, None)
+        };
+        // The smallest budget a job runs in, less its output's share (twice the output).
+        let least = |m: Mapping, n: usize| {
+            let (w, h) = m.canvas(n);
+            let out = 2 * (w * h * 3 * 4) as u64;
+            let (mut lo, mut hi) = (out, out + (64 << 20));
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if run(m, n, mid).is_ok() {
+                    hi = mid
+                } else {
+                    lo = mid
+                }
+            }
+            (hi, hi - out)
+        };
+        // A 32× shrink reads every row of the deep levels: the whole pyramid.
+        let (_, whole) = least(ll, 8);
+        let (budget, part) = least(ll, 128);
+        assert!(
+            part < whole * 9 / 10,
+            "{precision:?}: the pre-pass kept {part} bytes of the pyramid's {whole}"
+        );
+        let full = run(ll, 128, u64::MAX).unwrap().0;
+        let partial = run(ll, 128, budget).unwrap().0;
+        let worst = full
+            .data
+            .iter()
+            .zip(&partial.data)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst == 0.0, "{precision:?}: {worst}");
+    }
+}

@@ -16,7 +16,6 @@ use super::*;
 
 /// `FScratch::l1` of a texel that reads one level.
 const NONE: u8 = u8::MAX;
-
 /// How many samples a chunk holds at least (its arrays stay in the first-level cache).
 const CHUNK: usize = 1024;
 
@@ -58,6 +57,9 @@ pub(crate) struct FScratch {
     hi_idx: Vec<u32>,
     /// Filter weights per sample (all 1 for the plain box).
     wt: Vec<f32>,
+    /// The chunk's runs of texels at one level (`runs`), for `lo_*` and `hi_*`.
+    lo_runs: Vec<(usize, std::ops::Range<usize>)>,
+    hi_runs: Vec<(usize, std::ops::Range<usize>)>,
 }
 
 impl FScratch {
@@ -99,6 +101,8 @@ impl FScratch {
             hi_f: [vec![0.0; cap], vec![0.0; cap]],
             hi_idx: vec![SLOW; cap],
             wt: vec![1.0; cap],
+            lo_runs: vec![],
+            hi_runs: vec![],
         }
     }
 }
@@ -265,35 +269,35 @@ pub(crate) fn row<const C: usize>(
             }
         }
         passes::<C>(s, d, plan, Points::At, sc);
-        // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above).
-        if (x0..x0 + cnt).any(|x| f.l0s[x] != NONE || f.l1[x] != NONE) {
-            let (p, l0s, l1s) = (&sc.p, &f.l0s[x0..x1], &f.l1[x0..x1]);
-            let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
+        // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above); a run
+        // of texels at the same level is one call (their samples are consecutive).
+        let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
+        runs(&f.l0s[x0..x1], nxs, nys, start, &mut f.lo_runs);
+        runs(&f.l1[x0..x1], nxs, nys, start, &mut f.hi_runs);
+        if !f.lo_runs.is_empty() || !f.hi_runs.is_empty() {
+            let p = &sc.p;
             let [lax, lay] = &mut f.lo_f;
             let [hax, hay] = &mut f.hi_f;
             let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
+            let (lo_runs, hi_runs) = (&f.lo_runs, &f.hi_runs);
             vectorized(
                 #[inline(always)]
                 || {
-                    for t in 0..cnt {
-                        let b = start[t];
-                        let range = b..b + (nxs[t] * nys[t]) as usize;
-                        if l0s[t] != NONE {
-                            let lo = Taps {
-                                idx: lo_idx,
-                                ax: lax,
-                                ay: lay,
-                            };
-                            taps_level::<C>(s.m, tab, l0s[t] as usize, p, range.clone(), lo);
-                        }
-                        if l1s[t] != NONE {
-                            let hi = Taps {
-                                idx: hi_idx,
-                                ax: hax,
-                                ay: hay,
-                            };
-                            taps_level::<C>(s.m, tab, l1s[t] as usize, p, range, hi);
-                        }
+                    for (k, range) in lo_runs.iter().cloned() {
+                        let lo = Taps {
+                            idx: lo_idx,
+                            ax: lax,
+                            ay: lay,
+                        };
+                        taps_level::<C>(s.m, tab, k, p, range, lo);
+                    }
+                    for (k, range) in hi_runs.iter().cloned() {
+                        let hi = Taps {
+                            idx: hi_idx,
+                            ax: hax,
+                            ay: hay,
+                        };
+                        taps_level::<C>(s.m, tab, k, p, range, hi);
                     }
                 },
             );
@@ -334,6 +338,30 @@ pub(crate) fn row<const C: usize>(
         }
     }
     (lookups, max_n)
+}
+
+/// The runs of consecutive texels (of a chunk) that read the same level `lv[t]` (not
+/// `NONE`), as (level, their samples) into `out`.
+fn runs(
+    lv: &[u8],
+    nx: &[u32],
+    ny: &[u32],
+    start: &[usize],
+    out: &mut Vec<(usize, std::ops::Range<usize>)>,
+) {
+    out.clear();
+    let n = lv.len().min(start.len());
+    let mut t = 0;
+    while t < n {
+        let (k, t0) = (lv[t], t);
+        while t < n && lv[t] == k {
+            t += 1;
+        }
+        if k != NONE {
+            let end = start[t - 1] + (nx[t - 1] * ny[t - 1]) as usize;
+            out.push((k as usize, start[t0]..end));
+        }
+    }
 }
 
 /// What the gather of a chunk (texels `x0..`) reads.

@@ -528,11 +528,15 @@ fn run<T: Real, const C: usize>(
     let mut sp = Sampling::new(opts, depth_max);
     let mut built = vec![];
     let whole = pyramid::Need::everything(src.mapping, depth_max, src.height);
-    if depth_max > 0 && whole.bytes(src, depth_max) <= SMALL_PYRAMID {
+    let whole_bytes = whole.bytes(src, depth_max);
+    if depth_max > 0
+        && whole_bytes <= SMALL_PYRAMID
+        && check_memory_filtered(w * h * C, whole_bytes, opts).is_ok()
+    {
         // A small source: its whole pyramid costs less memory than the pre-pass costs time
         // (the pre-pass measures every footprint; the results are the same either way, as
-        // no texel's λ exceeds the deepest level the pre-pass would mark).
-        check_memory_filtered(w * h * C, whole.bytes(src, depth_max), opts)?;
+        // no texel's λ exceeds the deepest level the pre-pass would mark).  Within a tight
+        // `max_memory`, the pre-pass below builds only what is read.
         built = pyramid::build(src, &whole, depth_max);
     } else if depth_max > 0 {
         let need = pyramid::Need::new(src.mapping, depth_max, src.height);

@@ -374,6 +374,9 @@ pub(crate) struct LevelTab {
     pair: Vec<u32>,
     /// The tap indices fit u32 at every level.
     ok: bool,
+    /// Level k holds all its rows in order (`pair` is the identity there): pass 2b needs no
+    /// table, and vectorizes (the compiler will not vectorize the table's gather).
+    full: [bool; 32],
 }
 
 impl LevelTab {
@@ -387,6 +390,7 @@ impl LevelTab {
             off: [0; 32],
             pair: vec![],
             ok: levels.iter().all(|l| l.data.len() < SLOW as usize),
+            full: [false; 32],
         };
         for (k, l) in levels.iter().enumerate().take(32) {
             t.scale[k] = 1.0 / (1u64 << k) as f32;
@@ -395,6 +399,7 @@ impl LevelTab {
             t.r2[k] = l.safe_r2;
             t.row[k] = (l.w * C) as u32;
             t.off[k] = t.pair.len() as u32;
+            t.full[k] = (0..l.h.saturating_sub(1)).all(|y| l.held_pair(y) == Some(y));
             // h + 1 entries: pass 2b clamps a row into 0..=h before reading.
             for y in 0..=l.h {
                 let r = if y + 1 < l.h {
@@ -448,21 +453,80 @@ pub(crate) fn taps_level<const C: usize>(
         .min(ay.len())
         .min(px.len())
         .min(py.len());
+    let lv = LevelConsts {
+        wf,
+        hf,
+        sc,
+        r2,
+        row,
+        ok: t.ok,
+    };
+    let out = Taps { idx, ax, ay };
+    // A full level's rows are where they are, with no table: that loop vectorizes (the
+    // compiler will not vectorize the table's gather).
+    match (t.full[k], cube, disc) {
+        (true, false, false) => taps_loop::<C, true, false, false>(&lv, pair, px, py, n, out),
+        (true, false, true) => taps_loop::<C, true, false, true>(&lv, pair, px, py, n, out),
+        (true, true, _) => taps_loop::<C, true, true, false>(&lv, pair, px, py, n, out),
+        (false, false, false) => taps_loop::<C, false, false, false>(&lv, pair, px, py, n, out),
+        (false, false, true) => taps_loop::<C, false, false, true>(&lv, pair, px, py, n, out),
+        (false, true, _) => taps_loop::<C, false, true, false>(&lv, pair, px, py, n, out),
+    }
+}
+
+/// A level's constants in [`taps_level`].
+struct LevelConsts {
+    wf: f32,
+    hf: f32,
+    sc: f32,
+    r2: f32,
+    row: u32,
+    ok: bool,
+}
+
+/// [`taps_level`]'s loop over `n` lanes, for a level that holds all its rows in order or
+/// not (`FULL`), of a cube (`CUBE`) or disc (`DISC`) mapping or neither.
+#[inline(always)]
+fn taps_loop<const C: usize, const FULL: bool, const CUBE: bool, const DISC: bool>(
+    lv: &LevelConsts,
+    pair: &[u32],
+    px: &[f32],
+    py: &[f32],
+    n: usize,
+    out: Taps,
+) {
+    let LevelConsts {
+        wf,
+        hf,
+        sc,
+        r2,
+        row,
+        ok: all_ok,
+    } = *lv;
+    let Taps { idx, ax, ay } = out;
+    let (idx, ax, ay, px, py) = (
+        &mut idx[..n],
+        &mut ax[..n],
+        &mut ay[..n],
+        &px[..n],
+        &py[..n],
+    );
+    let last = pair.len() - 1;
     for x in 0..n {
         let (p0, p1) = (px[x] * sc, py[x] * sc);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
-        let tile = if cube {
+        let tile = if CUBE {
             let f0 = (p1 / wf).floor() * wf;
             fy >= f0 && fy + 1.0 < f0 + wf
-        } else if disc {
+        } else if DISC {
             let c = hf * 0.5;
             let (dx, dy) = (p0 - c, p1 - c);
             dx * dx + dy * dy <= r2
         } else {
             true
         };
-        let ok = t.ok && tile && fx >= 0.0 && fy >= 0.0 && fx + 1.0 < wf && fy + 1.0 < hf;
+        let ok = all_ok & tile & (fx >= 0.0) & (fy >= 0.0) & (fx + 1.0 < wf) & (fy + 1.0 < hf);
         // SAFETY: clamped first (NaN becomes 0), so the conversions are in range.
         let (xi, yi) = unsafe {
             (
@@ -470,7 +534,12 @@ pub(crate) fn taps_level<const C: usize>(
                 fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
             )
         };
-        let r = pair[(yi as usize).min(pair.len() - 1)];
+        // (`ok` has checked yi + 1 < h.)
+        let r = if FULL {
+            yi
+        } else {
+            pair[(yi as usize).min(last)]
+        };
         idx[x] = if ok && r != SLOW {
             r * row + xi * C as u32
         } else {
