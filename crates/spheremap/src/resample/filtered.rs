@@ -76,8 +76,18 @@ impl FScratch {
                 pt_j.push((k / gx.max(1)) as f32);
             }
         }
+        // The footprint points' columns: the left/right edge midpoints (x), then the top and
+        // bottom ones (x + ½); `footprints` sets their rows.
+        let mut fp = Scratch::new(3 * w + 1);
+        for x in 0..=w {
+            fp.pts[0][x] = x as f32;
+        }
+        for x in 0..w {
+            fp.pts[0][w + 1 + x] = x as f32 + 0.5;
+            fp.pts[0][2 * w + 1 + x] = x as f32 + 0.5;
+        }
         FScratch {
-            fp: Scratch::new(3 * w + 1),
+            fp,
             sc: Scratch::new(cap),
             cap,
             per,
@@ -118,31 +128,66 @@ pub(crate) fn footprints<const C: usize>(
 ) {
     let w = f.lx.len();
     let fp = &mut f.fp;
-    let (yc, yt, yb) = (y as f32 + 0.5, y as f32, y as f32 + 1.0);
-    {
-        let [px, py] = &mut fp.pts;
-        for x in 0..=w {
-            px[x] = x as f32;
-            py[x] = yc;
-        }
-        for x in 0..w {
-            px[w + 1 + x] = x as f32 + 0.5;
-            py[w + 1 + x] = yt;
-            px[2 * w + 1 + x] = x as f32 + 0.5;
-            py[2 * w + 1 + x] = yb;
-        }
-    }
+    // The points' columns are set once (`FScratch::new`); their rows here.
+    let py = &mut fp.pts[1];
+    py[..=w].fill(y as f32 + 0.5);
+    py[w + 1..2 * w + 1].fill(y as f32);
+    py[2 * w + 1..3 * w + 1].fill(y as f32 + 1.0);
     passes::<C>(s, d, plan, Points::At, fp);
-    let dir = |i: usize| [fp.d[0][i], fp.d[1][i], fp.d[2][i]];
-    let pos = |i: usize| [fp.p[0][i], fp.p[1][i]];
-    for x in 0..w {
-        let (l, r, t, b) = (x, x + 1, w + 1 + x, 2 * w + 1 + x);
-        f.lx[x] = s.span(pos(l), pos(r), dir(l), dir(r));
-        f.ly[x] = s.span(pos(t), pos(b), dir(t), dir(b));
-        let ys = [l, r, t, b].map(|i| fp.p[1][i] as f64);
-        f.lo[x] = ys.iter().fold(f64::INFINITY, |a, &v| a.min(v));
-        f.hi[x] = ys.iter().fold(f64::NEG_INFINITY, |a, &v| a.max(v));
+    if matches!(s.m, Mapping::Cube(_)) {
+        // Edges across a seam measure angles: `Src::span`, one by one.
+        let dir = |i: usize| [fp.d[0][i], fp.d[1][i], fp.d[2][i]];
+        let pos = |i: usize| [fp.p[0][i], fp.p[1][i]];
+        for x in 0..w {
+            let (l, r, t, b) = (x, x + 1, w + 1 + x, 2 * w + 1 + x);
+            f.lx[x] = s.span(pos(l), pos(r), dir(l), dir(r));
+            f.ly[x] = s.span(pos(t), pos(b), dir(t), dir(b));
+        }
+    } else {
+        // `Src::span` of the other mappings, in f32 so that it vectorizes (it differs from
+        // the f64 sums by rounding only; the strata counts have slack for that).
+        let ll = matches!(s.m, Mapping::LatLong(_));
+        let (wf, hf) = (s.wf, s.hf);
+        let eps = (s.hf as f64 * (1e-6 / std::f64::consts::PI)) as f32;
+        let [px, py] = &fp.p;
+        let (lx, ly) = (&mut f.lx[..w], &mut f.ly[..w]);
+        let (px, py) = (&px[..3 * w + 1], &py[..3 * w + 1]);
+        vectorized(
+            #[inline(always)]
+            || {
+                let span = |i: usize, j: usize| {
+                    let (ax, ay, bx, by) = (px[i], py[i], px[j], py[j]);
+                    let dx = (bx - ax).abs();
+                    let pole = (ay <= eps) | (ay >= hf - eps) | (by <= eps) | (by >= hf - eps);
+                    let dx = if !ll {
+                        dx
+                    } else if pole {
+                        0.0
+                    } else {
+                        dx.min(wf - dx)
+                    };
+                    let dy = (by - ay).abs();
+                    (dx * dx + dy * dy).sqrt() as f64
+                };
+                for x in 0..w {
+                    lx[x] = span(x, x + 1);
+                    ly[x] = span(w + 1 + x, 2 * w + 1 + x);
+                }
+            },
+        );
     }
+    let py = &fp.p[1][..3 * w + 1];
+    let (lo, hi) = (&mut f.lo[..w], &mut f.hi[..w]);
+    vectorized(
+        #[inline(always)]
+        || {
+            for x in 0..w {
+                let ys = [py[x], py[x + 1], py[w + 1 + x], py[2 * w + 1 + x]];
+                lo[x] = ys[0].min(ys[1]).min(ys[2].min(ys[3])) as f64;
+                hi[x] = ys[0].max(ys[1]).max(ys[2].max(ys[3])) as f64;
+            }
+        },
+    );
 }
 
 /// Row `y` of a filtered conversion; returns (lookups, the most samples a texel took).
@@ -170,7 +215,8 @@ pub(crate) fn row<const C: usize>(
         let vec = nx * ny <= f.cap;
         (f.nx[x], f.ny[x]) = if vec { (nx as u32, ny as u32) } else { (0, 0) };
         // The levels around λ, as `lookup_lod` reads them.
-        let l0 = (lambda.max(0.0).floor() as usize).min(top);
+        // (λ ≥ 0 and finite: truncation is its floor, without a library call.)
+        let l0 = (lambda.max(0.0) as usize).min(top);
         let fr = if l0 < top { lambda - l0 as f64 } else { 0.0 };
         f.l0[x] = l0 as u8;
         f.l0s[x] = if l0 > 0 && vec { l0 as u8 } else { NONE };

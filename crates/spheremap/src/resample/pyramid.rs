@@ -196,6 +196,17 @@ pub(super) fn build(src: &EnvMap, need: &Need, depth: usize) -> Vec<Level> {
     levels
 }
 
+/// A lat-long row of `C` channels halved: pairs of texels of rows `r0`, `r1` weighted
+/// `k0`, `k1` (each pair's two texels alike).
+fn halve_ll<const C: usize>(r0: &[f32], r1: &[f32], k0: f32, k1: f32, out: &mut [f32]) {
+    let pairs = r0.chunks_exact(2 * C).zip(r1.chunks_exact(2 * C));
+    for (o, (a, b)) in out.chunks_exact_mut(C).zip(pairs) {
+        for ch in 0..C {
+            o[ch] = k0 * (a[ch] + a[C + ch]) + k1 * (b[ch] + b[C + ch]);
+        }
+    }
+}
+
 /// One output row from parent rows `py` and `py + 1` of a canvas `ph` rows high.
 fn halve_row(m: Mapping, ph: usize, py: usize, r0: &[f32], r1: &[f32], c: usize, out: &mut [f32]) {
     match m {
@@ -203,10 +214,19 @@ fn halve_row(m: Mapping, ph: usize, py: usize, r0: &[f32], r1: &[f32], c: usize,
             let wt = |y: usize| ((y as f64 + 0.5) / ph as f64 * std::f64::consts::PI).sin();
             let (w0, w1) = (wt(py), wt(py + 1));
             let (k0, k1) = ((0.5 * w0 / (w0 + w1)) as f32, (0.5 * w1 / (w0 + w1)) as f32);
-            for (x, o) in out.chunks_exact_mut(c).enumerate() {
-                for (ch, o) in o.iter_mut().enumerate() {
-                    let (i, j) = (2 * x * c + ch, (2 * x + 1) * c + ch);
-                    *o = k0 * (r0[i] + r0[j]) + k1 * (r1[i] + r1[j]);
+            // With the channel count known to the compiler, the loop vectorizes.
+            match c {
+                1 => halve_ll::<1>(r0, r1, k0, k1, out),
+                2 => halve_ll::<2>(r0, r1, k0, k1, out),
+                3 => halve_ll::<3>(r0, r1, k0, k1, out),
+                4 => halve_ll::<4>(r0, r1, k0, k1, out),
+                _ => {
+                    for (x, o) in out.chunks_exact_mut(c).enumerate() {
+                        for (ch, o) in o.iter_mut().enumerate() {
+                            let (i, j) = (2 * x * c + ch, (2 * x + 1) * c + ch);
+                            *o = k0 * (r0[i] + r0[j]) + k1 * (r1[i] + r1[j]);
+                        }
+                    }
                 }
             }
         }
