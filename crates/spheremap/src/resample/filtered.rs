@@ -6,9 +6,8 @@
 //! a chunk of texels at a time (as many as fit [`CHUNK`] samples), every sample of every
 //! texel in the chunk (texel-major: a texel's samples are consecutive) through passes 1–2b,
 //! and a gather ([`super::gather`]) that sums each texel's samples in registers and writes
-//! it.  Only texels with
-//! more strata than a chunk holds (`max_samples` > 1024) go one by one through the generic
-//! code.
+//! it.  Only texels with more strata than a chunk holds (`max_samples` > 1024) go one by one
+//! through the generic code.
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
 use super::rows::{

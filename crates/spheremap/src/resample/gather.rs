@@ -35,9 +35,10 @@ impl<const C: usize> Acc<C> {
     pub(crate) fn new() -> Self {
         Acc {
             s: [0.0; C],
-            // SAFETY: SSE (of which this is one instruction) is x86-64's baseline.
+            // SAFETY: all-zero bits are a valid __m256 (eight 0.0).  (Not `_mm256_setzero_ps`:
+            // that is an AVX instruction, and this also runs where AVX is not enabled.)
             #[cfg(target_arch = "x86_64")]
-            v: unsafe { std::arch::x86_64::_mm256_setzero_ps() },
+            v: unsafe { std::mem::zeroed() },
         }
     }
 
