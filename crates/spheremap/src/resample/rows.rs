@@ -460,17 +460,16 @@ pub(crate) fn taps_level<const C: usize>(
         r2,
         row,
         ok: t.ok,
+        cube,
+        disc,
     };
     let out = Taps { idx, ax, ay };
     // A full level's rows are where they are, with no table: that loop vectorizes (the
     // compiler will not vectorize the table's gather).
-    match (t.full[k], cube, disc) {
-        (true, false, false) => taps_loop::<C, true, false, false>(&lv, pair, px, py, n, out),
-        (true, false, true) => taps_loop::<C, true, false, true>(&lv, pair, px, py, n, out),
-        (true, true, _) => taps_loop::<C, true, true, false>(&lv, pair, px, py, n, out),
-        (false, false, false) => taps_loop::<C, false, false, false>(&lv, pair, px, py, n, out),
-        (false, false, true) => taps_loop::<C, false, false, true>(&lv, pair, px, py, n, out),
-        (false, true, _) => taps_loop::<C, false, true, false>(&lv, pair, px, py, n, out),
+    if t.full[k] {
+        taps_loop::<C, true>(&lv, pair, px, py, n, out)
+    } else {
+        taps_loop::<C, false>(&lv, pair, px, py, n, out)
     }
 }
 
@@ -482,12 +481,15 @@ struct LevelConsts {
     r2: f32,
     row: u32,
     ok: bool,
+    /// The mapping's own test of a tap pair: cube (both rows on one face), disc (inside).
+    cube: bool,
+    disc: bool,
 }
 
 /// [`taps_level`]'s loop over `n` lanes, for a level that holds all its rows in order or
-/// not (`FULL`), of a cube (`CUBE`) or disc (`DISC`) mapping or neither.
+/// not (`FULL`).
 #[inline(always)]
-fn taps_loop<const C: usize, const FULL: bool, const CUBE: bool, const DISC: bool>(
+fn taps_loop<const C: usize, const FULL: bool>(
     lv: &LevelConsts,
     pair: &[u32],
     px: &[f32],
@@ -502,6 +504,8 @@ fn taps_loop<const C: usize, const FULL: bool, const CUBE: bool, const DISC: boo
         r2,
         row,
         ok: all_ok,
+        cube,
+        disc,
     } = *lv;
     let Taps { idx, ax, ay } = out;
     let (idx, ax, ay, px, py) = (
@@ -516,10 +520,10 @@ fn taps_loop<const C: usize, const FULL: bool, const CUBE: bool, const DISC: boo
         let (p0, p1) = (px[x] * sc, py[x] * sc);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
-        let tile = if CUBE {
+        let tile = if cube {
             let f0 = (p1 / wf).floor() * wf;
             fy >= f0 && fy + 1.0 < f0 + wf
-        } else if DISC {
+        } else if disc {
             let c = hf * 0.5;
             let (dx, dy) = (p0 - c, p1 - c);
             dx * dx + dy * dy <= r2
