@@ -203,14 +203,15 @@ pub(crate) fn atan2_poly<const FMA: bool>(y: f32, x: f32) -> f32 {
     let mn = ax.min(ay);
     let a = if mx > 0.0 { mn / mx } else { 0.0 };
     let s = a * a;
-    let p = C[7];
-    let p = mad::<FMA>(p, s, C[6]);
-    let p = mad::<FMA>(p, s, C[5]);
-    let p = mad::<FMA>(p, s, C[4]);
-    let p = mad::<FMA>(p, s, C[3]);
-    let p = mad::<FMA>(p, s, C[2]);
-    let p = mad::<FMA>(p, s, C[1]);
-    let p = mad::<FMA>(p, s, C[0]);
+    let s2 = s * s;
+    let s4 = s2 * s2;
+    let p01 = mad::<FMA>(C[1], s, C[0]);
+    let p23 = mad::<FMA>(C[3], s, C[2]);
+    let p45 = mad::<FMA>(C[5], s, C[4]);
+    let p67 = mad::<FMA>(C[7], s, C[6]);
+    let p03 = mad::<FMA>(p23, s2, p01);
+    let p47 = mad::<FMA>(p67, s2, p45);
+    let p = mad::<FMA>(p47, s4, p03);
     let mut r = a * p;
     if ay > ax {
         r = core::f32::consts::FRAC_PI_2 - r;

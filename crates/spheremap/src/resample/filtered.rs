@@ -11,7 +11,7 @@
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
 use super::rows::{
-    passes, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
+    passes, positions, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
 };
 use super::*;
 
@@ -138,7 +138,7 @@ pub(crate) fn footprints<const C: usize>(
     py[..=w].fill(y as f32 + 0.5);
     py[w + 1..2 * w + 1].fill(y as f32);
     py[2 * w + 1..3 * w + 1].fill(y as f32 + 1.0);
-    passes::<C>(s, d, plan, Points::At, fp);
+    positions::<C>(s, d, plan, Points::At, fp);
     if matches!(s.m, Mapping::Cube(_)) {
         // Edges across a seam measure angles: `Src::span`, one by one.
         let dir = |i: usize| [fp.d[0][i], fp.d[1][i], fp.d[2][i]];

@@ -122,9 +122,12 @@ fn stages<const C: usize, const F: bool>(
     pts: Points,
     sc: &mut Scratch,
 ) {
+    // Every slice cut to w here: with their lengths known, the loops below need no bounds
+    // checks, and the compiler leaves no last vector's worth of lanes to a scalar loop.
     let w = sc.on.len();
     let [dx, dy, dz] = &mut sc.d;
-    let on = &mut sc.on;
+    let (dx, dy, dz) = (&mut dx[..w], &mut dy[..w], &mut dz[..w]);
+    let on = &mut sc.on[..w];
     let y = match pts {
         Points::Row(y) => y,
         Points::At => usize::MAX,
@@ -136,6 +139,7 @@ fn stages<const C: usize, const F: bool>(
             let (kx, ky) = (2.0 / d.wf, 2.0 / d.hf);
             let m = &plan.sphere_m;
             let [ptx, pty] = &sc.pts;
+            let (ptx, pty) = (&ptx[..w], &pty[..w]);
             for x in 0..w {
                 let a = mad::<F>(ptx[x], kx, -1.0);
                 let yf = mad::<F>(pty[x], ky, -1.0);
@@ -149,6 +153,7 @@ fn stages<const C: usize, const F: bool>(
         }
         _ if matches!(pts, Points::At) => {
             let [ptx, pty] = &sc.pts;
+            let (ptx, pty) = (&ptx[..w], &pty[..w]);
             for x in 0..w {
                 let (r, o) = d.dir(ptx[x], pty[x]);
                 dx[x] = r[0];
@@ -178,8 +183,9 @@ fn stages<const C: usize, const F: bool>(
             let theta = (y as f64 + 0.5) / d.hf as f64 * std::f64::consts::PI;
             let (st, ct) = (theta.sin() as f32, theta.cos() as f32);
             let m = &plan.sphere_m;
+            let (cos_phi, sin_phi) = (&plan.cos_phi[..w], &plan.sin_phi[..w]);
             for x in 0..w {
-                let r = apply::<F>(m, [st * plan.cos_phi[x], ct, st * plan.sin_phi[x]]);
+                let r = apply::<F>(m, [st * cos_phi[x], ct, st * sin_phi[x]]);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -198,6 +204,8 @@ fn stages<const C: usize, const F: bool>(
         }
     }
     let [px, py] = &mut sc.p;
+    let (px, py) = (&mut px[..w], &mut py[..w]);
+    let (dx, dy, dz) = (&dx[..w], &dy[..w], &dz[..w]);
     let (wf, hf) = (s.wf, s.hf);
     match s.m {
         Mapping::LatLong(p) => {
@@ -335,12 +343,14 @@ fn taps_with<const C: usize>(
     sc: &mut Scratch,
     tile_ok: impl Fn(f32, f32, f32) -> bool,
 ) {
+    let n = sc.idx.len();
     let [px, py] = &sc.p;
     let [ax, ay] = &mut sc.frac;
-    let idx = &mut sc.idx;
+    let (px, py, ax, ay) = (&px[..n], &py[..n], &mut ax[..n], &mut ay[..n]);
+    let idx = &mut sc.idx[..n];
     let (wf, hf) = (s.wf, s.hf);
     let row = (s.w * C) as u32;
-    for x in 0..idx.len() {
+    for x in 0..n {
         let (p0, p1) = (px[x], py[x]);
         let (qx, qy) = (p0 - 0.5, p1 - 0.5);
         let (fx, fy) = (qx.floor(), qy.floor());
@@ -615,25 +625,7 @@ pub(crate) fn vectorized<R>(f: impl FnOnce() -> R) -> R {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn stages_avx2<const C: usize>(
-    s: &Src<f32>,
-    d: &Dst<f32>,
-    plan: &Plan,
-    pts: Points,
-    sc: &mut Scratch,
-) {
-    stages::<C, true>(s, d, plan, pts, sc)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn taps_avx2<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
-    taps::<C>(s, sc)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-unsafe fn stages_avx512<const C: usize>(
+unsafe fn stages_avx2<const C: usize, const TAPS: bool>(
     s: &Src<f32>,
     d: &Dst<f32>,
     plan: &Plan,
@@ -641,11 +633,28 @@ unsafe fn stages_avx512<const C: usize>(
     sc: &mut Scratch,
 ) {
     stages::<C, true>(s, d, plan, pts, sc);
-    taps::<C>(s, sc)
+    if TAPS {
+        taps::<C>(s, sc)
+    }
 }
 
-/// Passes 1–2 and 2b for `pts`, with the widest vectors this CPU has.
-pub(crate) fn passes<const C: usize>(
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn stages_avx512<const C: usize, const TAPS: bool>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    pts: Points,
+    sc: &mut Scratch,
+) {
+    stages::<C, true>(s, d, plan, pts, sc);
+    if TAPS {
+        taps::<C>(s, sc)
+    }
+}
+
+/// Passes 1–2, and 2b when `TAPS`, for `pts`, with the widest vectors this CPU has.
+fn passes_with<const C: usize, const TAPS: bool>(
     s: &Src<f32>,
     d: &Dst<f32>,
     plan: &Plan,
@@ -655,23 +664,45 @@ pub(crate) fn passes<const C: usize>(
     #[cfg(target_arch = "x86_64")]
     match simd() {
         // SAFETY: the features were detected at run time.
-        Simd::Avx512 => unsafe { stages_avx512::<C>(s, d, plan, pts, sc) },
-        Simd::Avx2 => {
-            // SAFETY: the features were detected at run time.
-            unsafe { stages_avx2::<C>(s, d, plan, pts, sc) };
-            // SAFETY: as above.
-            unsafe { taps_avx2::<C>(s, sc) };
-        }
+        Simd::Avx512 => unsafe { stages_avx512::<C, TAPS>(s, d, plan, pts, sc) },
+        // SAFETY: the features were detected at run time.
+        Simd::Avx2 => unsafe { stages_avx2::<C, TAPS>(s, d, plan, pts, sc) },
         Simd::Portable => {
             stages::<C, false>(s, d, plan, pts, sc);
-            taps::<C>(s, sc);
+            if TAPS {
+                taps::<C>(s, sc);
+            }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
         stages::<C, false>(s, d, plan, pts, sc);
-        taps::<C>(s, sc);
+        if TAPS {
+            taps::<C>(s, sc);
+        }
     }
+}
+
+/// Passes 1–2 and 2b for `pts`: directions, source positions, level-0 taps.
+pub(crate) fn passes<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    pts: Points,
+    sc: &mut Scratch,
+) {
+    passes_with::<C, true>(s, d, plan, pts, sc)
+}
+
+/// Passes 1–2 only (directions and source positions), for points that are not looked up.
+pub(crate) fn positions<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    plan: &Plan,
+    pts: Points,
+    sc: &mut Scratch,
+) {
+    passes_with::<C, false>(s, d, plan, pts, sc)
 }
 
 /// How far ahead (in texels) pass 3 prefetches the source lines: the gathers wait on the
