@@ -11,7 +11,8 @@
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
 use super::rows::{
-    passes, positions, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps, SLOW,
+    passes, positions, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps,
+    SLOW,
 };
 use super::*;
 
@@ -44,6 +45,8 @@ pub(crate) struct FScratch {
     pub(crate) ly: Vec<f64>,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
+    /// How far apart a texel's samples lie, in source texels (`Sampling::spacing`).
+    spacing: Vec<f64>,
     /// A texel's strata (0 × 0: too many for a chunk; the generic code does it).
     nx: Vec<u32>,
     ny: Vec<u32>,
@@ -104,6 +107,7 @@ impl FScratch {
             ly: vec![0.0; w],
             lo: vec![0.0; w],
             hi: vec![0.0; w],
+            spacing: vec![0.0; w],
             nx: vec![0; w],
             ny: vec![0; w],
             start: vec![0; w],
@@ -214,24 +218,7 @@ pub(crate) fn row<const C: usize>(
     let (gx, gy) = sp.grid;
     let mut max_n = 0;
     let mut lookups = 0u64;
-    let top = levels.len() - 1;
-    for x in 0..w {
-        let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-        let vec = nx * ny <= f.cap;
-        (f.nx[x], f.ny[x]) = if vec { (nx as u32, ny as u32) } else { (0, 0) };
-        // The levels around λ, as `lookup_lod` reads them.
-        // (λ ≥ 0 and finite: truncation is its floor, without a library call.)
-        let l0 = (lambda.max(0.0) as usize).min(top);
-        let fr = if l0 < top { lambda - l0 as f64 } else { 0.0 };
-        f.l0[x] = l0 as u8;
-        f.l0s[x] = if l0 > 0 && vec { l0 as u8 } else { NONE };
-        f.frac[x] = if fr > 0.0 { fr as f32 } else { 0.0 };
-        f.l1[x] = if fr > 0.0 && vec {
-            (l0 + 1) as u8
-        } else {
-            NONE
-        };
-    }
+    plan_row(levels.len() - 1, sp, f);
     let seed = opts.seed as u32 ^ (opts.seed >> 32) as u32;
     let (r, support) = (sp.radius as f32, sp.support as f32);
     let plain = opts.filter == Filter::Box && !d.weighted;
@@ -354,26 +341,47 @@ pub(crate) fn row<const C: usize>(
             );
         }
         let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
-        let g = Gather {
-            levels,
-            f,
-            x0,
-            plain,
-            black,
-        };
-        let (l, m) = if avx {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `avx`: this CPU has AVX2 and FMA.
-            unsafe {
-                gather_avx2::<C>(&g, chunk_out)
+        // Runs of texels that read level 0 only go through the flat gather when it applies;
+        // the others, texel by texel.
+        let flat = avx && uniform && plain && !black && (C == 3 || C == 4);
+        let n = gx * gy;
+        let mut t1 = 0;
+        while t1 < cnt {
+            let t0 = t1;
+            let level0 = |t: usize| f.l0s[x0 + t] == NONE && f.l1[x0 + t] == NONE;
+            let run_flat = flat && level0(t0);
+            t1 += 1;
+            while t1 < cnt && (!flat || level0(t1) == run_flat) {
+                t1 += 1;
             }
-            #[cfg(not(target_arch = "x86_64"))]
-            unreachable!()
-        } else {
-            g.texels::<C, false>(chunk_out)
-        };
-        lookups += l;
-        max_n = max_n.max(m);
+            let run_out = &mut chunk_out[t0 * C..t1 * C];
+            if run_flat && flat_gather::<C>(s, &f.sc, n, t0..t1, run_out) {
+                lookups += (n * (t1 - t0)) as u64;
+                max_n = max_n.max(n);
+                continue;
+            }
+            let g = Gather {
+                levels,
+                f,
+                x0,
+                t0,
+                plain,
+                black,
+            };
+            let (l, m) = if avx {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `avx`: this CPU has AVX2 and FMA.
+                unsafe {
+                    gather_avx2::<C>(&g, run_out)
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                unreachable!()
+            } else {
+                g.texels::<C, false>(run_out)
+            };
+            lookups += l;
+            max_n = max_n.max(m);
+        }
     }
     // Texels with their own strata, one by one.
     for (x, px) in out.chunks_exact_mut(C).enumerate() {
@@ -389,6 +397,62 @@ pub(crate) fn row<const C: usize>(
         }
     }
     (lookups, max_n)
+}
+
+/// Each texel's strata and levels (`FScratch::nx`, `ny`, `l0`, `l0s`, `l1`, `frac`) from its
+/// footprint, as [`Sampling::plan`] gives them; `top` is the deepest level.
+fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) {
+    let w = f.lx.len();
+    let level = |f: &mut FScratch, x: usize, nx: usize, ny: usize, lambda: f64| {
+        let vec = nx * ny <= f.cap;
+        (f.nx[x], f.ny[x]) = if vec { (nx as u32, ny as u32) } else { (0, 0) };
+        // The levels around λ, as `lookup_lod` reads them.
+        // (λ ≥ 0 and finite: truncation is its floor, without a library call.)
+        let l0 = (lambda.max(0.0) as usize).min(top);
+        let fr = if l0 < top { lambda - l0 as f64 } else { 0.0 };
+        f.l0[x] = l0 as u8;
+        f.l0s[x] = if l0 > 0 && vec { l0 as u8 } else { NONE };
+        f.frac[x] = if fr > 0.0 { fr as f32 } else { 0.0 };
+        f.l1[x] = if fr > 0.0 && vec {
+            (l0 + 1) as u8
+        } else {
+            NONE
+        };
+    };
+    if !sp.fixed() {
+        for x in 0..w {
+            let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
+            level(f, x, nx, ny, lambda);
+        }
+        return;
+    }
+    // Every texel on the common grid: the spacings in one vectorized loop, then only the
+    // texels whose samples lie more than a texel apart (the rim; few) take a logarithm.
+    let (gx, gy) = sp.grid;
+    let (lx, ly, sps) = (&f.lx[..w], &f.ly[..w], &mut f.spacing[..w]);
+    vectorized(
+        #[inline(always)]
+        || {
+            for x in 0..w {
+                sps[x] = sp.spacing(lx[x], ly[x], gx, gy);
+            }
+        },
+    );
+    let fits = gx * gy <= f.cap;
+    let (nx, ny) = if fits { (gx as u32, gy as u32) } else { (0, 0) };
+    f.nx.fill(nx);
+    f.ny.fill(ny);
+    f.l0.fill(0);
+    f.l0s.fill(NONE);
+    f.l1.fill(NONE);
+    f.frac.fill(0.0);
+    for x in 0..w {
+        let spacing = f.spacing[x];
+        if spacing > 1.0 {
+            let lambda = sp.lambda(spacing);
+            level(f, x, gx, gy, lambda);
+        }
+    }
 }
 
 /// The runs of consecutive texels (of a chunk) that read the same level `lv[t]` (not
@@ -419,7 +483,9 @@ fn runs(
 struct Gather<'a, 'b> {
     levels: &'a [Src<'b, f32>],
     f: &'a FScratch,
+    /// The chunk's first texel, and the first of these (from the chunk's first).
     x0: usize,
+    t0: usize,
     /// Unit weights (the box filter on an unweighted canvas).
     plain: bool,
     /// Outside the disc is black (those samples are not looked up).
@@ -438,6 +504,7 @@ impl Gather<'_, '_> {
         let (s, sc) = (&levels[0], &f.sc);
         let (mut lookups, mut max_n) = (0u64, 0);
         for (t, px) in out.chunks_exact_mut(C).enumerate() {
+            let t = self.t0 + t;
             let x = self.x0 + t;
             let n = (f.nx[x] * f.ny[x]) as usize;
             if n == 0 {
@@ -532,6 +599,53 @@ unsafe fn gather_avx2<const C: usize>(
     out: &mut [std::mem::MaybeUninit<f32>],
 ) -> (u64, usize) {
     g.texels::<C, true>(out)
+}
+
+/// The flat gather ([`gather::mean8`]) of the chunk's texels `ts` (on the common grid of `n`
+/// samples, all at level 0) into `out`, when all their lanes are plain; else false (and
+/// nothing written).
+#[inline]
+fn flat_gather<const C: usize>(
+    s: &Src<f32>,
+    sc: &Scratch,
+    n: usize,
+    ts: std::ops::Range<usize>,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if let (3 | 4, true, Some(lim)) = (C, gather::has_avx2(), s.data.len().checked_sub(s.w * C + 8))
+    {
+        let r = ts.start * n..ts.end * n;
+        let idx = &sc.idx[r.clone()];
+        // The largest index decides (SLOW is larger than any plain one).
+        if idx.iter().fold(0, |m, &v| m.max(v)) as usize <= lim.min(SLOW as usize - 1) {
+            let [ax, ay] = &sc.frac;
+            // SAFETY: AVX2 and FMA (`has_avx2`); C is 3 or 4; every lane's reads end in the
+            // data (checked just above).
+            unsafe { mean8_avx2::<C>(s.data, s.w * C, idx, &ax[r.clone()], &ay[r], n, out) };
+            return true;
+        }
+    }
+    let _ = (s, sc, n, ts, out);
+    false
+}
+
+/// [`gather::mean8`] compiled for AVX2 and FMA.
+///
+/// # Safety
+/// As `mean8`'s.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn mean8_avx2<const C: usize>(
+    data: &[f32],
+    row: usize,
+    idx: &[u32],
+    ax: &[f32],
+    ay: &[f32],
+    n: usize,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    gather::mean8::<C>(data, row, idx, ax, ay, n, PREFETCH, out)
 }
 
 /// The jitter in [0, 1)² of a sample from its hash (16 bits per axis, as `jitter32`).

@@ -11,7 +11,7 @@
 //!   vector per tap.
 //! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
 
-use super::rows::{bilerp, simd, Simd, SLOW};
+use super::rows::{bilerp, prefetch, simd, Simd, SLOW};
 use super::source::Src;
 
 /// Whether this CPU runs [`sum8`] (AVX2 and FMA, not turned off: see [`simd`]); checked
@@ -165,6 +165,59 @@ unsafe fn sum8<const C: usize>(
         q += 1;
     }
     _mm256_add_ps(_mm256_add_ps(a0, a1), _mm256_add_ps(a2, a3))
+}
+
+/// The mean of each texel's `n` consecutive samples (level 0, unit weights), for the
+/// `out.len() / C` texels of a chunk whose samples all read level 0 through plain lanes
+/// (`idx[..]` + row + 8 ≤ data.len(), checked by the caller) — the common case, without
+/// any per-texel decision.  Prefetches the source lines `ahead` texels on.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; C is 3 or 4; `idx`, `ax`, `ay` hold `n · out.len() / C`
+/// lanes, each with `idx[q] + row + 8 ≤ data.len()`.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) unsafe fn mean8<const C: usize>(
+    data: &[f32],
+    row: usize,
+    idx: &[u32],
+    ax: &[f32],
+    ay: &[f32],
+    n: usize,
+    ahead: usize,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    use std::arch::x86_64::*;
+    let cnt = out.len() / C;
+    debug_assert!(idx.len() >= n * cnt && ax.len() >= n * cnt && ay.len() >= n * cnt);
+    let k = 1.0 / n as f32;
+    let c = C as i32;
+    let right = _mm256_setr_epi32(c, c + 1, c + 2, c + 3, 0, 0, 0, 0);
+    for (t, px) in out.chunks_exact_mut(C).enumerate() {
+        let b = t * n;
+        for q in [b + ahead * n, b + ahead * n + n / 2] {
+            if let Some(&j) = idx.get(q) {
+                prefetch::<C>(data, row, j);
+            }
+        }
+        let r = b..b + n;
+        let v = sum8::<C>(
+            data,
+            row,
+            &idx[r.clone()],
+            &ax[r.clone()],
+            &ay[r],
+            1.0,
+            _mm256_setzero_ps(),
+        );
+        // Lanes C.. onto lanes 0.. (the right taps' column onto the left's).
+        let sum = _mm256_add_ps(v, _mm256_permutevar8x32_ps(v, right));
+        let v = std::mem::transmute::<__m128, [f32; 4]>(_mm256_castps256_ps128(sum));
+        for ch in 0..C {
+            px[ch].write(v[ch] * k);
+        }
+    }
 }
 
 /// The sum of samples `b..b + n` (level 0, unit weights) into `acc`.  (No software

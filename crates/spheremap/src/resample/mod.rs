@@ -697,7 +697,7 @@ impl Sampling {
     /// where they are one texel apart: λ = log₂(spacing), clamped to the pyramid.
     #[inline]
     pub(crate) fn plan(&self, lx: f64, ly: f64) -> (usize, usize, f64) {
-        let (nx, ny) = if self.cap <= self.grid.0 * self.grid.1 {
+        let (nx, ny) = if self.fixed() {
             // No room for more samples than the common grid: it stays, the levels cover.
             self.grid
         } else {
@@ -707,13 +707,29 @@ impl Sampling {
             let per_axis = |l: f64| self.base.max((l * self.support - 1e-3).ceil() as usize);
             strata(per_axis(lx), per_axis(ly), self.samples, self.cap)
         };
-        let spacing = (lx * self.support / nx as f64).max(ly * self.support / ny as f64);
-        let lambda = if spacing > 1.0 {
+        (nx, ny, self.lambda(self.spacing(lx, ly, nx, ny)))
+    }
+
+    /// The common grid is every texel's (`cap` leaves no room for more samples).
+    #[inline]
+    pub(crate) fn fixed(&self) -> bool {
+        self.cap <= self.grid.0 * self.grid.1
+    }
+
+    /// How many source texels apart a footprint's nx×ny samples lie (the larger axis).
+    #[inline(always)]
+    pub(crate) fn spacing(&self, lx: f64, ly: f64, nx: usize, ny: usize) -> f64 {
+        (lx * self.support / nx as f64).max(ly * self.support / ny as f64)
+    }
+
+    /// The level that samples `spacing` source texels apart read.
+    #[inline]
+    pub(crate) fn lambda(&self, spacing: f64) -> f64 {
+        if spacing > 1.0 {
             spacing.log2().min(self.depth as f64)
         } else {
             0.0
-        };
-        (nx, ny, lambda)
+        }
     }
 }
 
