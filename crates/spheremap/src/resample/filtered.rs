@@ -142,7 +142,7 @@ pub(crate) fn footprints<const C: usize>(
     py[..=w].fill(y as f32 + 0.5);
     py[w + 1..2 * w + 1].fill(y as f32);
     py[2 * w + 1..3 * w + 1].fill(y as f32 + 1.0);
-    positions::<C>(s, d, plan, Points::At, fp);
+    positions::<C>(s, d, plan, Points::At(None), fp);
     if matches!(s.m, Mapping::Cube(_)) {
         // Edges across a seam measure angles: `Src::span`, one by one.
         let dir = |i: usize| [fp.d[0][i], fp.d[1][i], fp.d[2][i]];
@@ -306,7 +306,10 @@ pub(crate) fn row<const C: usize>(
                 }
             }
         }
-        passes::<C>(s, d, plan, Points::At, sc);
+        // The chunk's samples lie within its texels' filter supports (jitter in [0, 1)).
+        let (lo, hi) = (x0 as f32 + 0.5 - r, (x1 - 1) as f32 + 0.5 + r);
+        let within = [lo, hi, yc - r, yc + r];
+        passes::<C>(s, d, plan, Points::At(Some(within)), sc);
         // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above); a run
         // of texels at the same level is one call (their samples are consecutive).
         let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);

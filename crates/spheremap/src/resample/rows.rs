@@ -25,8 +25,9 @@ pub(crate) struct Scratch {
 pub(crate) enum Points {
     /// The texel centres of row y.
     Row(usize),
-    /// `Scratch::pts`.
-    At,
+    /// `Scratch::pts`, within the box [x₀, x₁] × [y₀, y₁] when the caller knows one (it lets
+    /// a sphere-map destination skip its gutter's formulas for boxes well inside the disc).
+    At(Option<[f32; 4]>),
 }
 
 /// `Scratch::idx` of a lookup that takes the general path.
@@ -97,20 +98,71 @@ fn apply<const F: bool>(m: &[[f32; 3]; 3], e: [f32; 3]) -> [f32; 3] {
 /// The sphere map's direction at disc coordinates (a, b) ∈ [−1, 1]², turned by `m`, and
 /// whether it is on the disc; off it, the gutter: the radial mirror image across the rim
 /// (see `Dst::mirrored`).  Branch-free, so the callers' loops vectorize.
+///
+/// `ALL_IN`: the caller knows (a, b) is on the disc; the gutter's square root and division
+/// are left out, and the result is the same.
 #[inline(always)]
-fn sphere_dir<const F: bool>(m: &[[f32; 3]; 3], a: f32, b: f32) -> ([f32; 3], bool) {
-    let d2 = mad::<F>(a, a, b * b);
-    let inside = d2 <= 1.0;
-    let rho = d2.sqrt();
-    let k = if inside {
-        1.0
+fn sphere_dir<const F: bool, const ALL_IN: bool>(
+    m: &[[f32; 3]; 3],
+    a: f32,
+    b: f32,
+) -> ([f32; 3], bool) {
+    let (a2, b2, inside) = if ALL_IN {
+        (a, b, true)
     } else {
-        (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+        let d2 = mad::<F>(a, a, b * b);
+        let inside = d2 <= 1.0;
+        let rho = d2.sqrt();
+        let k = if inside {
+            1.0
+        } else {
+            (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+        };
+        (a * k, b * k, inside)
     };
-    let (a2, b2) = (a * k, b * k);
     let q = a2 * a2 + b2 * b2;
     let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
     (apply::<F>(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]), inside)
+}
+
+/// Pass 1 of a sphere-map destination at canvas points `pts` (scaled by `k` to the disc);
+/// `ALL_IN` as in [`sphere_dir`].
+#[inline(always)]
+fn sphere_at<const F: bool, const ALL_IN: bool>(
+    m: &[[f32; 3]; 3],
+    [kx, ky]: [f32; 2],
+    flip: bool,
+    [ptx, pty]: [&[f32]; 2],
+    [dx, dy, dz]: [&mut [f32]; 3],
+    on: &mut [bool],
+) {
+    let w = on.len();
+    let (ptx, pty, dx, dy, dz) = (
+        &ptx[..w],
+        &pty[..w],
+        &mut dx[..w],
+        &mut dy[..w],
+        &mut dz[..w],
+    );
+    for x in 0..w {
+        let a = mad::<F>(ptx[x], kx, -1.0);
+        let yf = mad::<F>(pty[x], ky, -1.0);
+        let b = if flip { -yf } else { yf };
+        let (r, inside) = sphere_dir::<F, ALL_IN>(m, a, b);
+        dx[x] = r[0];
+        dy[x] = r[1];
+        dz[x] = r[2];
+        on[x] = inside;
+    }
+}
+
+/// Whether the canvas box [x₀, x₁] × [y₀, y₁] lies inside the sphere map's disc, well clear
+/// of its rim, with disc coordinates a = x·kx − 1, b = y·ky − 1.
+fn box_inside([x0, x1, y0, y1]: [f32; 4], kx: f32, ky: f32) -> bool {
+    // The farthest corner, in f64; the margin covers the points' own rounding (NaN: false).
+    let d = |p: f32, k: f32| (p as f64 * k as f64 - 1.0).abs();
+    let (a, b) = (d(x0, kx).max(d(x1, kx)), d(y0, ky).max(d(y1, ky)));
+    a * a + b * b < 1.0 - 1e-4
 }
 
 /// Passes 1 and 2 for `pts`; `F`: compiled for FMA (see [`mad`]).
@@ -130,28 +182,26 @@ fn stages<const C: usize, const F: bool>(
     let on = &mut sc.on[..w];
     let y = match pts {
         Points::Row(y) => y,
-        Points::At => usize::MAX,
+        Points::At(_) => usize::MAX,
     };
     match d.m {
-        Mapping::Sphere(p) if matches!(pts, Points::At) => {
+        Mapping::Sphere(p) if matches!(pts, Points::At(_)) => {
             // The same formulas as below, with a and b per point.
             let flip = matches!(p.rows, RowOrder::TopIsT1);
             let (kx, ky) = (2.0 / d.wf, 2.0 / d.hf);
             let m = &plan.sphere_m;
             let [ptx, pty] = &sc.pts;
             let (ptx, pty) = (&ptx[..w], &pty[..w]);
-            for x in 0..w {
-                let a = mad::<F>(ptx[x], kx, -1.0);
-                let yf = mad::<F>(pty[x], ky, -1.0);
-                let b = if flip { -yf } else { yf };
-                let (r, inside) = sphere_dir::<F>(m, a, b);
-                dx[x] = r[0];
-                dy[x] = r[1];
-                dz[x] = r[2];
-                on[x] = inside;
+            let out = [&mut *dx, &mut *dy, &mut *dz];
+            // Most chunks of points lie well inside the disc: their box says so, and they
+            // skip the gutter's formulas (a square root and a division per point).
+            if matches!(pts, Points::At(Some(b)) if box_inside(b, kx, ky)) {
+                sphere_at::<F, true>(m, [kx, ky], flip, [ptx, pty], out, on);
+            } else {
+                sphere_at::<F, false>(m, [kx, ky], flip, [ptx, pty], out, on);
             }
         }
-        _ if matches!(pts, Points::At) => {
+        _ if matches!(pts, Points::At(_)) => {
             let [ptx, pty] = &sc.pts;
             let (ptx, pty) = (&ptx[..w], &pty[..w]);
             for x in 0..w {
@@ -172,7 +222,7 @@ fn stages<const C: usize, const F: bool>(
             let m = &plan.sphere_m;
             for x in 0..w {
                 let a = x as f32 * k0 + k1;
-                let (r, inside) = sphere_dir::<F>(m, a, b);
+                let (r, inside) = sphere_dir::<F, false>(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
                 dz[x] = r[2];
@@ -793,6 +843,55 @@ pub(crate) fn row<const C: usize>(
         };
         for k in 0..C {
             px[k].write(v[k]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image_io::Image;
+
+    /// A box well inside the disc takes the shortcut without the gutter's formulas; its
+    /// directions and positions are bit for bit those of the general formulas, for every
+    /// view and row order (and `box_inside` refuses boxes that reach the rim).
+    #[test]
+    fn points_inside_the_disc_take_the_same_values_by_the_shortcut() {
+        let ll = Mapping::parse("latlong", None).unwrap();
+        let img = Image::new(64, 32, 3);
+        let e = EnvMap::new(ll, &img, "t").unwrap();
+        let s = Src::<f32>::new(&e);
+        let n = 96;
+        let k = 2.0 / n as f32;
+        assert!(box_inside([20.0, 76.0, 40.0, 56.0], k, k));
+        assert!(!box_inside([0.0, 96.0, 47.0, 49.0], k, k));
+        assert!(!box_inside([48.0, 48.0, 0.0, 1.0], k, k));
+        assert!(box_inside([48.0, 48.0, 0.5, 1.0], k, k));
+        for preset in [None, Some("skylibs")] {
+            let sp = Mapping::parse("sphere", preset).unwrap();
+            for rot in [
+                IDENTITY,
+                crate::view::look_up([1.0, 0.3, 0.0], [0.0, 1.0, 0.0]).unwrap(),
+            ] {
+                let d = Dst::<f32>::new(sp, n, n, &rot, Outside::Gutter);
+                let plan = Plan::new(&s, &d, &rot, n);
+                let within = [20.0, 76.0, 40.0, 56.0];
+                let m = 500;
+                let mut a = Scratch::new(m);
+                for i in 0..m {
+                    let (u, v) = ((i * 37 % 101) as f32 / 100.0, (i * 53 % 97) as f32 / 96.0);
+                    a.pts[0][i] = within[0] + u * (within[1] - within[0]);
+                    a.pts[1][i] = within[2] + v * (within[3] - within[2]);
+                }
+                let mut b = Scratch::new(m);
+                b.pts = a.pts.clone();
+                passes::<3>(&s, &d, &plan, Points::At(Some(within)), &mut a);
+                passes::<3>(&s, &d, &plan, Points::At(None), &mut b);
+                assert_eq!(a.d, b.d);
+                assert_eq!(a.p, b.p);
+                assert_eq!(a.idx, b.idx);
+                assert!(a.on.iter().all(|&o| o));
+            }
         }
     }
 }
