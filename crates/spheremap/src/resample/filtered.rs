@@ -619,36 +619,40 @@ fn flat_gather<const C: usize>(
     if let (3 | 4, true, Some(lim)) = (C, gather::has_avx2(), s.data.len().checked_sub(s.w * C + 8))
     {
         let r = ts.start * n..ts.end * n;
-        let idx = &sc.idx[r.clone()];
-        // The largest index decides (SLOW is larger than any plain one).
-        if idx.iter().fold(0, |m, &v| m.max(v)) as usize <= lim.min(SLOW as usize - 1) {
-            let [ax, ay] = &sc.frac;
-            // SAFETY: AVX2 and FMA (`has_avx2`); C is 3 or 4; every lane's reads end in the
-            // data (checked just above).
-            unsafe { mean8_avx2::<C>(s.data, s.w * C, idx, &ax[r.clone()], &ay[r], n, out) };
-            return true;
-        }
+        let [ax, ay] = &sc.frac;
+        let (idx, ax, ay) = (&sc.idx[r.clone()], &ax[r.clone()], &ay[r]);
+        let lim = lim.min(SLOW as usize - 1);
+        // SAFETY: AVX2 and FMA (`has_avx2`); C is 3 or 4.
+        return unsafe { mean8_avx2::<C>(s.data, s.w * C, lim, idx, ax, ay, n, out) };
     }
     let _ = (s, sc, n, ts, out);
     false
 }
 
-/// [`gather::mean8`] compiled for AVX2 and FMA.
+/// [`gather::mean8`], compiled for AVX2 and FMA, when every lane is plain: its index at
+/// most `lim` (the largest decides; SLOW is larger than any plain one); else false.
 ///
 /// # Safety
-/// As `mean8`'s.
+/// The CPU has AVX2 and FMA; C is 3 or 4; `lim + row + 8 ≤ data.len()`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn mean8_avx2<const C: usize>(
     data: &[f32],
     row: usize,
+    lim: usize,
     idx: &[u32],
     ax: &[f32],
     ay: &[f32],
     n: usize,
     out: &mut [std::mem::MaybeUninit<f32>],
-) {
-    gather::mean8::<C>(data, row, idx, ax, ay, n, PREFETCH, out)
+) -> bool {
+    if idx.iter().fold(0, |m, &v| m.max(v)) as usize > lim {
+        return false;
+    }
+    // SAFETY: as the caller's, and every lane's reads end in the data (checked above).
+    unsafe { gather::mean8::<C>(data, row, idx, ax, ay, n, PREFETCH, out) };
+    true
 }
 
 /// The jitter in [0, 1)² of a sample from its hash (16 bits per axis, as `jitter32`).
