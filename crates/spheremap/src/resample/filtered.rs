@@ -35,10 +35,12 @@ pub(crate) struct FScratch {
     cap: usize,
     /// How many texels on the common grid fill a chunk (the tables below).
     per: usize,
-    /// Per sample of a chunk of `per` common-grid texels: its texel (from the chunk's first),
-    /// its stratum k = j·gx + i, and i, j as floats (so its points are one flat loop).
+    /// Per sample of a chunk of `per` common-grid texels: its texel t (from the chunk's
+    /// first), t·HX and k·HK for its stratum k = j·gx + i (`hash32`'s products), and i, j as
+    /// floats (so its points are one flat loop).
     pt_t: Vec<u32>,
-    pt_k: Vec<u32>,
+    pt_hx: Vec<u32>,
+    pt_hk: Vec<u32>,
     pt_i: Vec<f32>,
     pt_j: Vec<f32>,
     pub(crate) lx: Vec<f64>,
@@ -75,11 +77,13 @@ impl FScratch {
         let n = (gx * gy).max(1);
         let per = (CHUNK / n).clamp(1, w.max(1));
         let cap = (per * n).max(CHUNK);
-        let (mut pt_t, mut pt_k, mut pt_i, mut pt_j) = (vec![], vec![], vec![], vec![]);
+        let (mut pt_t, mut pt_i, mut pt_j) = (vec![], vec![], vec![]);
+        let (mut pt_hx, mut pt_hk) = (vec![], vec![]);
         for t in 0..per {
             for k in 0..n {
                 pt_t.push(t as u32);
-                pt_k.push(k as u32);
+                pt_hx.push((t as u32).wrapping_mul(HX));
+                pt_hk.push((k as u32).wrapping_mul(HK));
                 pt_i.push((k % gx.max(1)) as f32);
                 pt_j.push((k / gx.max(1)) as f32);
             }
@@ -100,7 +104,8 @@ impl FScratch {
             cap,
             per,
             pt_t,
-            pt_k,
+            pt_hx,
+            pt_hk,
             pt_i,
             pt_j,
             lx: vec![0.0; w],
@@ -250,7 +255,8 @@ pub(crate) fn row<const C: usize>(
         if uniform && cnt <= f.per {
             // All on the common grid: every sample in one flat loop (a short last chunk
             // repeats its last texel).
-            let (pt_t, pt_k, pt_i, pt_j) = (&f.pt_t, &f.pt_k, &f.pt_i, &f.pt_j);
+            let (pt_t, pt_i, pt_j) = (&f.pt_t, &f.pt_i, &f.pt_j);
+            let (pt_hx, pt_hk) = (&f.pt_hx, &f.pt_hk);
             let last = (w - 1) as u32;
             let (kx, ky) = (support / gx as f32, support / gy as f32);
             vectorized(
@@ -258,10 +264,16 @@ pub(crate) fn row<const C: usize>(
                 || {
                     let m = px.len().min(py.len()).min(pt_t.len());
                     let (px, py) = (&mut px[..m], &mut py[..m]);
-                    let (pt_t, pt_k, pt_i, pt_j) = (&pt_t[..m], &pt_k[..m], &pt_i[..m], &pt_j[..m]);
+                    let (pt_t, pt_i, pt_j) = (&pt_t[..m], &pt_i[..m], &pt_j[..m]);
+                    let (pt_hx, pt_hk) = (&pt_hx[..m], &pt_hk[..m]);
+                    // hash32(seed, x, y, k) from the tables' products (a lane past the
+                    // row's end, in a short last chunk, hashes its unclamped x: unused).
+                    let base = seed ^ yu.wrapping_mul(HY);
+                    let x0h = (x0 as u32).wrapping_mul(HX);
                     for p in 0..m {
                         let x = (x0 as u32 + pt_t[p]).min(last);
-                        let (jx, jy) = jitter_f32(hash32(seed, x, yu, pt_k[p]));
+                        let h = hash32_mixed(base ^ x0h.wrapping_add(pt_hx[p]) ^ pt_hk[p]);
+                        let (jx, jy) = jitter_f32(h);
                         px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
                         py[p] = yc - r + (pt_j[p] + jy) * ky;
                     }
@@ -662,4 +674,26 @@ fn jitter_f32(h: u32) -> (f32, f32) {
     let jx = (h & 0xFFFF) as i32 as f32 * (1.0 / 65536.0);
     let jy = (h >> 16) as i32 as f32 * (1.0 / 65536.0);
     (jx, jy)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flat strata loop's hash, assembled from the tables' products, is `hash32`.
+    #[test]
+    fn the_flat_loops_hash_is_hash32() {
+        let f = FScratch::new(200, (4, 4));
+        for seed in [0u32, 7, 0xDEAD_BEEF] {
+            for (y, x0) in [(0u32, 0u32), (5, 64), (1023, 960), (4000, 4096)] {
+                let base = seed ^ y.wrapping_mul(HY);
+                let x0h = x0.wrapping_mul(HX);
+                for p in 0..f.pt_t.len() {
+                    let (t, k) = (f.pt_t[p], p as u32 % 16);
+                    let h = hash32_mixed(base ^ x0h.wrapping_add(f.pt_hx[p]) ^ f.pt_hk[p]);
+                    assert_eq!(h, hash32(seed, x0 + t, y, k));
+                }
+            }
+        }
+    }
 }

@@ -881,10 +881,18 @@ pub(crate) fn jitter32(seed: u64, x: usize, y: usize, k: usize) -> (f64, f64) {
 
 #[inline(always)]
 pub(crate) fn hash32(seed: u32, x: u32, y: u32, k: u32) -> u32 {
-    let mut h = seed
-        ^ x.wrapping_mul(0x9E37_79B1)
-        ^ y.wrapping_mul(0x85EB_CA77)
-        ^ k.wrapping_mul(0xC2B2_AE3D);
+    hash32_mixed(seed ^ x.wrapping_mul(HX) ^ y.wrapping_mul(HY) ^ k.wrapping_mul(HK))
+}
+
+/// [`hash32`]'s multipliers of x, y and k.
+pub(crate) const HX: u32 = 0x9E37_79B1;
+pub(crate) const HY: u32 = 0x85EB_CA77;
+pub(crate) const HK: u32 = 0xC2B2_AE3D;
+
+/// [`hash32`] after its inputs are mixed: `seed ^ x·HX ^ y·HY ^ k·HK` (wrapping), which a
+/// caller may assemble from precomputed products.
+#[inline(always)]
+pub(crate) fn hash32_mixed(mut h: u32) -> u32 {
     h ^= h >> 16;
     h = h.wrapping_mul(0x7FEB_352D);
     h ^= h >> 15;
