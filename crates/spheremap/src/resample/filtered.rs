@@ -28,8 +28,12 @@ const CHUNK: usize = 1024;
 /// Per-thread buffers of the filtered path for a row of `w` texels and a common grid of
 /// gx×gy strata per texel.
 pub(crate) struct FScratch {
-    /// Footprint points: the 3w + 1 edge midpoints of a row.
+    /// Footprint points of a row: the w + 1 left/right edge midpoints, then the w bottom
+    /// ones (`fp`); the w top ones (`ft`), which are the previous row's bottom ones when
+    /// `ft_row` says so (a thread does consecutive rows: a third of the points saved).
     fp: Scratch,
+    ft: Scratch,
+    ft_row: Option<usize>,
     /// The samples of a chunk, texel-major (`cap` of them).
     sc: Scratch,
     cap: usize,
@@ -88,18 +92,20 @@ impl FScratch {
                 pt_j.push((k / gx.max(1)) as f32);
             }
         }
-        // The footprint points' columns: the left/right edge midpoints (x), then the top and
-        // bottom ones (x + ½); `footprints` sets their rows.
-        let mut fp = Scratch::new(3 * w + 1);
+        // The footprint points' columns: the left/right edge midpoints (x), then the bottom
+        // ones (x + ½), and the top ones (x + ½); `footprints` sets their rows.
+        let (mut fp, mut ft) = (Scratch::new(2 * w + 1), Scratch::new(w));
         for x in 0..=w {
             fp.pts[0][x] = x as f32;
         }
         for x in 0..w {
             fp.pts[0][w + 1 + x] = x as f32 + 0.5;
-            fp.pts[0][2 * w + 1 + x] = x as f32 + 0.5;
+            ft.pts[0][x] = x as f32 + 0.5;
         }
         FScratch {
             fp,
+            ft,
+            ft_row: None,
             sc: Scratch::new(cap),
             cap,
             per,
@@ -141,21 +147,24 @@ pub(crate) fn footprints<const C: usize>(
     f: &mut FScratch,
 ) {
     let w = f.lx.len();
-    let fp = &mut f.fp;
+    let (fp, ft) = (&mut f.fp, &mut f.ft);
     // The points' columns are set once (`FScratch::new`); their rows here.
+    if f.ft_row != Some(y) {
+        ft.pts[1].fill(y as f32);
+        positions::<C>(s, d, plan, Points::At(None), ft);
+    }
     let py = &mut fp.pts[1];
     py[..=w].fill(y as f32 + 0.5);
-    py[w + 1..2 * w + 1].fill(y as f32);
-    py[2 * w + 1..3 * w + 1].fill(y as f32 + 1.0);
+    py[w + 1..2 * w + 1].fill(y as f32 + 1.0);
     positions::<C>(s, d, plan, Points::At(None), fp);
     if matches!(s.m, Mapping::Cube(_)) {
         // Edges across a seam measure angles: `Src::span`, one by one.
-        let dir = |i: usize| [fp.d[0][i], fp.d[1][i], fp.d[2][i]];
-        let pos = |i: usize| [fp.p[0][i], fp.p[1][i]];
+        let dir = |sc: &Scratch, i: usize| [sc.d[0][i], sc.d[1][i], sc.d[2][i]];
+        let pos = |sc: &Scratch, i: usize| [sc.p[0][i], sc.p[1][i]];
         for x in 0..w {
-            let (l, r, t, b) = (x, x + 1, w + 1 + x, 2 * w + 1 + x);
-            f.lx[x] = s.span(pos(l), pos(r), dir(l), dir(r));
-            f.ly[x] = s.span(pos(t), pos(b), dir(t), dir(b));
+            let (l, r, b) = (x, x + 1, w + 1 + x);
+            f.lx[x] = s.span(pos(fp, l), pos(fp, r), dir(fp, l), dir(fp, r));
+            f.ly[x] = s.span(pos(ft, x), pos(fp, b), dir(ft, x), dir(fp, b));
         }
     } else {
         // `Src::span` of the other mappings, in f32 so that it vectorizes (it differs from
@@ -163,14 +172,13 @@ pub(crate) fn footprints<const C: usize>(
         let ll = matches!(s.m, Mapping::LatLong(_));
         let (wf, hf) = (s.wf, s.hf);
         let eps = (s.hf as f64 * (1e-6 / std::f64::consts::PI)) as f32;
-        let [px, py] = &fp.p;
+        let ([px, py], [tx, ty]) = (&fp.p, &ft.p);
         let (lx, ly) = (&mut f.lx[..w], &mut f.ly[..w]);
-        let (px, py) = (&px[..3 * w + 1], &py[..3 * w + 1]);
+        let (px, py, tx, ty) = (&px[..2 * w + 1], &py[..2 * w + 1], &tx[..w], &ty[..w]);
         vectorized(
             #[inline(always)]
             || {
-                let span = |i: usize, j: usize| {
-                    let (ax, ay, bx, by) = (px[i], py[i], px[j], py[j]);
+                let span = |[ax, ay]: [f32; 2], [bx, by]: [f32; 2]| {
                     let dx = (bx - ax).abs();
                     let pole = (ay <= eps) | (ay >= hf - eps) | (by <= eps) | (by >= hf - eps);
                     let dx = if !ll {
@@ -184,24 +192,34 @@ pub(crate) fn footprints<const C: usize>(
                     (dx * dx + dy * dy).sqrt() as f64
                 };
                 for x in 0..w {
-                    lx[x] = span(x, x + 1);
-                    ly[x] = span(w + 1 + x, 2 * w + 1 + x);
+                    lx[x] = span([px[x], py[x]], [px[x + 1], py[x + 1]]);
+                    ly[x] = span([tx[x], ty[x]], [px[w + 1 + x], py[w + 1 + x]]);
                 }
             },
         );
     }
-    let py = &fp.p[1][..3 * w + 1];
+    let (py, ty) = (&fp.p[1][..2 * w + 1], &ft.p[1][..w]);
     let (lo, hi) = (&mut f.lo[..w], &mut f.hi[..w]);
     vectorized(
         #[inline(always)]
         || {
             for x in 0..w {
-                let ys = [py[x], py[x + 1], py[w + 1 + x], py[2 * w + 1 + x]];
+                let ys = [py[x], py[x + 1], ty[x], py[w + 1 + x]];
                 lo[x] = ys[0].min(ys[1]).min(ys[2].min(ys[3])) as f64;
                 hi[x] = ys[0].max(ys[1]).max(ys[2].max(ys[3])) as f64;
             }
         },
     );
+    // This row's bottom midpoints are the next row's top ones (the same points: y + 1.0 is
+    // exact in f32 for any row a canvas has).
+    let bottom = w + 1..2 * w + 1;
+    for k in 0..3 {
+        ft.d[k].copy_from_slice(&fp.d[k][bottom.clone()]);
+    }
+    for k in 0..2 {
+        ft.p[k].copy_from_slice(&fp.p[k][bottom.clone()]);
+    }
+    f.ft_row = Some(y + 1);
 }
 
 /// Row `y` of a filtered conversion; returns (lookups, the most samples a texel took).
@@ -679,6 +697,34 @@ fn jitter_f32(h: u32) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A row's footprints are the same whether its top edge points are its own or the
+    /// previous row's bottom ones (lat-long: positions; cube: directions too).
+    #[test]
+    fn footprints_reuse_the_previous_rows_bottom_edge_exactly() {
+        use crate::image_io::Image;
+        for (src, n) in [("latlong", 32), ("cube", 16)] {
+            let m = Mapping::parse(src, None).unwrap();
+            let (sw, sh) = m.canvas(n);
+            let img = Image::new(sw, sh, 3);
+            let e = EnvMap::new(m, &img, "t").unwrap();
+            let s = Src::<f32>::new(&e);
+            let rot = crate::view::look_up([0.3, 1.0, -0.2], [0.0, 0.0, 1.0]).unwrap();
+            let sp = Mapping::parse("sphere", None).unwrap();
+            let w = 40;
+            let d = Dst::<f32>::new(sp, w, w, &rot, Outside::Gutter);
+            let plan = Plan::new(&s, &d, &rot, w);
+            let mut run = FScratch::new(w, (4, 4));
+            for y in 0..w {
+                footprints::<3>(&s, &d, &plan, y, &mut run);
+                assert_eq!(run.ft_row, Some(y + 1));
+                let mut fresh = FScratch::new(w, (4, 4));
+                footprints::<3>(&s, &d, &plan, y, &mut fresh);
+                assert_eq!((&run.lx, &run.ly), (&fresh.lx, &fresh.ly), "{src} row {y}");
+                assert_eq!((&run.lo, &run.hi), (&fresh.lo, &fresh.hi), "{src} row {y}");
+            }
+        }
+    }
 
     /// The flat strata loop's hash, assembled from the tables' products, is `hash32`.
     #[test]
