@@ -173,6 +173,38 @@ pub fn atan2_fast(y: f32, x: f32) -> f32 {
     atan2_poly::<false>(y, x)
 }
 
+/// The larger of `a` and `b` as x86's `maxps` has it (with a NaN: `b`): one instruction
+/// when vectorized, where `f32::max` takes three for its NaN rule.
+#[inline(always)]
+pub(crate) fn vmax(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of `a` and `b` as x86's `minps` has it (with a NaN: `b`); see [`vmax`].
+#[inline(always)]
+pub(crate) fn vmin(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `floor(x)`: one instruction where the code is compiled for AVX2 (`AVX`), else
+/// [`floor_fast`] (baseline x86-64 has no rounding instruction; `floor` would be a call).
+#[inline(always)]
+pub(crate) fn floor_v<const AVX: bool>(x: f32) -> f32 {
+    if AVX {
+        x.floor()
+    } else {
+        floor_fast(x)
+    }
+}
+
 /// `a·b + c`: one fused instruction with `FMA` (for code compiled for a CPU that has it: the
 /// vectorized passes of `resample`), else a multiply and an add — elsewhere a fused one would
 /// be a slow library call.  The two differ by the rounding of the product only.
@@ -199,19 +231,18 @@ pub(crate) fn atan2_poly<const FMA: bool>(y: f32, x: f32) -> f32 {
         -0.004_054_574,
     ];
     let (ax, ay) = (x.abs(), y.abs());
-    let mx = ax.max(ay);
-    let mn = ax.min(ay);
+    // (Compare-and-select: one instruction each when vectorized; a NaN is dealt with below.)
+    let (mx, mn) = (vmax(ax, ay), vmin(ax, ay));
     let a = if mx > 0.0 { mn / mx } else { 0.0 };
     let s = a * a;
-    let s2 = s * s;
-    let s4 = s2 * s2;
-    let p01 = mad::<FMA>(C[1], s, C[0]);
-    let p23 = mad::<FMA>(C[3], s, C[2]);
-    let p45 = mad::<FMA>(C[5], s, C[4]);
-    let p67 = mad::<FMA>(C[7], s, C[6]);
-    let p03 = mad::<FMA>(p23, s2, p01);
-    let p47 = mad::<FMA>(p67, s2, p45);
-    let p = mad::<FMA>(p47, s4, p03);
+    let p = C[7];
+    let p = mad::<FMA>(p, s, C[6]);
+    let p = mad::<FMA>(p, s, C[5]);
+    let p = mad::<FMA>(p, s, C[4]);
+    let p = mad::<FMA>(p, s, C[3]);
+    let p = mad::<FMA>(p, s, C[2]);
+    let p = mad::<FMA>(p, s, C[1]);
+    let p = mad::<FMA>(p, s, C[0]);
     let mut r = a * p;
     if ay > ax {
         r = core::f32::consts::FRAC_PI_2 - r;

@@ -5,7 +5,7 @@
 //! per-texel functions in passes 1–2.  Same formulas as the generic path (tested equal).
 
 use super::*;
-use crate::real::{atan2_poly, floor_fast, mad};
+use crate::real::{atan2_poly, floor_v, mad, vmax, vmin};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
@@ -116,12 +116,12 @@ fn sphere_dir<const F: bool, const ALL_IN: bool>(
         let k = if inside {
             1.0
         } else {
-            (2.0 - rho).clamp(0.0, 1.0 - 1e-6) / rho
+            vmin(vmax(2.0 - rho, 0.0), 1.0 - 1e-6) / rho
         };
         (a * k, b * k, inside)
     };
     let q = a2 * a2 + b2 * b2;
-    let z2 = 2.0 * (1.0 - q).max(0.0).sqrt();
+    let z2 = 2.0 * vmax(1.0 - q, 0.0).sqrt();
     (apply::<F>(m, [z2 * a2, z2 * b2, 1.0 - 2.0 * q]), inside)
 }
 
@@ -264,7 +264,8 @@ fn stages<const C: usize, const F: bool>(
             for x in 0..w {
                 let (a, b, c) = (dx[x], dy[x], dz[x]);
                 let u = mad::<F>(atan2_poly::<F>(c, a), i2pi, u0);
-                let u = u - floor_fast(u);
+                // (F: compiled for FMA, so for AVX2 too.)
+                let u = u - floor_v::<F>(u);
                 let v = atan2_poly::<F>(mad::<F>(a, a, c * c).sqrt(), b) * ipi;
                 px[x] = u * wf;
                 py[x] = v * hf;
@@ -311,7 +312,7 @@ fn stages<const C: usize, const F: bool>(
                 let face = axis + if ma < 0.0 { 1.0 } else { 0.0 };
                 let inv = 1.0 / ma.abs();
                 let ss = mad::<F>(scv, inv, 1.0) * 0.5;
-                let tt = (mad::<F>(tcv, inv, 1.0) * 0.5).min(1.0 - 1.0 / 4096.0);
+                let tt = vmin(mad::<F>(tcv, inv, 1.0) * 0.5, 1.0 - 1.0 / 4096.0);
                 px[x] = ss * f;
                 py[x] = (face + tt) * f;
             }
@@ -410,8 +411,8 @@ fn taps_with<const C: usize>(
         // are in range; plain `as` would add a saturating fix-up that stops vectorization.
         let (xi, yi) = unsafe {
             (
-                fx.max(0.0).min(wf).to_int_unchecked::<i32>() as u32,
-                fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
+                vmin(vmax(fx, 0.0), wf).to_int_unchecked::<i32>() as u32,
+                vmin(vmax(fy, 0.0), hf).to_int_unchecked::<i32>() as u32,
             )
         };
         idx[x] = if ok { yi * row + xi * C as u32 } else { SLOW };
@@ -594,8 +595,8 @@ fn taps_loop<const C: usize, const FULL: bool>(
         // SAFETY: clamped first (NaN becomes 0), so the conversions are in range.
         let (xi, yi) = unsafe {
             (
-                fx.max(0.0).min(wf).to_int_unchecked::<i32>() as u32,
-                fy.max(0.0).min(hf).to_int_unchecked::<i32>() as u32,
+                vmin(vmax(fx, 0.0), wf).to_int_unchecked::<i32>() as u32,
+                vmin(vmax(fy, 0.0), hf).to_int_unchecked::<i32>() as u32,
             )
         };
         // (`ok` has checked yi + 1 < h.)
