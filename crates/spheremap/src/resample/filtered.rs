@@ -241,7 +241,7 @@ pub(crate) fn row<const C: usize>(
     let (gx, gy) = sp.grid;
     let mut max_n = 0;
     let mut lookups = 0u64;
-    plan_row(levels.len() - 1, sp, f);
+    let common = plan_row(levels.len() - 1, sp, f);
     let seed = opts.seed as u32 ^ (opts.seed >> 32) as u32;
     let (r, support) = (sp.radius as f32, sp.support as f32);
     let plain = opts.filter == Filter::Box && !d.weighted;
@@ -254,7 +254,16 @@ pub(crate) fn row<const C: usize>(
         let x0 = x1;
         let mut tot = 0;
         let mut uniform = true;
-        while x1 < w {
+        if common {
+            // `per` texels of the common grid (no need to look at each).
+            x1 = (x0 + f.per).min(w);
+            let n = gx * gy;
+            for (t, b) in f.start[..x1 - x0].iter_mut().enumerate() {
+                *b = t * n;
+            }
+            tot = (x1 - x0) * n;
+        }
+        while x1 < w && !common {
             let n = (f.nx[x1] * f.ny[x1]) as usize;
             if tot + n > f.cap {
                 break;
@@ -418,7 +427,7 @@ pub(crate) fn row<const C: usize>(
     }
     // Texels with their own strata, one by one.
     for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        if f.nx[x] > 0 {
+        if common || f.nx[x] > 0 {
             continue;
         }
         let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
@@ -433,8 +442,9 @@ pub(crate) fn row<const C: usize>(
 }
 
 /// Each texel's strata and levels (`FScratch::nx`, `ny`, `l0`, `l0s`, `l1`, `frac`) from its
-/// footprint, as [`Sampling::plan`] gives them; `top` is the deepest level.
-fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) {
+/// footprint, as [`Sampling::plan`] gives them; `top` is the deepest level.  Returns whether
+/// every texel is on the common grid, which a chunk holds (`FScratch::per` texels of it).
+fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) -> bool {
     let w = f.lx.len();
     let level = |f: &mut FScratch, x: usize, nx: usize, ny: usize, lambda: f64| {
         let vec = nx * ny <= f.cap;
@@ -457,7 +467,7 @@ fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) {
             let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
             level(f, x, nx, ny, lambda);
         }
-        return;
+        return false;
     }
     // Every texel on the common grid: the spacings in one vectorized loop, then only the
     // texels whose samples lie more than a texel apart (the rim; few) take a logarithm.
@@ -486,6 +496,7 @@ fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) {
             level(f, x, gx, gy, lambda);
         }
     }
+    fits
 }
 
 /// The runs of consecutive texels (of a chunk) that read the same level `lv[t]` (not
