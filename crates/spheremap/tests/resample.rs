@@ -533,3 +533,40 @@ fn partial_levels_give_the_whole_pyramids_result() {
         assert!(worst == 0.0, "{precision:?}: {worst}");
     }
 }
+
+/// Texels whose samples are a texel apart up to the strata count's slack (a footprint of
+/// 2.0005 texels across two strata) read level 0 only: with the default adaptive sampling,
+/// a lat-long → sphere-map conversion builds only the level-1 rows the sphere map's rim reads,
+/// not the whole level (it did in session 8: 1.24× input + output at 8192×4096 → 4096²).
+#[test]
+fn footprints_a_hair_over_an_integer_build_no_levels() {
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let sp = Mapping::parse("sphere", None).unwrap();
+    let img = fill(ll, 512, 3, |d| vec![d[0], d[1], d[2]]);
+    let e = EnvMap::new(ll, &img, "src").unwrap();
+    let n = 512;
+    let out = 2 * (n * n * 3 * 4) as u64;
+    let run = |max_memory: u64| {
+        let o = ResampleOptions {
+            max_memory,
+            ..Default::default()
+        };
+        resample(&e, sp, n, n, &o, None)
+    };
+    // The smallest budget the job runs in, less its output's share.
+    let (mut lo, mut hi) = (out, out + (64 << 20));
+    while hi - lo > 4096 {
+        let mid = (lo + hi) / 2;
+        if run(mid).is_ok() {
+            hi = mid
+        } else {
+            lo = mid
+        }
+    }
+    let level1 = ((img.width / 2) * (img.height / 2) * 3 * 4) as u64;
+    assert!(
+        hi - out < level1 / 2,
+        "levels {} of level 1's {level1}",
+        hi - out
+    );
+}

@@ -659,6 +659,10 @@ fn check_memory_filtered(out_values: usize, levels: u128, opts: &ResampleOptions
     crate::error::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
 }
 
+/// The strata count's slack, in source texels: a footprint a thousandth of a texel over an
+/// integer n gets n strata per axis (see [`Sampling::plan`]).
+const SLACK: f64 = 1e-3;
+
 /// The per-run constants of filtered sampling.
 #[derive(Clone, Copy)]
 pub(crate) struct Sampling {
@@ -704,7 +708,7 @@ impl Sampling {
             // A thousandth of a texel of slack: an integer ratio (a 32× shrink), measured as
             // 32.0000001 in one precision and 32 in the other, must not get 33 strata in one
             // path and 32 in the other (they would then sample differently).
-            let per_axis = |l: f64| self.base.max((l * self.support - 1e-3).ceil() as usize);
+            let per_axis = |l: f64| self.base.max((l * self.support - SLACK).ceil() as usize);
             strata(per_axis(lx), per_axis(ly), self.samples, self.cap)
         };
         (nx, ny, self.lambda(self.spacing(lx, ly, nx, ny)))
@@ -722,10 +726,14 @@ impl Sampling {
         (lx * self.support / nx as f64).max(ly * self.support / ny as f64)
     }
 
-    /// The level that samples `spacing` source texels apart read.
+    /// The level that samples `spacing` source texels apart read.  Up to 1 + [`SLACK`] the
+    /// spacing is that of samples a texel apart: the strata count's slack in `plan` leaves
+    /// such spacings (2.0005 texels across two strata), and at a level-1 weight ≤ 0.0015
+    /// they read level 0 alone — else every texel near an integer footprint would have the
+    /// whole of level 1 built for it.
     #[inline]
     pub(crate) fn lambda(&self, spacing: f64) -> f64 {
-        if spacing > 1.0 {
+        if spacing > 1.0 + SLACK {
             spacing.log2().min(self.depth as f64)
         } else {
             0.0
