@@ -7,6 +7,8 @@
 //!   vector operations: `m = top + ay·(bottom − top)` per column, then
 //!   `acc += x·m` with `x = [wl·(1−ax) ×C, wl·ax ×C, 0 …]` from one FMA.  The left and right
 //!   columns are added at the end.  Four accumulators, so no sample waits on the previous.
+//!   [`mean8`] runs it over a whole run of texels that read level 0 only (the common case),
+//!   with no per-texel decisions.
 //! - [`gather0`]: SSE (x86-64's baseline), level 0 and unit weights only: one 4-lane
 //!   vector per tap.
 //! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
