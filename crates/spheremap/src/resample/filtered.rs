@@ -490,9 +490,8 @@ fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) -> bool {
     f.l1.fill(NONE);
     f.frac.fill(0.0);
     for x in 0..w {
-        let spacing = f.spacing[x];
-        if spacing > 1.0 {
-            let lambda = sp.lambda(spacing);
+        let lambda = sp.lambda(f.spacing[x]);
+        if lambda > 0.0 {
             level(f, x, gx, gy, lambda);
         }
     }

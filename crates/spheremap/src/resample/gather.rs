@@ -194,8 +194,6 @@ pub(crate) unsafe fn mean8<const C: usize>(
     let cnt = out.len() / C;
     debug_assert!(idx.len() >= n * cnt && ax.len() >= n * cnt && ay.len() >= n * cnt);
     let k = 1.0 / n as f32;
-    let c = C as i32;
-    let right = _mm256_setr_epi32(c, c + 1, c + 2, c + 3, 0, 0, 0, 0);
     for (t, px) in out.chunks_exact_mut(C).enumerate() {
         let b = t * n;
         for q in [b + ahead * n, b + ahead * n + n / 2] {
@@ -204,20 +202,14 @@ pub(crate) unsafe fn mean8<const C: usize>(
             }
         }
         let r = b..b + n;
-        let v = sum8::<C>(
-            data,
-            row,
-            &idx[r.clone()],
-            &ax[r.clone()],
-            &ay[r],
-            1.0,
-            _mm256_setzero_ps(),
-        );
-        // Lanes C.. onto lanes 0.. (the right taps' column onto the left's).
-        let sum = _mm256_add_ps(v, _mm256_permutevar8x32_ps(v, right));
-        let v = std::mem::transmute::<__m128, [f32; 4]>(_mm256_castps256_ps128(sum));
+        let (i, x, y) = (&idx[r.clone()], &ax[r.clone()], &ay[r]);
+        let acc = Acc::<C> {
+            s: [0.0; C],
+            v: sum8::<C>(data, row, i, x, y, 1.0, _mm256_setzero_ps()),
+        };
+        let v = acc.scaled::<true>(k);
         for ch in 0..C {
-            px[ch].write(v[ch] * k);
+            px[ch].write(v[ch]);
         }
     }
 }
