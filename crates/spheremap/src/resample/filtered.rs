@@ -10,6 +10,7 @@
 //! through the generic code.
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
+use super::lanes::Lanes;
 use super::rows::{
     passes, positions, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps,
     SLOW,
@@ -42,11 +43,11 @@ pub(crate) struct FScratch {
     /// Per sample of a chunk of `per` common-grid texels: its texel t (from the chunk's
     /// first), t·HX and k·HK for its stratum k = j·gx + i (`hash32`'s products), and i, j as
     /// floats (so its points are one flat loop).
-    pt_t: Vec<u32>,
-    pt_hx: Vec<u32>,
-    pt_hk: Vec<u32>,
-    pt_i: Vec<f32>,
-    pt_j: Vec<f32>,
+    pt_t: Lanes<u32>,
+    pt_hx: Lanes<u32>,
+    pt_hk: Lanes<u32>,
+    pt_i: Lanes<f32>,
+    pt_j: Lanes<f32>,
     pub(crate) lx: Vec<f64>,
     pub(crate) ly: Vec<f64>,
     pub(crate) lo: Vec<f64>,
@@ -65,12 +66,12 @@ pub(crate) struct FScratch {
     l1: Vec<u8>,
     frac: Vec<f32>,
     /// Pass 2b at those levels, per sample (level 0 uses the scratch's own).
-    lo_f: [Vec<f32>; 2],
-    lo_idx: Vec<u32>,
-    hi_f: [Vec<f32>; 2],
-    hi_idx: Vec<u32>,
+    lo_f: [Lanes<f32>; 2],
+    lo_idx: Lanes<u32>,
+    hi_f: [Lanes<f32>; 2],
+    hi_idx: Lanes<u32>,
     /// Filter weights per sample (all 1 for the plain box).
-    wt: Vec<f32>,
+    wt: Lanes<f32>,
     /// The chunk's runs of texels at one level (`runs`), for `lo_*` and `hi_*`.
     lo_runs: Vec<(usize, std::ops::Range<usize>)>,
     hi_runs: Vec<(usize, std::ops::Range<usize>)>,
@@ -109,11 +110,11 @@ impl FScratch {
             sc: Scratch::new(cap),
             cap,
             per,
-            pt_t,
-            pt_hx,
-            pt_hk,
-            pt_i,
-            pt_j,
+            pt_t: Lanes::from_slice(&pt_t),
+            pt_hx: Lanes::from_slice(&pt_hx),
+            pt_hk: Lanes::from_slice(&pt_hk),
+            pt_i: Lanes::from_slice(&pt_i),
+            pt_j: Lanes::from_slice(&pt_j),
             lx: vec![0.0; w],
             ly: vec![0.0; w],
             lo: vec![0.0; w],
@@ -126,11 +127,11 @@ impl FScratch {
             l0s: vec![NONE; w],
             l1: vec![NONE; w],
             frac: vec![0.0; w],
-            lo_f: [vec![0.0; cap], vec![0.0; cap]],
-            lo_idx: vec![SLOW; cap],
-            hi_f: [vec![0.0; cap], vec![0.0; cap]],
-            hi_idx: vec![SLOW; cap],
-            wt: vec![1.0; cap],
+            lo_f: [Lanes::new(cap, 0.0), Lanes::new(cap, 0.0)],
+            lo_idx: Lanes::new(cap, SLOW),
+            hi_f: [Lanes::new(cap, 0.0), Lanes::new(cap, 0.0)],
+            hi_idx: Lanes::new(cap, SLOW),
+            wt: Lanes::new(cap, 1.0),
             lo_runs: vec![],
             hi_runs: vec![],
         }

@@ -13,6 +13,7 @@
 //!   vector per tap.
 //! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
 
+use super::lanes::Lanes;
 use super::rows::{bilerp, prefetch, simd, Simd, SLOW};
 use super::source::Src;
 
@@ -74,7 +75,7 @@ impl<const C: usize> Acc<C> {
 pub(crate) fn sum_level<const C: usize, const AVX: bool>(
     s: &Src<f32>,
     k: usize,
-    p: &[Vec<f32>; 2],
+    p: &[Lanes<f32>; 2],
     idx: &[u32],
     ax: &[f32],
     ay: &[f32],
@@ -220,9 +221,9 @@ pub(crate) unsafe fn mean8<const C: usize>(
 #[inline(always)]
 pub(crate) fn gather0<const C: usize>(
     s: &Src<f32>,
-    p: &[Vec<f32>; 2],
+    p: &[Lanes<f32>; 2],
     idx: &[u32],
-    frac: &[Vec<f32>; 2],
+    frac: &[Lanes<f32>; 2],
     b: usize,
     n: usize,
     acc: &mut [f32; C],

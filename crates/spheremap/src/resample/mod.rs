@@ -60,6 +60,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 mod dest;
 mod filtered;
 mod gather;
+mod lanes;
 mod pyramid;
 mod rows;
 mod source;

@@ -4,20 +4,21 @@
 //! lat-long, cube and sphere), (3) the bilinear gathers.  Other mappings use the generic
 //! per-texel functions in passes 1–2.  Same formulas as the generic path (tested equal).
 
+use super::lanes::Lanes;
 use super::*;
 use crate::real::{atan2_poly, floor_v, mad, vmax, vmin};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
-    pub(crate) d: [Vec<f32>; 3],
-    pub(crate) on: Vec<bool>,
-    pub(crate) p: [Vec<f32>; 2],
+    pub(crate) d: [Lanes<f32>; 3],
+    pub(crate) on: Lanes<bool>,
+    pub(crate) p: [Lanes<f32>; 2],
     /// Pass 2b: the top-left tap's index into the source data, or `SLOW` when the lookup
     /// needs the general path; and the bilinear fractions.
-    pub(crate) idx: Vec<u32>,
-    pub(crate) frac: [Vec<f32>; 2],
+    pub(crate) idx: Lanes<u32>,
+    pub(crate) frac: [Lanes<f32>; 2],
     /// Canvas points for [`Points::At`] (x, y).
-    pub(crate) pts: [Vec<f32>; 2],
+    pub(crate) pts: [Lanes<f32>; 2],
 }
 
 /// Which destination points passes 1–2 take.
@@ -35,13 +36,14 @@ pub(crate) const SLOW: u32 = u32::MAX;
 
 impl Scratch {
     pub(crate) fn new(w: usize) -> Self {
+        let z = || Lanes::new(w, 0.0);
         Scratch {
-            d: [vec![0.0; w], vec![0.0; w], vec![0.0; w]],
-            on: vec![false; w],
-            p: [vec![0.0; w], vec![0.0; w]],
-            idx: vec![SLOW; w],
-            frac: [vec![0.0; w], vec![0.0; w]],
-            pts: [vec![0.0; w], vec![0.0; w]],
+            d: [z(), z(), z()],
+            on: Lanes::new(w, false),
+            p: [z(), z()],
+            idx: Lanes::new(w, SLOW),
+            frac: [z(), z()],
+            pts: [z(), z()],
         }
     }
 }
@@ -51,8 +53,8 @@ pub(crate) struct Plan {
     /// Sphere destination: rotation · (preset frame)ᵀ, eye → source frame.
     sphere_m: [[f32; 3]; 3],
     /// Lat-long destination: cos φ, sin φ per column.
-    cos_phi: Vec<f32>,
-    sin_phi: Vec<f32>,
+    cos_phi: Lanes<f32>,
+    sin_phi: Lanes<f32>,
     /// Source preset frame (sphere, cube): source frame → the mapping's eye/GL frame.
     src_frame: [[f32; 3]; 3],
 }
@@ -81,8 +83,8 @@ impl Plan {
         .map(|r| r.map(|v| v as f32));
         Plan {
             sphere_m,
-            cos_phi,
-            sin_phi,
+            cos_phi: Lanes::from_slice(&cos_phi),
+            sin_phi: Lanes::from_slice(&sin_phi),
             src_frame,
         }
     }
@@ -483,7 +485,7 @@ pub(crate) fn taps_level<const C: usize>(
     m: Mapping,
     t: &LevelTab,
     k: usize,
-    p: &[Vec<f32>; 2],
+    p: &[Lanes<f32>; 2],
     range: std::ops::Range<usize>,
     out: Taps,
 ) {
