@@ -3,11 +3,11 @@
 //!
 //! A row is done in passes: first the footprints of all its texels (their edge midpoints
 //! through passes 1–2 of [`super::rows`]), giving each texel its strata nx×ny and level; then,
-//! a chunk of texels at a time (as many as fit [`CHUNK`] samples), every sample of every
+//! a chunk of texels at a time (as many as fit [`FILL`] samples), every sample of every
 //! texel in the chunk (texel-major: a texel's samples are consecutive) through passes 1–2b,
 //! and a gather ([`super::gather`]) that sums each texel's samples in registers and writes
-//! it.  Only texels with more strata than a chunk holds (`max_samples` > 1024) go one by one
-//! through the generic code.
+//! it.  Only texels with more strata than a chunk can hold ([`CHUNK`]: `max_samples` > 1024)
+//! go one by one through the generic code.
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
 use super::lanes::Lanes;
@@ -23,8 +23,17 @@ const NONE: u8 = u8::MAX;
 /// How many texels ahead the gather prefetches the source (measured: J4 2–3% faster).
 const PREFETCH: usize = 4;
 
-/// How many samples a chunk holds at least (its arrays stay in the first-level cache).
+/// How many samples a chunk can hold at least (a texel with more strata goes through the
+/// generic code).
 const CHUNK: usize = 1024;
+
+/// How many samples a chunk is filled to (a texel with more goes alone).  The strata and the
+/// passes stream ~60 bytes per sample through their arrays: 23 KiB for 384 samples, which
+/// leaves the first-level cache (48 KiB here) room for the source lines that the next
+/// chunk's texels, the neighbours of these, read again; 1024 samples (60 KiB) evicted them.
+/// Measured (J4, one core): 1024 samples 100.8 ms, 640 98.4, 512 97.6, 384 97.8, 256 100.2;
+/// on two cores 384 was the faster of 384 and 512 by 1–2 %.
+const FILL: usize = 384;
 
 /// Per-thread buffers of the filtered path for a row of `w` texels and a common grid of
 /// gx×gy strata per texel.
@@ -80,7 +89,7 @@ pub(crate) struct FScratch {
 impl FScratch {
     pub(crate) fn new(w: usize, (gx, gy): (usize, usize)) -> Self {
         let n = (gx * gy).max(1);
-        let per = (CHUNK / n).clamp(1, w.max(1));
+        let per = (FILL / n).clamp(1, w.max(1));
         let cap = (per * n).max(CHUNK);
         let (mut pt_t, mut pt_i, mut pt_j) = (vec![], vec![], vec![]);
         let (mut pt_hx, mut pt_hk) = (vec![], vec![]);
@@ -266,7 +275,7 @@ pub(crate) fn row<const C: usize>(
         }
         while x1 < w && !common {
             let n = (f.nx[x1] * f.ny[x1]) as usize;
-            if tot + n > f.cap {
+            if tot + n > f.cap || (tot > 0 && tot + n > FILL) {
                 break;
             }
             uniform &= (f.nx[x1] as usize, f.ny[x1] as usize) == (gx, gy);
@@ -279,6 +288,8 @@ pub(crate) fn row<const C: usize>(
             continue;
         }
         let sc = &mut f.sc;
+        // The passes compute this chunk's samples only (whole vectors of 16 lanes).
+        sc.set_live((tot + 15) & !15);
         let [px, py] = &mut sc.pts;
         if uniform && cnt <= f.per {
             // All on the common grid: every sample in one flat loop (a short last chunk

@@ -6,7 +6,7 @@
 
 use super::lanes::Lanes;
 use super::*;
-use crate::real::{atan2_poly, floor_v, mad, vmax, vmin};
+use crate::real::{atan2_poly, atan2_upper, floor_v, mad, vmax, vmin};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
@@ -19,6 +19,8 @@ pub(crate) struct Scratch {
     pub(crate) frac: [Lanes<f32>; 2],
     /// Canvas points for [`Points::At`] (x, y).
     pub(crate) pts: [Lanes<f32>; 2],
+    /// How many of the lanes the passes compute (the first ones; all unless `set_live`).
+    live: usize,
 }
 
 /// Which destination points passes 1–2 take.
@@ -44,7 +46,14 @@ impl Scratch {
             idx: Lanes::new(w, SLOW),
             frac: [z(), z()],
             pts: [z(), z()],
+            live: w,
         }
+    }
+
+    /// The passes compute the first `n` lanes only (at most all of them): a chunk that
+    /// fills part of its arrays leaves the rest alone.
+    pub(crate) fn set_live(&mut self, n: usize) {
+        self.live = n.min(self.on.len());
     }
 }
 
@@ -178,7 +187,7 @@ fn stages<const C: usize, const F: bool>(
 ) {
     // Every slice cut to w here: with their lengths known, the loops below need no bounds
     // checks, and the compiler leaves no last vector's worth of lanes to a scalar loop.
-    let w = sc.on.len();
+    let w = sc.live;
     let [dx, dy, dz] = &mut sc.d;
     let (dx, dy, dz) = (&mut dx[..w], &mut dy[..w], &mut dz[..w]);
     let on = &mut sc.on[..w];
@@ -262,15 +271,18 @@ fn stages<const C: usize, const F: bool>(
     match s.m {
         Mapping::LatLong(p) => {
             let u0 = p.u_plus_x as f32;
-            let (i2pi, ipi) = (1.0 / std::f32::consts::TAU, 1.0 / std::f32::consts::PI);
+            let i2pi = 1.0 / std::f32::consts::TAU;
+            // The row is θ/π · h: one product, θ · (h/π).
+            let h_pi = hf * (1.0 / std::f32::consts::PI);
             for x in 0..w {
                 let (a, b, c) = (dx[x], dy[x], dz[x]);
                 let u = mad::<F>(atan2_poly::<F>(c, a), i2pi, u0);
                 // (F: compiled for FMA, so for AVX2 too.)
                 let u = u - floor_v::<F>(u);
-                let v = atan2_poly::<F>(mad::<F>(a, a, c * c).sqrt(), b) * ipi;
+                // θ = atan2(√(a² + c²), b): its first argument is ≥ 0.
+                let theta = atan2_upper::<F>(mad::<F>(a, a, c * c).sqrt(), b);
                 px[x] = u * wf;
-                py[x] = v * hf;
+                py[x] = theta * h_pi;
             }
         }
         Mapping::Cube(_) => {
@@ -396,7 +408,7 @@ fn taps_with<const C: usize>(
     sc: &mut Scratch,
     tile_ok: impl Fn(f32, f32, f32) -> bool,
 ) {
-    let n = sc.idx.len();
+    let n = sc.live;
     let [px, py] = &sc.p;
     let [ax, ay] = &mut sc.frac;
     let (px, py, ax, ay) = (&px[..n], &py[..n], &mut ax[..n], &mut ay[..n]);
