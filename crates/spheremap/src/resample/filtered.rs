@@ -395,21 +395,27 @@ pub(crate) fn row<const C: usize>(
             );
         }
         let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
-        // Runs of texels that read level 0 only go through the flat gather when it applies;
-        // the others, texel by texel.
+        // Runs of texels that read the same levels go through a flat gather when it
+        // applies (level 0 alone, the common case: `flat_gather`; else `flat_levels`); the
+        // others, texel by texel.
         let flat = avx && uniform && plain && !black && (C == 3 || C == 4);
         let n = gx * gy;
         let mut t1 = 0;
         while t1 < cnt {
             let t0 = t1;
-            let level0 = |t: usize| f.l0s[x0 + t] == NONE && f.l1[x0 + t] == NONE;
-            let run_flat = flat && level0(t0);
+            let key = |t: usize| (f.l0s[x0 + t], f.l1[x0 + t]);
             t1 += 1;
-            while t1 < cnt && (!flat || level0(t1) == run_flat) {
+            while t1 < cnt && (!flat || key(t1) == key(t0)) {
                 t1 += 1;
             }
             let run_out = &mut chunk_out[t0 * C..t1 * C];
-            if run_flat && flat_gather::<C>(s, &f.sc, n, t0..t1, run_out) {
+            let done = flat
+                && if key(t0) == (NONE, NONE) {
+                    flat_gather::<C>(s, &f.sc, n, t0..t1, run_out)
+                } else {
+                    flat_levels::<C>(levels, f, n, x0, t0..t1, run_out)
+                };
+            if done {
                 lookups += (n * (t1 - t0)) as u64;
                 max_n = max_n.max(n);
                 continue;
@@ -687,6 +693,77 @@ fn flat_gather<const C: usize>(
     }
     let _ = (s, sc, n, ts, out);
     false
+}
+
+/// The flat gather ([`gather::mean8_levels`]) of the chunk's texels `ts` (from the chunk's
+/// first, texel `x0`; on the common grid of `n` samples, all reading the same levels) into
+/// `out`, when all their lanes are plain; else false (and nothing written).
+#[inline]
+fn flat_levels<const C: usize>(
+    levels: &[Src<f32>],
+    f: &FScratch,
+    n: usize,
+    x0: usize,
+    ts: std::ops::Range<usize>,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if (C == 3 || C == 4) && gather::has_avx2() {
+        let x = x0 + ts.start;
+        let r = ts.start * n..ts.end * n;
+        // The lower level: level 0 from the chunk's own pass 2b, a deeper one from `lo_*`.
+        let (k0, idx, [ax, ay]) = match f.l0s[x] {
+            NONE => (0, &f.sc.idx, &f.sc.frac),
+            k => (k as usize, &f.lo_idx, &f.lo_f),
+        };
+        let lo = gather::LevelTaps {
+            data: levels[k0].data,
+            row: levels[k0].w * C,
+            idx: &idx[r.clone()],
+            ax: &ax[r.clone()],
+            ay: &ay[r.clone()],
+        };
+        let hi = match f.l1[x] {
+            NONE => None,
+            k => {
+                let l = &levels[k as usize];
+                Some(gather::LevelTaps {
+                    data: l.data,
+                    row: l.w * C,
+                    idx: &f.hi_idx[r.clone()],
+                    ax: &f.hi_f[0][r.clone()],
+                    ay: &f.hi_f[1][r.clone()],
+                })
+            }
+        };
+        let fr = &f.frac[x..x0 + ts.end];
+        // SAFETY: AVX2 and FMA (`has_avx2`); C is 3 or 4; the lanes are checked inside.
+        return unsafe { mean8_levels_avx2::<C>(lo, hi, fr, n, out) };
+    }
+    let _ = (levels, f, n, x0, ts, out);
+    false
+}
+
+/// [`gather::mean8_levels`], compiled for AVX2 and FMA, when every lane of `lo` and `hi`
+/// is plain; else false.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; C is 3 or 4.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn mean8_levels_avx2<const C: usize>(
+    lo: gather::LevelTaps,
+    hi: Option<gather::LevelTaps>,
+    fr: &[f32],
+    n: usize,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) -> bool {
+    if !lo.plain() || hi.is_some_and(|h| !h.plain()) {
+        return false;
+    }
+    // SAFETY: as the caller's, and every lane is plain (checked above).
+    unsafe { gather::mean8_levels::<C>(lo, hi, fr, n, out) };
+    true
 }
 
 /// [`gather::mean8`], compiled for AVX2 and FMA, when every lane is plain: its index at

@@ -215,6 +215,65 @@ pub(crate) unsafe fn mean8<const C: usize>(
     }
 }
 
+/// A level's taps for [`mean8_levels`]: its data and row length, and pass 2b's tap indices
+/// and fractions there for a run of texels' samples.
+#[derive(Clone, Copy)]
+pub(crate) struct LevelTaps<'a> {
+    pub(crate) data: &'a [f32],
+    pub(crate) row: usize,
+    pub(crate) idx: &'a [u32],
+    pub(crate) ax: &'a [f32],
+    pub(crate) ay: &'a [f32],
+}
+
+impl LevelTaps<'_> {
+    /// Every lane is plain: both its 8-value reads end inside the data (the largest index
+    /// decides; SLOW is larger than any plain one).
+    #[inline(always)]
+    pub(crate) fn plain(&self) -> bool {
+        let lim = self.data.len().checked_sub(self.row + 8);
+        let top = self.idx.iter().fold(0, |m, &v| m.max(v)) as usize;
+        lim.is_some_and(|l| top <= l.min(SLOW as usize - 1))
+    }
+}
+
+/// The filtered value of each texel of a run that reads two levels (`hi`: none when the
+/// texels read `lo` alone) at per-texel weights `1 − fr[t]` and `fr[t]`, with unit sample
+/// weights: [`mean8`] for texels whose footprint reaches the levels — the same sums as
+/// [`sum_level`] makes for them one texel at a time, without its per-texel decisions.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; C is 3 or 4; `lo` (and `hi`) hold `n · out.len() / C` lanes,
+/// all plain ([`LevelTaps::plain`]); `fr` has a weight per texel.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) unsafe fn mean8_levels<const C: usize>(
+    lo: LevelTaps,
+    hi: Option<LevelTaps>,
+    fr: &[f32],
+    n: usize,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    use std::arch::x86_64::*;
+    let k = 1.0 / n as f32;
+    for (t, px) in out.chunks_exact_mut(C).enumerate() {
+        let r = t * n..(t + 1) * n;
+        let f = fr[t];
+        // (No closure here: a closure would not be compiled for the caller's AVX2.)
+        let (i, x, y) = (&lo.idx[r.clone()], &lo.ax[r.clone()], &lo.ay[r.clone()]);
+        let mut v = sum8::<C>(lo.data, lo.row, i, x, y, 1.0 - f, _mm256_setzero_ps());
+        if let Some(h) = &hi {
+            let (i, x, y) = (&h.idx[r.clone()], &h.ax[r.clone()], &h.ay[r.clone()]);
+            v = sum8::<C>(h.data, h.row, i, x, y, f, v);
+        }
+        let acc = Acc::<C> { s: [0.0; C], v };
+        let v = acc.scaled::<true>(k);
+        for ch in 0..C {
+            px[ch].write(v[ch]);
+        }
+    }
+}
+
 /// The sum of samples `b..b + n` (level 0, unit weights) into `acc`.  (No software
 /// prefetch: a texel's samples share their cache lines, and the texels follow each other
 /// along the source closely enough for the hardware's prefetcher; measured no faster.)
