@@ -14,7 +14,7 @@
 //! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
 
 use super::lanes::Lanes;
-use super::rows::{bilerp, prefetch, simd, Simd, SLOW};
+use super::rows::{bilerp, bilerp4, prefetch, simd, vec4_limit, Simd, SLOW};
 use super::source::Src;
 
 /// Whether this CPU runs [`sum8`] (AVX2 and FMA, not turned off: see [`simd`]); checked
@@ -292,11 +292,11 @@ pub(crate) fn gather0<const C: usize>(
         // A texel's channels as one 4-lane vector (for C = 3 the lane after its blue is the
         // next texel's red, unused): 4 loads and 6 vector operations per lookup.  The last
         // lookups of the data would read one value past its end; they go the scalar way.
-        let lim = data.len().saturating_sub(row + C + 4) as u32;
+        let lim = vec4_limit::<C>(data.len(), row);
         let mut a4 = [0.0f32; 4];
         for q in b..b + n {
             let i00 = idx[q];
-            if i00 <= lim {
+            if lim.is_some_and(|l| i00 <= l) {
                 let v = bilerp4::<C>(data, row, i00 as usize, frac[0][q], frac[1][q]);
                 for c in 0..4 {
                     a4[c] += v[c];
@@ -317,40 +317,6 @@ pub(crate) fn gather0<const C: usize>(
     }
 }
 
-/// [`bilerp`] for C = 3 or 4 on 4-lane vectors; needs `i00 + row + C + 4 ≤ data.len()`.
-#[inline(always)]
-fn bilerp4<const C: usize>(data: &[f32], row: usize, i00: usize, ax: f32, ay: f32) -> [f32; 4] {
-    debug_assert!(i00 + row + C + 4 <= data.len());
-    #[cfg(target_arch = "x86_64")]
-    {
-        // Written with SSE (x86-64's baseline): left to itself, the compiler splits the
-        // vectors into pairs and singles here.
-        use std::arch::x86_64::*;
-        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
-        unsafe {
-            let p = data.as_ptr().add(i00);
-            let (a, b) = (_mm_loadu_ps(p), _mm_loadu_ps(p.add(C)));
-            let (c, d) = (_mm_loadu_ps(p.add(row)), _mm_loadu_ps(p.add(row + C)));
-            let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
-            let top = _mm_add_ps(a, _mm_mul_ps(vx, _mm_sub_ps(b, a)));
-            let bot = _mm_add_ps(c, _mm_mul_ps(vx, _mm_sub_ps(d, c)));
-            let v = _mm_add_ps(top, _mm_mul_ps(vy, _mm_sub_ps(bot, top)));
-            std::mem::transmute::<__m128, [f32; 4]>(v)
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
-        let ld = |i: usize| unsafe { (data.as_ptr().add(i) as *const [f32; 4]).read_unaligned() };
-        let (a, b, c, d) = (ld(i00), ld(i00 + C), ld(i00 + row), ld(i00 + row + C));
-        std::array::from_fn(|k| {
-            let top = a[k] + ax * (b[k] - a[k]);
-            let bot = c[k] + ax * (d[k] - c[k]);
-            top + ay * (bot - top)
-        })
-    }
-}
-
 /// A bilinear lookup at level `k` (`i00`, `ax`, `ay` from pass 2b there; level-0 position
 /// `p` for the general path), weighted into `acc`.
 #[allow(clippy::too_many_arguments)]
@@ -368,7 +334,7 @@ pub(crate) fn level_lookup<const C: usize>(
     if i00 == SLOW {
         let sc = 1.0 / (1u32 << k) as f32;
         s.lookup([p[0] * sc, p[1] * sc], wt, acc);
-    } else if (C == 3 || C == 4) && (i00 as usize) + s.w * C + C + 4 <= s.data.len() {
+    } else if vec4_limit::<C>(s.data.len(), s.w * C).is_some_and(|l| i00 <= l) {
         let v = bilerp4::<C>(s.data, s.w * C, i00 as usize, ax, ay);
         for c in 0..C {
             acc[c] += wt * v[c];

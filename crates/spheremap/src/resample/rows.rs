@@ -232,7 +232,9 @@ fn stages<const C: usize, const F: bool>(
             let (k0, k1) = (2.0 / w as f32, 1.0 / w as f32 - 1.0);
             let m = &plan.sphere_m;
             for x in 0..w {
-                let a = x as f32 * k0 + k1;
+                // Through i32 (canvases are narrower than 2³¹): AVX2 has no vector
+                // conversion from 64-bit integers, and `x as f32` went lane by lane.
+                let a = x as i32 as f32 * k0 + k1;
                 let (r, inside) = sphere_dir::<F, false>(m, a, b);
                 dx[x] = r[0];
                 dy[x] = r[1];
@@ -838,27 +840,145 @@ pub(crate) fn row<const C: usize>(
     let black = d.outside == Outside::Black;
     let data = s.data;
     let row = s.w * C;
-    for (x, px) in out.chunks_exact_mut(C).enumerate() {
-        if let Some(&j) = sc.idx.get(x + AHEAD) {
-            prefetch::<C>(data, row, j);
-        }
-        if black && !sc.on[x] {
-            px.iter_mut().for_each(|v| {
+    let w = out.len() / C;
+    // Every slice cut to the row first, so the loops carry no bounds checks.
+    let (idx, on) = (&sc.idx[..w], &sc.on[..w]);
+    let (fx, fy) = (&sc.frac[0][..w], &sc.frac[1][..w]);
+    let (p0, p1) = (&sc.p[0][..w], &sc.p[1][..w]);
+    let out = &mut out[..w * C];
+    // The loop prefetches AHEAD texels ahead, so the first AHEAD texels' lines are asked
+    // for here, all at once, rather than waited for one by one (the source rarely fits
+    // the caches: 24 MB for a 2048×1024 RGB lat-long).
+    for &j in &idx[..AHEAD.min(w)] {
+        prefetch::<C>(data, row, j);
+    }
+    let t = RowTexels {
+        s,
+        black,
+        lim: vec4_limit::<C>(data.len(), row),
+        idx,
+        on,
+        fx,
+        fy,
+        p0,
+        p1,
+    };
+    let ahead = w.saturating_sub(AHEAD);
+    for x in 0..ahead {
+        prefetch::<C>(data, row, idx[x + AHEAD]);
+        t.texel::<C>(x, out);
+    }
+    for x in ahead..w {
+        t.texel::<C>(x, out);
+    }
+}
+
+/// A row's pass-2b results, for [`row`]'s lookups.
+struct RowTexels<'a, 'b> {
+    s: &'a Src<'b, f32>,
+    black: bool,
+    /// [`vec4_limit`].
+    lim: Option<u32>,
+    idx: &'a [u32],
+    on: &'a [bool],
+    fx: &'a [f32],
+    fy: &'a [f32],
+    p0: &'a [f32],
+    p1: &'a [f32],
+}
+
+impl RowTexels<'_, '_> {
+    /// Texel x's lookup into `out` (the row).
+    #[inline(always)]
+    fn texel<const C: usize>(&self, x: usize, out: &mut [std::mem::MaybeUninit<f32>]) {
+        if self.black && !self.on[x] {
+            out[x * C..x * C + C].iter_mut().for_each(|v| {
                 v.write(0.0);
             });
-            continue;
+            return;
         }
-        let i00 = sc.idx[x];
+        let (data, row) = (self.s.data, self.s.w * C);
+        let i00 = self.idx[x];
+        if self.lim.is_some_and(|l| i00 <= l) {
+            // 4-lane vectors (bit for bit `bilerp`'s arithmetic).
+            let v = bilerp4::<C>(data, row, i00 as usize, self.fx[x], self.fy[x]);
+            if x * C + 4 <= out.len() {
+                // One 4-value store; for C = 3 its last value is the next texel's first,
+                // which that texel writes next.
+                // SAFETY: x·C + 4 ≤ out.len() (just checked); f32 and MaybeUninit<f32>
+                // share their layout.
+                unsafe { (out.as_mut_ptr().add(x * C) as *mut [f32; 4]).write_unaligned(v) };
+            } else {
+                for k in 0..C {
+                    out[x * C + k].write(v[k]);
+                }
+            }
+            return;
+        }
         let v = if i00 == SLOW {
             let mut acc = [0.0f32; C];
-            s.lookup([sc.p[0][x], sc.p[1][x]], 1.0, &mut acc);
+            self.s.lookup([self.p0[x], self.p1[x]], 1.0, &mut acc);
             acc
         } else {
-            bilerp::<C>(data, row, i00, sc.frac[0][x], sc.frac[1][x])
+            bilerp::<C>(data, row, i00, self.fx[x], self.fy[x])
         };
         for k in 0..C {
-            px[k].write(v[k]);
+            out[x * C + k].write(v[k]);
         }
+    }
+}
+
+/// The largest top-left index whose [`bilerp4`] reads (`i00 + row + C + 4` values) stay
+/// inside `len` values; `None` for C ∉ {3, 4} or when no index qualifies.
+#[inline]
+pub(crate) fn vec4_limit<const C: usize>(len: usize, row: usize) -> Option<u32> {
+    if C != 3 && C != 4 {
+        return None;
+    }
+    len.checked_sub(row + C + 4)
+        .map(|l| l.min(SLOW as usize - 1) as u32)
+}
+
+/// [`bilerp`] for C = 3 or 4 on 4-lane vectors (same arithmetic, so the same bits; for
+/// C = 3 the fourth lane is the next texel's first value, unused); needs
+/// `i00 + row + C + 4 ≤ data.len()`.
+#[inline(always)]
+pub(crate) fn bilerp4<const C: usize>(
+    data: &[f32],
+    row: usize,
+    i00: usize,
+    ax: f32,
+    ay: f32,
+) -> [f32; 4] {
+    assert!(C == 3 || C == 4);
+    debug_assert!(i00 + row + C + 4 <= data.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Written with SSE (x86-64's baseline): left to itself, the compiler splits the
+        // vectors into pairs and singles here.
+        use std::arch::x86_64::*;
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        unsafe {
+            let p = data.as_ptr().add(i00);
+            let (a, b) = (_mm_loadu_ps(p), _mm_loadu_ps(p.add(C)));
+            let (c, d) = (_mm_loadu_ps(p.add(row)), _mm_loadu_ps(p.add(row + C)));
+            let (vx, vy) = (_mm_set1_ps(ax), _mm_set1_ps(ay));
+            let top = _mm_add_ps(a, _mm_mul_ps(vx, _mm_sub_ps(b, a)));
+            let bot = _mm_add_ps(c, _mm_mul_ps(vx, _mm_sub_ps(d, c)));
+            let v = _mm_add_ps(top, _mm_mul_ps(vy, _mm_sub_ps(bot, top)));
+            std::mem::transmute::<__m128, [f32; 4]>(v)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        // SAFETY: the caller checked that the four 4-value reads are inside `data`.
+        let ld = |i: usize| unsafe { (data.as_ptr().add(i) as *const [f32; 4]).read_unaligned() };
+        let (a, b, c, d) = (ld(i00), ld(i00 + C), ld(i00 + row), ld(i00 + row + C));
+        std::array::from_fn(|k| {
+            let top = a[k] + ax * (b[k] - a[k]);
+            let bot = c[k] + ax * (d[k] - c[k]);
+            top + ay * (bot - top)
+        })
     }
 }
 
@@ -866,6 +986,26 @@ pub(crate) fn row<const C: usize>(
 mod tests {
     use super::*;
     use crate::image_io::Image;
+
+    /// `bilerp4` reads `i00 + row + C + 4` values: the limit keeps every such read inside
+    /// the data, and a source too small for any (a 2×2 RGB canvas: 12 values, a read of 13)
+    /// gets none, rather than a limit of 0 that would let index 0 read past the end.
+    #[test]
+    fn vec4_limit_keeps_the_four_lane_reads_inside_the_data() {
+        assert_eq!(vec4_limit::<3>(12, 6), None);
+        assert_eq!(vec4_limit::<3>(13, 6), Some(0));
+        assert_eq!(vec4_limit::<4>(16, 8), Some(0));
+        assert_eq!(vec4_limit::<3>(3 * 64 * 32, 3 * 64), Some(3 * 64 * 31 - 7));
+        assert_eq!(vec4_limit::<1>(1000, 10), None);
+        assert_eq!(vec4_limit::<2>(1000, 10), None);
+        let data: Vec<f32> = (0..3 * 8 * 4).map(|v| v as f32 * 0.37).collect();
+        let row = 3 * 8;
+        let l = vec4_limit::<3>(data.len(), row).unwrap() as usize;
+        for i in (0..=l).step_by(3) {
+            let v = bilerp4::<3>(&data, row, i, 0.3, 0.7);
+            assert_eq!(v[..3], bilerp::<3>(&data, row, i as u32, 0.3, 0.7));
+        }
+    }
 
     /// A box well inside the disc takes the shortcut without the gutter's formulas; its
     /// directions and positions are bit for bit those of the general formulas, for every
