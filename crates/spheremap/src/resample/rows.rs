@@ -863,13 +863,88 @@ pub(crate) fn row<const C: usize>(
         p0,
         p1,
     };
-    let ahead = w.saturating_sub(AHEAD);
-    for x in 0..ahead {
-        prefetch::<C>(data, row, idx[x + AHEAD]);
-        t.texel::<C>(x, out);
+    #[cfg(target_arch = "x86_64")]
+    if !black && (C == 3 || C == 4) && simd() != Simd::Portable {
+        if let Some(l) = t.lim {
+            // SAFETY: AVX2 was detected at run time (simd()); C is 3 or 4.
+            unsafe { pairs_avx2::<C>(&t, l, out) };
+            return;
+        }
     }
-    for x in ahead..w {
+    t.one_by_one::<C>(out);
+}
+
+/// [`row`]'s lookups two texels at a time in 8-lane vectors (the two texels' 4-lane
+/// [`bilerp4`]s side by side: the same arithmetic, so the same bits), for C = 3 or 4 and
+/// no black outside; `lim` is [`vec4_limit`].  A pair either of whose lookups is not plain
+/// goes one texel at a time.  Prefetches once per pair: the pair's taps mostly share
+/// their lines, and the first texel's lines plus one texel more cover them.
+///
+/// # Safety
+/// The CPU has AVX2; C is 3 or 4.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn pairs_avx2<const C: usize>(
+    t: &RowTexels,
+    lim: u32,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
+    use std::arch::x86_64::*;
+    let (data, row) = (t.s.data, t.s.w * C);
+    let w = t.idx.len();
+    let (idx, fx, fy) = (t.idx, t.fx, t.fy);
+    // The two texels' values packed together ([v₀ v₁ v₂ v₀' v₁' v₂' · ·] for RGB).
+    let pack3 = _mm256_setr_epi32(0, 1, 2, 4, 5, 6, 7, 7);
+    let spread = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    let mut x = 0;
+    // A pair's 8-value store ends at 2C + (8 − 2C) values past its first: for C = 3 the
+    // last pair of the row goes one texel at a time.
+    let pairs_end = if C == 3 { w.saturating_sub(1) } else { w };
+    while x + 2 <= pairs_end {
+        if let Some(&j) = idx.get(x + AHEAD) {
+            if j != SLOW {
+                let p = data.as_ptr().wrapping_add(j as usize);
+                _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(3 * C - 1) as *const i8);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 3 * C - 1) as *const i8);
+            }
+        }
+        let (i0, i1) = (*idx.get_unchecked(x), *idx.get_unchecked(x + 1));
+        if i0 <= lim && i1 <= lim {
+            // SAFETY (the reads): both indices are within `lim`, so each 4-value read ends
+            // inside the data (vec4_limit).
+            let (q0, q1) = (data.as_ptr().add(i0 as usize), data.as_ptr().add(i1 as usize));
+            let ld = |o: usize| _mm256_loadu2_m128(q1.add(o), q0.add(o));
+            let (a, b) = (ld(0), ld(C));
+            let (cc, d) = (ld(row), ld(row + C));
+            // [ax₀ ×4, ax₁ ×4] from the two consecutive fractions.
+            let two = |f: &[f32]| {
+                let v = _mm_castsi128_ps(_mm_loadl_epi64(f.as_ptr().add(x) as *const __m128i));
+                _mm256_permutevar8x32_ps(_mm256_castps128_ps256(v), spread)
+            };
+            let (vx, vy) = (two(fx), two(fy));
+            let top = _mm256_add_ps(a, _mm256_mul_ps(vx, _mm256_sub_ps(b, a)));
+            let bot = _mm256_add_ps(cc, _mm256_mul_ps(vx, _mm256_sub_ps(d, cc)));
+            let v = _mm256_add_ps(top, _mm256_mul_ps(vy, _mm256_sub_ps(bot, top)));
+            let v = if C == 3 {
+                _mm256_permutevar8x32_ps(v, pack3)
+            } else {
+                v
+            };
+            // SAFETY: x·C + 8 ≤ out.len(): x + 2 ≤ w for C = 4, x + 3 ≤ w for C = 3.
+            // For C = 3 the last two values are the next texel's first, which it writes
+            // next.
+            _mm256_storeu_ps(out.as_mut_ptr().add(x * C) as *mut f32, v);
+        } else {
+            t.texel::<C>(x, out);
+            t.texel::<C>(x + 1, out);
+        }
+        x += 2;
+    }
+    while x < w {
         t.texel::<C>(x, out);
+        x += 1;
     }
 }
 
@@ -888,6 +963,19 @@ struct RowTexels<'a, 'b> {
 }
 
 impl RowTexels<'_, '_> {
+    /// Every texel's lookup into `out` (the row), one at a time.
+    fn one_by_one<const C: usize>(&self, out: &mut [std::mem::MaybeUninit<f32>]) {
+        let (data, row, w) = (self.s.data, self.s.w * C, self.idx.len());
+        let ahead = w.saturating_sub(AHEAD);
+        for x in 0..ahead {
+            prefetch::<C>(data, row, self.idx[x + AHEAD]);
+            self.texel::<C>(x, out);
+        }
+        for x in ahead..w {
+            self.texel::<C>(x, out);
+        }
+    }
+
     /// Texel x's lookup into `out` (the row).
     #[inline(always)]
     fn texel<const C: usize>(&self, x: usize, out: &mut [std::mem::MaybeUninit<f32>]) {
@@ -990,6 +1078,64 @@ mod tests {
     /// `bilerp4` reads `i00 + row + C + 4` values: the limit keeps every such read inside
     /// the data, and a source too small for any (a 2×2 RGB canvas: 12 values, a read of 13)
     /// gets none, rather than a limit of 0 that would let index 0 read past the end.
+    /// The AVX2 pairs give the one-by-one lookups' values bit for bit, whatever mix of
+    /// plain and general (`SLOW`) lookups a row holds, for 3 and 4 channels, odd and even
+    /// widths (the one-by-one loop is what CPUs without AVX2 run).
+    #[test]
+    fn pairs_give_the_one_by_one_values() {
+        if simd() == Simd::Portable {
+            return;
+        }
+        fn check<const C: usize>(n: usize) {
+            let ll = Mapping::parse("latlong", None).unwrap();
+            let mut img = Image::new(64, 32, C);
+            for (i, v) in img.data.iter_mut().enumerate() {
+                *v = ((i * 7919) % 1013) as f32 / 1013.0;
+            }
+            let e = EnvMap::new(ll, &img, "t").unwrap();
+            let s = Src::<f32>::new(&e);
+            let sp = Mapping::parse("sphere", None).unwrap();
+            let d = Dst::<f32>::new(sp, n, n, &IDENTITY, Outside::Gutter);
+            let plan = Plan::new(&s, &d, &IDENTITY, n);
+            let mut sc = Scratch::new(n);
+            let mut slow = 0;
+            for y in 0..n {
+                passes::<C>(&s, &d, &plan, Points::Row(y), &mut sc);
+                slow += sc.idx.iter().filter(|&&i| i == SLOW).count();
+                let t = RowTexels {
+                    s: &s,
+                    black: false,
+                    lim: vec4_limit::<C>(s.data.len(), s.w * C),
+                    idx: &sc.idx[..n],
+                    on: &sc.on[..n],
+                    fx: &sc.frac[0][..n],
+                    fy: &sc.frac[1][..n],
+                    p0: &sc.p[0][..n],
+                    p1: &sc.p[1][..n],
+                };
+                let mut a = vec![std::mem::MaybeUninit::new(-1.0f32); n * C];
+                let mut b = a.clone();
+                t.one_by_one::<C>(&mut a);
+                // SAFETY: AVX2 is there (checked above); C is 3 or 4.
+                unsafe { pairs_avx2::<C>(&t, t.lim.unwrap(), &mut b) };
+                // SAFETY: both rows are fully written (and were initialized before).
+                let (a, b) = unsafe {
+                    (
+                        a.iter().map(|v| v.assume_init().to_bits()).collect::<Vec<_>>(),
+                        b.iter().map(|v| v.assume_init().to_bits()).collect::<Vec<_>>(),
+                    )
+                };
+                assert_eq!(a, b, "C = {C}, n = {n}, row {y}");
+            }
+            // The seam of the lat-long (u wraps) sends some lookups the general way.
+            assert!(slow > 0);
+        }
+        for n in [31, 32, 65] {
+            check::<3>(n);
+            check::<4>(n);
+        }
+    }
+
     #[test]
     fn vec4_limit_keeps_the_four_lane_reads_inside_the_data() {
         assert_eq!(vec4_limit::<3>(12, 6), None);
