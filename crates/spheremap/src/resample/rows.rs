@@ -877,8 +877,9 @@ pub(crate) fn row<const C: usize>(
 /// [`row`]'s lookups two texels at a time in 8-lane vectors (the two texels' 4-lane
 /// [`bilerp4`]s side by side: the same arithmetic, so the same bits), for C = 3 or 4 and
 /// no black outside; `lim` is [`vec4_limit`].  A pair either of whose lookups is not plain
-/// goes one texel at a time.  Prefetches once per pair: the pair's taps mostly share
-/// their lines, and the first texel's lines plus one texel more cover them.
+/// goes one texel at a time.  (Prefetching once per pair, the first texel's lines and
+/// one texel more, made J2 slower: where the row runs down a cube face's columns, the
+/// second texel's taps are on other lines.)
 ///
 /// # Safety
 /// The CPU has AVX2; C is 3 or 4.
@@ -901,14 +902,9 @@ unsafe fn pairs_avx2<const C: usize>(
     // last pair of the row goes one texel at a time.
     let pairs_end = if C == 3 { w.saturating_sub(1) } else { w };
     while x + 2 <= pairs_end {
-        if let Some(&j) = idx.get(x + AHEAD) {
-            if j != SLOW {
-                let p = data.as_ptr().wrapping_add(j as usize);
-                _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row) as *const i8);
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(3 * C - 1) as *const i8);
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(row + 3 * C - 1) as *const i8);
-            }
+        if let Some(&j) = idx.get(x + AHEAD + 1) {
+            prefetch::<C>(data, row, idx[x + AHEAD]);
+            prefetch::<C>(data, row, j);
         }
         let (i0, i1) = (*idx.get_unchecked(x), *idx.get_unchecked(x + 1));
         if i0 <= lim && i1 <= lim {
