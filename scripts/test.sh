@@ -26,6 +26,10 @@ echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q
 echo "== the conversion tests again on the portable code (as CPUs without AVX2 run it)"
 SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --test resample
+if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
+  echo "== and on the AVX2 code (as CPUs without AVX-512 run it)"
+  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --test resample
+fi
 
 echo "== building and installing the Python package (pip install .)"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" python3 -m pip install -q --disable-pip-version-check .

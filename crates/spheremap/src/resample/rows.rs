@@ -633,7 +633,9 @@ fn taps_loop<const C: usize, const FULL: bool>(
 
 /// The vector instructions the f32 passes and gathers use, chosen once per process: the
 /// widest this CPU has, or none when the environment variable `SPHEREMAP_PORTABLE` is set
-/// (to anything) — the code CPUs without AVX2 run, which `scripts/test.sh` tests this way.
+/// (to anything) — the code CPUs without AVX2 run — or at most AVX2 when
+/// `SPHEREMAP_NO_AVX512` is set (what AVX2-only CPUs run, for testing on an AVX-512 one).
+/// `scripts/test.sh` runs the conversion tests each way the CPU allows.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) enum Simd {
@@ -654,7 +656,8 @@ pub(crate) fn simd() -> Simd {
         {
             use std::arch::is_x86_feature_detected as has;
             let fma = has!("avx2") && has!("fma");
-            if fma && has!("avx512f") && has!("avx512vl") && has!("avx512dq") {
+            let wide = std::env::var_os("SPHEREMAP_NO_AVX512").is_none();
+            if fma && wide && has!("avx512f") && has!("avx512vl") && has!("avx512dq") {
                 return Simd::Avx512;
             }
             if fma {
