@@ -844,28 +844,14 @@ pub(crate) fn row<const C: usize>(
     let data = s.data;
     let row = s.w * C;
     let w = out.len() / C;
-    // Every slice cut to the row first, so the loops carry no bounds checks.
-    let (idx, on) = (&sc.idx[..w], &sc.on[..w]);
-    let (fx, fy) = (&sc.frac[0][..w], &sc.frac[1][..w]);
-    let (p0, p1) = (&sc.p[0][..w], &sc.p[1][..w]);
     let out = &mut out[..w * C];
+    let t = RowTexels::new::<C>(s, black, sc, w);
     // The loop prefetches AHEAD texels ahead, so the first AHEAD texels' lines are asked
     // for here, all at once, rather than waited for one by one (the source rarely fits
     // the caches: 24 MB for a 2048×1024 RGB lat-long).
-    for &j in &idx[..AHEAD.min(w)] {
+    for &j in &t.idx[..AHEAD.min(w)] {
         prefetch::<C>(data, row, j);
     }
-    let t = RowTexels {
-        s,
-        black,
-        lim: vec4_limit::<C>(data.len(), row),
-        idx,
-        on,
-        fx,
-        fy,
-        p0,
-        p1,
-    };
     #[cfg(target_arch = "x86_64")]
     if !black && (C == 3 || C == 4) && simd() != Simd::Portable {
         if let Some(l) = t.lim {
@@ -961,7 +947,23 @@ struct RowTexels<'a, 'b> {
     p1: &'a [f32],
 }
 
-impl RowTexels<'_, '_> {
+impl<'a, 'b> RowTexels<'a, 'b> {
+    /// The first `w` lanes of pass 2b's results in `sc`, for a row with `black` outside.
+    /// Every slice is cut to the row, so the loops carry no bounds checks.
+    fn new<const C: usize>(s: &'a Src<'b, f32>, black: bool, sc: &'a Scratch, w: usize) -> Self {
+        RowTexels {
+            s,
+            black,
+            lim: vec4_limit::<C>(s.data.len(), s.w * C),
+            idx: &sc.idx[..w],
+            on: &sc.on[..w],
+            fx: &sc.frac[0][..w],
+            fy: &sc.frac[1][..w],
+            p0: &sc.p[0][..w],
+            p1: &sc.p[1][..w],
+        }
+    }
+
     /// Every texel's lookup into `out` (the row), one at a time.
     fn one_by_one<const C: usize>(&self, out: &mut [std::mem::MaybeUninit<f32>]) {
         let (data, row, w) = (self.s.data, self.s.w * C, self.idx.len());
@@ -1101,17 +1103,7 @@ mod tests {
             for y in 0..n {
                 passes::<C>(&s, &d, &plan, Points::Row(y), &mut sc);
                 slow += sc.idx.iter().filter(|&&i| i == SLOW).count();
-                let t = RowTexels {
-                    s: &s,
-                    black: false,
-                    lim: vec4_limit::<C>(s.data.len(), s.w * C),
-                    idx: &sc.idx[..n],
-                    on: &sc.on[..n],
-                    fx: &sc.frac[0][..n],
-                    fy: &sc.frac[1][..n],
-                    p0: &sc.p[0][..n],
-                    p1: &sc.p[1][..n],
-                };
+                let t = RowTexels::new::<C>(&s, false, &sc, n);
                 let mut a = vec![std::mem::MaybeUninit::new(-1.0f32); n * C];
                 let mut b = a.clone();
                 t.one_by_one::<C>(&mut a);
