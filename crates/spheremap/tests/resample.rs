@@ -570,3 +570,68 @@ fn footprints_a_hair_over_an_integer_build_no_levels() {
         hi - out
     );
 }
+
+/// Canvases as small as each mapping allows (1×1 and up; lat-longs of any aspect), every
+/// pair, every path: the one-sample vector path, the flat and the level gathers of the
+/// filtered path, both precisions, both outsides, turned and not.  A source of per-channel
+/// constants must come out as those constants (black outside: between 0 and them) — a tap
+/// read past a row, a plane or the data, or from the wrong channel, would show.
+#[test]
+fn tiny_canvases_every_pair_every_path() {
+    let turned = view::yaw_pitch_roll(0.3, -0.7, 1.1).unwrap();
+    let mut jobs = 0;
+    for src in mappings() {
+        let shapes: Vec<(usize, usize)> = match src {
+            Mapping::LatLong(_) => vec![(1, 1), (2, 1), (1, 3), (3, 2), (5, 5)],
+            _ => [1, 2, 3, 5].iter().map(|&n| src.canvas(n)).collect(),
+        };
+        for (sw, sh) in shapes {
+            for c in [1, 3, 4] {
+                let k = [1.0f32, 2.0, 3.0, 4.0];
+                let mut img = Image::new(sw, sh, c);
+                for (i, v) in img.data.iter_mut().enumerate() {
+                    *v = k[i % c];
+                }
+                let e = EnvMap::new(src, &img, "src").unwrap();
+                for dst in mappings() {
+                    for (n, samples) in [(1, 1), (3, 1), (2, 16), (5, 16)] {
+                        let (w, h) = dst.canvas(n);
+                        for outside in [Outside::Gutter, Outside::Black] {
+                            for precision in [Precision::F32, Precision::F64] {
+                                for rotation in [spheremap::resample::IDENTITY, turned] {
+                                    let o = ResampleOptions {
+                                        samples,
+                                        max_samples: 64,
+                                        outside,
+                                        precision,
+                                        rotation,
+                                        ..Default::default()
+                                    };
+                                    let out = resample(&e, dst, w, h, &o, None).unwrap().0;
+                                    jobs += 1;
+                                    for (i, &v) in out.data.iter().enumerate() {
+                                        let want = k[i % c];
+                                        let ok = match outside {
+                                            Outside::Gutter => (v - want).abs() <= 1e-5 * want,
+                                            Outside::Black => {
+                                                (0.0..=want * (1.0 + 1e-5)).contains(&v)
+                                            }
+                                        };
+                                        assert!(
+                                            ok,
+                                            "{} {sw}x{sh}x{c} -> {} {w}x{h}, {samples} samples, \
+                                             {outside:?}, {precision:?}: value {i} is {v}, not {want}",
+                                            nm(&src),
+                                            nm(&dst)
+                                        );
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(jobs > 10_000, "{jobs}");
+}
