@@ -572,8 +572,9 @@ fn footprints_a_hair_over_an_integer_build_no_levels() {
 }
 
 /// Canvases as small as each mapping allows (1×1 and up; lat-longs of any aspect), every
-/// pair, every path: the one-sample vector path, the flat and the level gathers of the
-/// filtered path, both precisions, both outsides, turned and not.  A source of per-channel
+/// pair, on the one-sample vector path and the filtered path (16 samples and up), both
+/// precisions, both outsides, turned and not.  (The prefiltered levels, which these small
+/// footprints do not reach, have their own tests above.)  A source of per-channel
 /// constants must come out as those constants (black outside: between 0 and them) — a tap
 /// read past a row, a plane or the data, or from the wrong channel, would show.
 #[test]
