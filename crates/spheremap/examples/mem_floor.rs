@@ -14,8 +14,9 @@
 //! * `sorted`: the same taps sorted by address — the same lines, in the order the memory
 //!   system likes best.
 //!
-//! A conversion cannot beat `job order` without reading its source in another order, and on
-//! a machine whose source sits in DRAM `job order` − `sequential` is what latency costs.
+//! A conversion that reads its source in the job's order will hardly beat `job order` (which
+//! reads 4 bytes of indices a texel more than it does), and `job order` − `sorted` is what
+//! that order costs on the machine at hand.
 //! The tap positions are the engine's (texel centres, the gutter's radial mirror outside a
 //! disc, f64 here), clamped into the canvas; lookups the engine sends the general way
 //! (seams, rims) are read here as plain taps too, so the floor is slightly optimistic.
