@@ -1076,9 +1076,6 @@ mod tests {
     use super::*;
     use crate::image_io::Image;
 
-    /// `bilerp4` reads `i00 + row + C + 4` values: the limit keeps every such read inside
-    /// the data, and a source too small for any (a 2×2 RGB canvas: 12 values, a read of 13)
-    /// gets none, rather than a limit of 0 that would let index 0 read past the end.
     /// The AVX2 pairs give the one-by-one lookups' values bit for bit, whatever mix of
     /// plain and general (`SLOW`) lookups a row holds, for 3 and 4 channels, odd and even
     /// widths (the one-by-one loop is what CPUs without AVX2 run).
@@ -1127,6 +1124,9 @@ mod tests {
         }
     }
 
+    /// `bilerp4` reads `i00 + row + C + 4` values: the limit keeps every such read inside
+    /// the data, and a source too small for any (a 2×2 RGB canvas: 12 values, a read of 13)
+    /// gets none, rather than a limit of 0 that would let index 0 read past the end.
     #[test]
     fn vec4_limit_keeps_the_four_lane_reads_inside_the_data() {
         assert_eq!(vec4_limit::<3>(12, 6), None);
