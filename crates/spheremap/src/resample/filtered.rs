@@ -184,37 +184,57 @@ pub(crate) fn footprints<const C: usize>(
         let eps = (s.hf as f64 * (1e-6 / std::f64::consts::PI)) as f32;
         let ([px, py], [tx, ty]) = (&fp.p, &ft.p);
         let (lx, ly) = (&mut f.lx[..w], &mut f.ly[..w]);
-        let (px, py, tx, ty) = (&px[..2 * w + 1], &py[..2 * w + 1], &tx[..w], &ty[..w]);
+        // Each point set sliced to w (left, right and bottom midpoints): with every length
+        // known to be w, the loop has no bounds checks and vectorizes (indexed as px[x + 1]
+        // and px[w + 1 + x] it did not: 75 instructions a texel).
+        let (lx_, ly_, rx, ry) = (&px[..w], &py[..w], &px[1..w + 1], &py[1..w + 1]);
+        let (bx, by) = (&px[w + 1..2 * w + 1], &py[w + 1..2 * w + 1]);
+        let (tx, ty) = (&tx[..w], &ty[..w]);
         vectorized(
             #[inline(always)]
             || {
-                let span = |[ax, ay]: [f32; 2], [bx, by]: [f32; 2]| {
+                // Branch-free (selects and a 0/1 factor), so that it vectorizes: with the
+                // pole's test as branches it went lane by lane.  The same values.
+                #[inline(always)]
+                fn span<const LL: bool>(
+                    [ax, ay]: [f32; 2],
+                    [bx, by]: [f32; 2],
+                    [eps, wf, hf]: [f32; 3],
+                ) -> f64 {
                     let dx = (bx - ax).abs();
-                    let pole = (ay <= eps) | (ay >= hf - eps) | (by <= eps) | (by >= hf - eps);
-                    let dx = if !ll {
-                        dx
-                    } else if pole {
-                        0.0
+                    let dx = if LL {
+                        // Across the u seam the short way; at a pole, no extent in u.
+                        let off = (ay > eps) & (ay < hf - eps) & (by > eps) & (by < hf - eps);
+                        dx.min(wf - dx) * (off as i32 as f32)
                     } else {
-                        dx.min(wf - dx)
+                        dx
                     };
                     let dy = (by - ay).abs();
                     (dx * dx + dy * dy).sqrt() as f64
-                };
-                for x in 0..w {
-                    lx[x] = span([px[x], py[x]], [px[x + 1], py[x + 1]]);
-                    ly[x] = span([tx[x], ty[x]], [px[w + 1 + x], py[w + 1 + x]]);
+                }
+                let k = [eps, wf, hf];
+                if ll {
+                    for x in 0..w {
+                        lx[x] = span::<true>([lx_[x], ly_[x]], [rx[x], ry[x]], k);
+                        ly[x] = span::<true>([tx[x], ty[x]], [bx[x], by[x]], k);
+                    }
+                } else {
+                    for x in 0..w {
+                        lx[x] = span::<false>([lx_[x], ly_[x]], [rx[x], ry[x]], k);
+                        ly[x] = span::<false>([tx[x], ty[x]], [bx[x], by[x]], k);
+                    }
                 }
             },
         );
     }
     let (py, ty) = (&fp.p[1][..2 * w + 1], &ft.p[1][..w]);
+    let (yl, yr, yb) = (&py[..w], &py[1..w + 1], &py[w + 1..2 * w + 1]);
     let (lo, hi) = (&mut f.lo[..w], &mut f.hi[..w]);
     vectorized(
         #[inline(always)]
         || {
             for x in 0..w {
-                let ys = [py[x], py[x + 1], ty[x], py[w + 1 + x]];
+                let ys = [yl[x], yr[x], ty[x], yb[x]];
                 lo[x] = ys[0].min(ys[1]).min(ys[2].min(ys[3])) as f64;
                 hi[x] = ys[0].max(ys[1]).max(ys[2].max(ys[3])) as f64;
             }
