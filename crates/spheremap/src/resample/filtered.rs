@@ -81,6 +81,14 @@ pub(crate) struct FScratch {
     hi_idx: Lanes<u32>,
     /// Filter weights per sample (all 1 for the plain box).
     wt: Lanes<f32>,
+    /// Per sample of a chunk of texels on their own strata: its texel x, stratum k = j·nx + i
+    /// and i, j, and its texel's stratum size (the flat loop of their points reads these).
+    st_x: Lanes<u32>,
+    st_k: Lanes<u32>,
+    st_i: Lanes<f32>,
+    st_j: Lanes<f32>,
+    st_kx: Lanes<f32>,
+    st_ky: Lanes<f32>,
     /// The chunk's runs of texels at one level (`runs`), for `lo_*` and `hi_*`.
     lo_runs: Vec<(usize, std::ops::Range<usize>)>,
     hi_runs: Vec<(usize, std::ops::Range<usize>)>,
@@ -141,6 +149,12 @@ impl FScratch {
             hi_f: [Lanes::new(cap, 0.0), Lanes::new(cap, 0.0)],
             hi_idx: Lanes::new(cap, SLOW),
             wt: Lanes::new(cap, 1.0),
+            st_x: Lanes::new(cap, 0),
+            st_k: Lanes::new(cap, 0),
+            st_i: Lanes::new(cap, 0.0),
+            st_j: Lanes::new(cap, 0.0),
+            st_kx: Lanes::new(cap, 0.0),
+            st_ky: Lanes::new(cap, 0.0),
             lo_runs: vec![],
             hi_runs: vec![],
         }
@@ -339,28 +353,48 @@ pub(crate) fn row<const C: usize>(
                 },
             );
         } else {
-            // Texel by texel, each on its own strata (the same formulas).
+            // Texels on their own strata (the same formulas): each sample's texel, stratum
+            // and stratum size into tables, then every sample in one flat loop that
+            // vectorizes (texel by texel, the hash went lane by lane: the default job took
+            // 12 % more instructions).
             let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
+            let (sx, sk): (&mut [u32], &mut [u32]) = (&mut f.st_x, &mut f.st_k);
+            let (si, sj): (&mut [f32], &mut [f32]) = (&mut f.st_i, &mut f.st_j);
+            let (skx, sky): (&mut [f32], &mut [f32]) = (&mut f.st_kx, &mut f.st_ky);
+            for t in 0..cnt {
+                let (nx, ny) = (nxs[t] as usize, nys[t] as usize);
+                let r = start[t]..start[t] + nx * ny;
+                sx[r.clone()].fill((x0 + t) as u32);
+                skx[r.clone()].fill(support / nx as f32);
+                sky[r.clone()].fill(support / ny as f32);
+                if t > 0 && (nxs[t - 1], nys[t - 1]) == (nxs[t], nys[t]) {
+                    // The previous texel's strata (the usual case): copied.
+                    let from = start[t - 1]..start[t];
+                    sk.copy_within(from.clone(), r.start);
+                    si.copy_within(from.clone(), r.start);
+                    sj.copy_within(from, r.start);
+                    continue;
+                }
+                let (sk, si, sj) = (&mut sk[r.clone()], &mut si[r.clone()], &mut sj[r]);
+                // (k = j·nx + i is the sample's place among its texel's.)
+                let mut k = 0;
+                for j in 0..ny {
+                    for i in 0..nx {
+                        (sk[k], si[k], sj[k]) = (k as u32, i as f32, j as f32);
+                        k += 1;
+                    }
+                }
+            }
             vectorized(
                 #[inline(always)]
                 || {
-                    for t in 0..cnt {
-                        let (nx, ny) = (nxs[t] as usize, nys[t] as usize);
-                        if nx * ny == 0 {
-                            continue;
-                        }
-                        let x = (x0 + t) as u32;
-                        let (kx, ky) = (support / nx as f32, support / ny as f32);
-                        for j in 0..ny {
-                            let b = start[t] + j * nx;
-                            let (px, py) = (&mut px[b..b + nx], &mut py[b..b + nx]);
-                            for i in 0..nx {
-                                let k = (j * nx + i) as u32;
-                                let (jx, jy) = jitter_f32(hash32(seed, x, yu, k));
-                                px[i] = x as i32 as f32 + 0.5 - r + (i as f32 + jx) * kx;
-                                py[i] = yc - r + (j as f32 + jy) * ky;
-                            }
-                        }
+                    let m = tot.min(px.len()).min(py.len()).min(sx.len());
+                    let (px, py, sx, sk) = (&mut px[..m], &mut py[..m], &sx[..m], &sk[..m]);
+                    let (si, sj, skx, sky) = (&si[..m], &sj[..m], &skx[..m], &sky[..m]);
+                    for q in 0..m {
+                        let (jx, jy) = jitter_f32(hash32(seed, sx[q], yu, sk[q]));
+                        px[q] = sx[q] as i32 as f32 + 0.5 - r + (si[q] + jx) * skx[q];
+                        py[q] = yc - r + (sj[q] + jy) * sky[q];
                     }
                 },
             );
