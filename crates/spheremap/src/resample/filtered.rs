@@ -543,10 +543,17 @@ fn plan_row(top: usize, sp: &Sampling, f: &mut FScratch) -> bool {
         };
     }
     if !sp.fixed() {
-        for x in 0..w {
-            let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-            level(f, top, x, nx, ny, lambda);
-        }
+        // (Compiled for the vector extensions: the strata counts' `ceil` is then one
+        // instruction, not a library call; the loop itself stays lane by lane.)
+        vectorized(
+            #[inline(always)]
+            || {
+                for x in 0..w {
+                    let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
+                    level(f, top, x, nx, ny, lambda);
+                }
+            },
+        );
         return false;
     }
     // Every texel on the common grid: the spacings in one vectorized loop, then only the
