@@ -31,6 +31,7 @@ count() {
 }
 for j in "${@:-J1 J2 J3 J4 DEF RT}"; do
   for k in $j; do
+    [ -n "${job[$k]:-}" ] || { echo "unknown job $k (jobs: ${!job[*]})" >&2; exit 2; }
     a=$(count "${job[$k]}" 1); b=$(count "${job[$k]}" 2)
     printf '%-4s %s: %d M instructions per conversion\n' "$k" "${job[$k]}" $(( (b - a) / 2 / 1000000 ))
   done
