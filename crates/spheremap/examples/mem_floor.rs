@@ -50,19 +50,16 @@ fn taps(
             let i = match dm.uv_to_dir(uv) {
                 Some(d) => {
                     let [u, v] = sm.dir_to_uv(d);
-                    let px = (u * sw as f64 - 0.5).floor();
-                    let py = (v * sh as f64 - 0.5).floor();
-                    let px = if px.is_finite() {
-                        px.clamp(0.0, (sw - 2) as f64)
-                    } else {
-                        0.0
+                    // The top-left tap along one axis of n texels, clamped into the canvas.
+                    let tap = |t: f64, n: usize| {
+                        let f = (t * n as f64 - 0.5).floor();
+                        if f.is_finite() {
+                            f.clamp(0.0, (n - 2) as f64) as usize
+                        } else {
+                            0
+                        }
                     };
-                    let py = if py.is_finite() {
-                        py.clamp(0.0, (sh - 2) as f64)
-                    } else {
-                        0.0
-                    };
-                    (py as usize * sw + px as usize) * c
+                    (tap(v, sh) * sw + tap(u, sw)) * c
                 }
                 None => 0,
             };
