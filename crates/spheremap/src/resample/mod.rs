@@ -466,6 +466,56 @@ fn fill_rows<S>(
         });
 }
 
+/// [`fill_rows`] two rows at a time: `pair(scratch, y, row y, Some(row h − 1 − y))` for
+/// y < h/2, and for an odd h, `pair(scratch, h/2, middle row, None)`.
+fn fill_row_pairs<S>(
+    out: &mut [MaybeUninit<f32>],
+    w: usize,
+    c: usize,
+    progress: Option<&Progress>,
+    scratch: impl Fn() -> S + Send + Sync,
+    pair: impl Fn(&mut S, usize, &mut [MaybeUninit<f32>], Option<&mut [MaybeUninit<f32>]>) + Send + Sync,
+) {
+    let n = w * c;
+    if n == 0 {
+        return;
+    }
+    let h = out.len() / n;
+    let (top, rest) = out.split_at_mut(h / 2 * n);
+    let (middle, bottom) = rest.split_at_mut((h % 2) * n);
+    let cancelled = || progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed));
+    let zero = |r: &mut [MaybeUninit<f32>]| {
+        r.iter_mut().for_each(|v| {
+            v.write(0.0);
+        })
+    };
+    top.par_chunks_mut(n)
+        .zip(bottom.par_chunks_mut(n).rev())
+        .enumerate()
+        .with_min_len(2)
+        .for_each_init(&scratch, |sc, (y, (a, b))| {
+            if cancelled() {
+                zero(a);
+                zero(b);
+                return;
+            }
+            pair(sc, y, a, Some(b));
+            if let Some(p) = progress {
+                p.done.fetch_add(2, Ordering::Relaxed);
+            }
+        });
+    if !middle.is_empty() {
+        if cancelled() {
+            zero(middle);
+        } else {
+            pair(&mut scratch(), h / 2, middle, None);
+            if let Some(p) = progress {
+                p.done.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
 /// The f32 views of a source and a destination when T is f32 (the vectorized paths).
 fn as_f32<'x, 'a, T: Real>(
     s: &'x Src<'a, T>,
@@ -502,17 +552,27 @@ fn run<T: Real, const C: usize>(
     // The vectorized one-sample path (f32 only).
     if let (1, Some((s32, d32))) = (opts.samples, as_f32(&s, &d)) {
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
-        fill_rows(
-            out,
-            w,
-            C,
-            4,
-            progress,
-            || rows::Scratch::new(w),
-            |sc, y, row| {
-                rows::row::<C>(s32, d32, &plan, y, sc, row);
-            },
-        );
+        if plan.fold[1].is_some() {
+            // Rows y and h − 1 − y together: the second's positions are the first's folded.
+            fill_row_pairs(
+                out,
+                w,
+                C,
+                progress,
+                || rows::Scratch::new(w),
+                |sc, y, row, mirror| rows::row::<C>(s32, d32, &plan, y, sc, row, mirror),
+            );
+        } else {
+            fill_rows(
+                out,
+                w,
+                C,
+                4,
+                progress,
+                || rows::Scratch::new(w),
+                |sc, y, row| rows::row::<C>(s32, d32, &plan, y, sc, row, None),
+            );
+        }
         let report = ResampleReport {
             lookups: (w * h) as u64,
             max_texel_samples: 1,

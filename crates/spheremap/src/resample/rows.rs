@@ -3,6 +3,10 @@
 //! map, with its gutter, and tables for the lat-long), (2) source positions (branch-free
 //! lat-long, cube and sphere), (3) the bilinear gathers.  Other mappings use the generic
 //! per-texel functions in passes 1–2.  Same formulas as the generic path (tested equal).
+//! Where the canvas's mirror symmetries are folds of the source's positions (the default
+//! view of a sphere map or lat-long from a lat-long or sphere map: [`Fold`]), passes 1–2
+//! run on half of each row and half of the rows, and the mirrored texels' positions are
+//! their partners' folded.
 
 use super::lanes::Lanes;
 use super::*;
@@ -66,6 +70,111 @@ pub(crate) struct Plan {
     sin_phi: Lanes<f32>,
     /// Source preset frame (sphere, cube): source frame → the mapping's eye/GL frame.
     src_frame: [[f32; 3]; 3],
+    /// The canvas's mirror symmetries as the source positions see them: `[columns, rows]`,
+    /// the right half of a row from its left half, and row h − 1 − y from row y (see
+    /// [`Fold`]; `None` where the mirror is no simple fold of the source's positions).
+    pub(crate) fold: [Option<Fold>; 2],
+}
+
+/// A mirror of the destination canvas (column x ↔ w − 1 − x, or row y ↔ h − 1 − y) seen
+/// from the source: the canvas mirror reflects one axis of the destination's own frame —
+///
+/// ```text
+///   sphere map    column mirror: a → −a, so R = (2z·a, 2z·b, 1 − 2q) has Rx → −Rx
+///                 row mirror:    b → −b, Ry → −Ry          (the gutter's formula too)
+///   lat-long      φ(x) = 2π((x + ½)/w − u₀),  φ(w − 1 − x) = 2π(1 − 2u₀) − φ(x):
+///                 2u₀ ∈ ℤ: φ → −φ (z → −z);  2u₀ − ½ ∈ ℤ: φ → π − φ (x → −x)
+///                 row mirror: θ → π − θ (y → −y)
+/// ```
+///
+/// — and when the rotation to the source's mapping frame takes that axis onto one of the
+/// source's axes (the default view does: the identity), the mirror reflects that source
+/// axis, and the source position becomes `k − p` in one coordinate:
+///
+/// ```text
+///   lat-long source  x → −x: u → 2u₀ + ½ − u    z → −z: u → 2u₀ − u    (both mod 1)
+///                    y → −y: θ → π − θ, py → h − py
+///   sphere source    x → −x: px → w − px        y → −y: py → h − py   (either row order)
+/// ```
+///
+/// So a mirrored lane's position is its partner's folded, not computed again (its passes
+/// would be the job's slowest arithmetic: from a lat-long, two atan2s and two square roots,
+/// long-latency divisions and roots).  The
+/// folded value is the mirror image of the partner's to the rounding of one subtraction;
+/// the directions' exact mirror images would give the same values but for the last bits
+/// of the polynomial atan2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Fold {
+    /// The position coordinate that folds: 0 = px, 1 = py.
+    axis: usize,
+    /// p → k − p …
+    k: f32,
+    /// … then wrapped into [0, period) (lat-long u), or not wrapped (0).
+    period: f32,
+}
+
+impl Fold {
+    /// The fold of a reflection of source axis `k` (its mapping's frame), if it is one.
+    fn of_source_axis(s: &Mapping, wf: f32, hf: f32, k: usize) -> Option<Fold> {
+        let f = |axis, k, period| Some(Fold { axis, k, period });
+        match (s, k) {
+            (Mapping::LatLong(p), 0) => f(0, ((2.0 * p.u_plus_x + 0.5) * wf as f64) as f32, wf),
+            (Mapping::LatLong(p), 2) => f(0, (2.0 * p.u_plus_x * wf as f64) as f32, wf),
+            (Mapping::LatLong(_), 1) | (Mapping::Sphere(_), 1) => f(1, hf, 0.0),
+            (Mapping::Sphere(_), 0) => f(0, wf, 0.0),
+            _ => None,
+        }
+    }
+
+    /// The canvas's column and row mirrors for a source `s` and a destination `d` whose
+    /// directions reach the source's mapping frame through `t` (row-major).
+    fn of(s: &Src<f32>, d: &Dst<f32>, t: &[[f64; 3]; 3]) -> [Option<Fold>; 2] {
+        // The destination frame's axis that each canvas mirror reflects.
+        let (col, row) = match d.m {
+            Mapping::Sphere(_) => (Some(0), Some(1)),
+            Mapping::LatLong(p) => {
+                let whole = |v: f64| v == v.round();
+                let u2 = 2.0 * p.u_plus_x;
+                let col = if whole(u2) {
+                    Some(2)
+                } else if whole(u2 - 0.5) {
+                    Some(0)
+                } else {
+                    None
+                };
+                (col, Some(1))
+            }
+            _ => (None, None),
+        };
+        // Column i of t taken onto a source axis (±eₖ, to rounding): that axis.
+        let onto = |i: usize| {
+            (0..3).find(|&k| {
+                (t[k][i].abs() - 1.0).abs() < 1e-12 && {
+                    (0..3).all(|j| j == k || t[j][i].abs() < 1e-12)
+                }
+            })
+        };
+        [col, row].map(|a| {
+            let k = onto(a?)?;
+            Fold::of_source_axis(&s.m, s.wf, s.hf, k)
+        })
+    }
+
+    /// `to[i]` = `from[i]` folded, over the shorter of the two (the loops decide the
+    /// wrap once, so each vectorizes).
+    #[inline(always)]
+    fn apply<'a>(&self, to: impl Iterator<Item = &'a mut f32>, from: impl Iterator<Item = f32>) {
+        let (k, period) = (self.k, self.period);
+        if period > 0.0 {
+            let inv = 1.0 / period;
+            to.zip(from).for_each(|(a, p)| {
+                let v = k - p;
+                *a = v - crate::real::floor_fast(v * inv) * period;
+            });
+        } else {
+            to.zip(from).for_each(|(a, p)| *a = k - p);
+        }
+    }
 }
 
 impl Plan {
@@ -74,8 +183,7 @@ impl Plan {
         let sphere_m = match d.m {
             Mapping::Sphere(p) => mul(rot, &transpose(&p.frame)),
             _ => *rot,
-        }
-        .map(|r| r.map(|v| v as f32));
+        };
         let (mut cos_phi, mut sin_phi) = (vec![], vec![]);
         if let Mapping::LatLong(p) = d.m {
             for x in 0..w {
@@ -88,9 +196,12 @@ impl Plan {
             Mapping::Sphere(p) => p.frame,
             Mapping::Cube(p) => p.frame,
             _ => IDENTITY,
-        }
-        .map(|r| r.map(|v| v as f32));
+        };
+        let fold = Fold::of(s, d, &mul(&src_frame, &sphere_m));
+        let sphere_m = sphere_m.map(|r| r.map(|v| v as f32));
+        let src_frame = src_frame.map(|r| r.map(|v| v as f32));
         Plan {
+            fold,
             sphere_m,
             cos_phi: Lanes::from_slice(&cos_phi),
             sin_phi: Lanes::from_slice(&sin_phi),
@@ -229,7 +340,8 @@ fn stages<const C: usize, const F: bool>(
                 RowOrder::TopIsT1 => -yf,
                 RowOrder::TopIsT0 => yf,
             };
-            let (k0, k1) = (2.0 / w as f32, 1.0 / w as f32 - 1.0);
+            // The canvas's width, not the lanes': a row folded in half computes half.
+            let (k0, k1) = (2.0 / d.wf, 1.0 / d.wf - 1.0);
             let m = &plan.sphere_m;
             for x in 0..w {
                 // Through i32 (canvases are narrower than 2³¹): AVX2 has no vector
@@ -830,7 +942,9 @@ pub(crate) fn bilerp<const C: usize>(
     out
 }
 
-/// One lookup at each texel centre of row `y`.
+/// One lookup at each texel centre of row `y`, into `out`, and with `mirror` (when
+/// `plan.fold[1]` is some), of row h − 1 − y into `mirror`.  Where `plan.fold[0]` is some,
+/// only the left half of the row goes through the passes (see [`Fold`]).
 pub(crate) fn row<const C: usize>(
     s: &Src<f32>,
     d: &Dst<f32>,
@@ -838,8 +952,88 @@ pub(crate) fn row<const C: usize>(
     y: usize,
     sc: &mut Scratch,
     out: &mut [std::mem::MaybeUninit<f32>],
+    mirror: Option<&mut [std::mem::MaybeUninit<f32>]>,
 ) {
-    passes::<C>(s, d, plan, Points::Row(y), sc);
+    let w = out.len() / C;
+    sc.set_live(w);
+    match plan.fold[0] {
+        Some(f) => {
+            sc.set_live(w.div_ceil(2));
+            positions::<C>(s, d, plan, Points::Row(y), sc);
+            sc.set_live(w);
+            vectorized(
+                #[inline(always)]
+                || {
+                    fold_cols(f, sc);
+                    taps::<C>(s, sc)
+                },
+            );
+        }
+        None => passes::<C>(s, d, plan, Points::Row(y), sc),
+    }
+    lookups::<C>(s, d, sc, out);
+    if let Some(m) = mirror {
+        match plan.fold[1] {
+            Some(f) => vectorized(
+                #[inline(always)]
+                || {
+                    fold_all(f, sc);
+                    taps::<C>(s, sc)
+                },
+            ),
+            // (Not asked for by the callers; computed, so the row is right all the same.)
+            None => passes::<C>(s, d, plan, Points::Row(d.hf as usize - 1 - y), sc),
+        }
+        lookups::<C>(s, d, sc, m);
+    }
+}
+
+/// Lanes ⌈w/2⌉.. from lanes ..⌊w/2⌋, reversed and folded by `f` (the row's right half
+/// from its left half; `w` is `sc.live`).
+#[inline(always)]
+fn fold_cols(f: Fold, sc: &mut Scratch) {
+    let w = sc.live;
+    let (l, r) = (w.div_ceil(2), w / 2);
+    let on = &mut sc.on[..w];
+    let (on_l, on_r) = on.split_at_mut(l);
+    on_r.iter_mut()
+        .zip(on_l[..r].iter().rev())
+        .for_each(|(a, b)| *a = *b);
+    for (axis, p) in sc.p.iter_mut().enumerate() {
+        let (pl, pr) = p[..w].split_at_mut(l);
+        let src = pl[..r].iter().rev().copied();
+        if axis == f.axis {
+            f.apply(pr.iter_mut(), src);
+        } else {
+            pr.iter_mut().zip(src).for_each(|(a, b)| *a = b);
+        }
+    }
+}
+
+/// Every live lane's position folded by `f` in place (row y's into row h − 1 − y's).
+#[inline(always)]
+fn fold_all(f: Fold, sc: &mut Scratch) {
+    let w = sc.live;
+    let (k, period) = (f.k, f.period);
+    let p = &mut sc.p[f.axis][..w];
+    if period > 0.0 {
+        let inv = 1.0 / period;
+        p.iter_mut().for_each(|a| {
+            let v = k - *a;
+            *a = v - crate::real::floor_fast(v * inv) * period;
+        });
+    } else {
+        p.iter_mut().for_each(|a| *a = k - *a);
+    }
+}
+
+/// Pass 3 of a row: the lookups of its pass-2b results in `sc` into `out`.
+fn lookups<const C: usize>(
+    s: &Src<f32>,
+    d: &Dst<f32>,
+    sc: &Scratch,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) {
     let black = d.outside == Outside::Black;
     let data = s.data;
     let row = s.w * C;
@@ -899,7 +1093,10 @@ unsafe fn pairs_avx2<const C: usize>(
         if i0 <= lim && i1 <= lim {
             // SAFETY (the reads): both indices are within `lim`, so each 4-value read ends
             // inside the data (vec4_limit).
-            let (q0, q1) = (data.as_ptr().add(i0 as usize), data.as_ptr().add(i1 as usize));
+            let (q0, q1) = (
+                data.as_ptr().add(i0 as usize),
+                data.as_ptr().add(i1 as usize),
+            );
             let ld = |o: usize| _mm256_loadu2_m128(q1.add(o), q0.add(o));
             let (a, b) = (ld(0), ld(C));
             let (cc, d) = (ld(row), ld(row + C));
@@ -1109,8 +1306,12 @@ mod tests {
                 // SAFETY: both rows are fully written (and were initialized before).
                 let (a, b) = unsafe {
                     (
-                        a.iter().map(|v| v.assume_init().to_bits()).collect::<Vec<_>>(),
-                        b.iter().map(|v| v.assume_init().to_bits()).collect::<Vec<_>>(),
+                        a.iter()
+                            .map(|v| v.assume_init().to_bits())
+                            .collect::<Vec<_>>(),
+                        b.iter()
+                            .map(|v| v.assume_init().to_bits())
+                            .collect::<Vec<_>>(),
                     )
                 };
                 assert_eq!(a, b, "C = {C}, n = {n}, row {y}");
@@ -1184,6 +1385,96 @@ mod tests {
                 assert_eq!(a.idx, b.idx);
                 assert!(a.on.iter().all(|&o| o));
             }
+        }
+    }
+
+    /// Rows computed through the canvas's mirror symmetries ([`Fold`]: half a row's passes
+    /// and half the rows') give the values that the passes give everywhere, to the rounding
+    /// of the fold, for each pair of sphere-map and lat-long sources and destinations and
+    /// their presets, odd and even canvases, both outsides; a turned view takes no fold.
+    #[test]
+    fn folded_rows_give_the_values_of_every_rows_passes() {
+        fn check<const C: usize>(src: &str, sp: Option<&str>, dst: &str, dp: Option<&str>) {
+            let sm = Mapping::parse(src, sp).unwrap();
+            let dm = Mapping::parse(dst, dp).unwrap();
+            let (sw, sh) = sm.canvas(48);
+            // Smooth and periodic along a lat-long's rows, so the seam is no jump; a fold
+            // that misses by one destination texel moves a value by ~0.1.
+            let mut img = Image::new(sw, sh, C);
+            for y in 0..sh {
+                for x in 0..sw {
+                    let (u, v) = ((x as f32 + 0.5) / sw as f32, (y as f32 + 0.5) / sh as f32);
+                    for c in 0..C {
+                        let t = std::f32::consts::TAU * u * (c + 1) as f32;
+                        img.data[(y * sw + x) * C + c] = t.sin() * (3.0 * v).cos() + 2.0 * v;
+                    }
+                }
+            }
+            let e = EnvMap::new(sm, &img, "t").unwrap();
+            let s = Src::<f32>::new(&e);
+            for (w, h) in [dm.canvas(31), dm.canvas(32), (63, 32)] {
+                if matches!(dm, Mapping::Sphere(_)) && w != h {
+                    continue;
+                }
+                for outside in [Outside::Gutter, Outside::Black] {
+                    let d = Dst::<f32>::new(dm, w, h, &IDENTITY, outside);
+                    let plan = Plan::new(&s, &d, &IDENTITY, w);
+                    let what = format!("{src} {sp:?} -> {dst} {dp:?} {w}x{h} {outside:?} C={C}");
+                    // A lat-long source folds along any of its axes.  A sphere map does not
+                    // along its view axis: the default lat-long's column mirror (2u₀ ∈ ℤ:
+                    // blender, pbrt; z → −z) from the default sphere map (z its view axis),
+                    // or a row mirror from Blender's mirror ball (whose view axis is world y).
+                    let folds = plan.fold.map(|f| f.is_some());
+                    let z_cols = matches!(dp, None | Some("blender") | Some("pbrt"));
+                    match (src, dst, sp) {
+                        ("latlong", ..) => assert_eq!(folds, [true, true], "{what}"),
+                        ("sphere", "latlong", None) => assert_eq!(folds, [!z_cols, true]),
+                        ("sphere", "sphere", None) => assert_eq!(folds, [true, true]),
+                        _ => {}
+                    }
+                    let turned = crate::view::look_up([0.1, 0.3, -1.0], [0.0, 1.0, 0.0]);
+                    let turned = turned.unwrap();
+                    let t = Plan::new(&s, &Dst::<f32>::new(dm, w, h, &turned, outside), &turned, w);
+                    assert_eq!(t.fold, [None, None], "{what}: turned");
+                    let plain = Plan {
+                        fold: [None, None],
+                        ..Plan::new(&s, &d, &IDENTITY, w)
+                    };
+                    let mut sc = Scratch::new(w);
+                    let nan = std::mem::MaybeUninit::new(f32::NAN);
+                    let (mut a, mut b) = (vec![nan; w * h * C], vec![nan; w * h * C]);
+                    for (y, r) in a.chunks_mut(w * C).enumerate() {
+                        row::<C>(&s, &d, &plain, y, &mut sc, r, None);
+                    }
+                    let (top, rest) = b.split_at_mut(h / 2 * w * C);
+                    let (mid, bottom) = rest.split_at_mut(h % 2 * w * C);
+                    let rows = top.chunks_mut(w * C).zip(bottom.chunks_mut(w * C).rev());
+                    for (y, (r, m)) in rows.enumerate() {
+                        row::<C>(&s, &d, &plan, y, &mut sc, r, Some(m));
+                    }
+                    if !mid.is_empty() {
+                        row::<C>(&s, &d, &plan, h / 2, &mut sc, mid, None);
+                    }
+                    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                        // SAFETY: initialized (NaN where a row failed to write).
+                        let (x, y) = unsafe { (x.assume_init(), y.assume_init()) };
+                        let at = (i / C % w, i / C / w);
+                        assert!((x - y).abs() <= 2e-5, "{what}: {x} vs {y} at {at:?}");
+                    }
+                }
+            }
+        }
+        for dp in [None, Some("skylibs"), Some("blender-mirrorball")] {
+            for sp in ["blender", "skylibs", "mitsuba", "pbrt"] {
+                check::<3>("latlong", Some(sp), "sphere", dp);
+            }
+            check::<1>("latlong", None, "sphere", dp);
+            check::<4>("sphere", dp, "sphere", None);
+            check::<3>("sphere", dp, "latlong", None);
+        }
+        for dp in ["blender", "skylibs", "mitsuba", "pbrt"] {
+            check::<3>("sphere", None, "latlong", Some(dp));
+            check::<3>("latlong", Some("skylibs"), "latlong", Some(dp));
         }
     }
 }
