@@ -50,11 +50,15 @@ pub(crate) struct FScratch {
     /// How many texels on the common grid fill a chunk (the tables below).
     per: usize,
     /// Per sample of a chunk of `per` common-grid texels: its texel t (from the chunk's
-    /// first), t·HX and k·HK for its stratum k = j·gx + i (`hash32`'s products), and i, j as
-    /// floats (so its points are one flat loop).
+    /// first) and t·HX; k·HK for its stratum k = j·gx + i as the hash takes it in a plain,
+    /// a mirrored column, a mirrored row, and both (`hash32`'s products, indexed mx + 2·my:
+    /// see [`super::Mirror`]); and i, j as floats (so its points are one flat loop).
     pt_t: Lanes<u32>,
     pt_hx: Lanes<u32>,
-    pt_hk: Lanes<u32>,
+    pt_hk: [Lanes<u32>; 4],
+    /// Per sample: its stratum (i, j), for a chunk that straddles the mirror.
+    pt_iu: Lanes<u32>,
+    pt_ju: Lanes<u32>,
     pt_i: Lanes<f32>,
     pt_j: Lanes<f32>,
     pub(crate) lx: Vec<f64>,
@@ -100,12 +104,21 @@ impl FScratch {
         let per = (FILL / n).clamp(1, w.max(1));
         let cap = (per * n).max(CHUNK);
         let (mut pt_t, mut pt_i, mut pt_j) = (vec![], vec![], vec![]);
-        let (mut pt_hx, mut pt_hk) = (vec![], vec![]);
+        let (mut pt_iu, mut pt_ju, mut pt_hx) = (vec![], vec![], vec![]);
+        let mut pt_hk: [Vec<u32>; 4] = Default::default();
+        let (gxm, gym) = (gx.max(1), gy.max(1));
         for t in 0..per {
             for k in 0..n {
+                let (i, j) = (k % gxm, k / gxm);
                 pt_t.push(t as u32);
                 pt_hx.push((t as u32).wrapping_mul(HX));
-                pt_hk.push((k as u32).wrapping_mul(HK));
+                for (m, hk) in pt_hk.iter_mut().enumerate() {
+                    let ic = if m & 1 == 1 { gxm - 1 - i } else { i };
+                    let jc = if m & 2 == 2 { gym - 1 - j } else { j };
+                    hk.push(((jc * gxm + ic) as u32).wrapping_mul(HK));
+                }
+                pt_iu.push(i as u32);
+                pt_ju.push(j as u32);
                 pt_i.push((k % gx.max(1)) as f32);
                 pt_j.push((k / gx.max(1)) as f32);
             }
@@ -129,7 +142,9 @@ impl FScratch {
             per,
             pt_t: Lanes::from_slice(&pt_t),
             pt_hx: Lanes::from_slice(&pt_hx),
-            pt_hk: Lanes::from_slice(&pt_hk),
+            pt_hk: pt_hk.map(|v| Lanes::from_slice(&v)),
+            pt_iu: Lanes::from_slice(&pt_iu),
+            pt_ju: Lanes::from_slice(&pt_ju),
             pt_i: Lanes::from_slice(&pt_i),
             pt_j: Lanes::from_slice(&pt_j),
             lx: vec![0.0; w],
@@ -291,6 +306,10 @@ pub(crate) fn row<const C: usize>(
     let plain = opts.filter == Filter::Box && !d.weighted;
     let black = d.outside == Outside::Black;
     let (yc, yu) = (y as f32 + 0.5, y as u32);
+    // The jitter's mirror symmetry (`super::Mirror`): the canvas, and this row's part.
+    let (g, canvas) = ((gx as u32, gy as u32), (d.wf as u32, d.hf as u32));
+    let my = 2 * yu + 1 > canvas.1;
+    let ycu = if my { canvas.1 - 1 - yu } else { yu };
     let avx = gather::has_avx2();
     let mut x1 = 0;
     while x1 < w {
@@ -329,26 +348,64 @@ pub(crate) fn row<const C: usize>(
             // All on the common grid: every sample in one flat loop (a short last chunk
             // repeats its last texel).
             let (pt_t, pt_i, pt_j) = (&f.pt_t, &f.pt_i, &f.pt_j);
-            let (pt_hx, pt_hk) = (&f.pt_hx, &f.pt_hk);
+            let (pt_iu, pt_ju, pt_hx) = (&f.pt_iu, &f.pt_ju, &f.pt_hx);
             let last = (w - 1) as u32;
             let (kx, ky) = (support / gx as f32, support / gy as f32);
+            // Which side of the column mirror the chunk's texels lie on: all on the left
+            // (2x + 1 ≤ w), all on the right, or both.
+            let (xl, xr) = (x0 as u32, (x1 - 1) as u32);
+            let side = match (2 * xr < canvas.0, 2 * xl + 1 > canvas.0) {
+                (true, _) => Some(false),
+                (_, true) => Some(true),
+                _ => None,
+            };
+            let jy_m = if my { 1.0f32 } else { 0.0 };
+            let sy = if my { -1.0f32 } else { 1.0 };
             vectorized(
                 #[inline(always)]
                 || {
                     let m = px.len().min(py.len()).min(pt_t.len());
                     let (px, py) = (&mut px[..m], &mut py[..m]);
                     let (pt_t, pt_i, pt_j) = (&pt_t[..m], &pt_i[..m], &pt_j[..m]);
-                    let (pt_hx, pt_hk) = (&pt_hx[..m], &pt_hk[..m]);
-                    // hash32(seed, x, y, k) from the tables' products (a lane past the
-                    // row's end, in a short last chunk, hashes its unclamped x: unused).
-                    let base = seed ^ yu.wrapping_mul(HY);
-                    let x0h = (x0 as u32).wrapping_mul(HX);
-                    for p in 0..m {
-                        let x = (x0 as u32 + pt_t[p]).min(last);
-                        let h = hash32_mixed(base ^ x0h.wrapping_add(pt_hx[p]) ^ pt_hk[p]);
-                        let (jx, jy) = jitter_f32(h);
-                        px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
-                        py[p] = yc - r + (pt_j[p] + jy) * ky;
+                    let (pt_iu, pt_ju, pt_hx) = (&pt_iu[..m], &pt_ju[..m], &pt_hx[..m]);
+                    // (A lane past the row's end, in a short last chunk, repeats the last
+                    // texel: unused.)
+                    let base = seed ^ ycu.wrapping_mul(HY);
+                    match side {
+                        // `jitter_mirrored` from the tables' products, the chunk's side known:
+                        // hash32(seed, xc, yc, kc) with xc = x0 + t on the left and
+                        // w − 1 − x0 − t on the right.
+                        Some(right) => {
+                            let hk = &f.pt_hk[right as usize + 2 * my as usize][..m];
+                            let (xh, sx) = if right {
+                                ((canvas.0 - 1 - xl).wrapping_mul(HX), -1.0f32)
+                            } else {
+                                (xl.wrapping_mul(HX), 1.0)
+                            };
+                            let jx_m = if right { 1.0f32 } else { 0.0 };
+                            for p in 0..m {
+                                let x = (xl + pt_t[p]).min(last);
+                                let xch = if right {
+                                    xh.wrapping_sub(pt_hx[p])
+                                } else {
+                                    xh.wrapping_add(pt_hx[p])
+                                };
+                                let (jx, jy) = jitter_f32(hash32_mixed(base ^ xch ^ hk[p]));
+                                // (1 − j where mirrored, as a multiply-add: exact.)
+                                let (jx, jy) = (jx_m + sx * jx, jy_m + sy * jy);
+                                px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
+                                py[p] = yc - r + (pt_j[p] + jy) * ky;
+                            }
+                        }
+                        None => {
+                            for p in 0..m {
+                                let x = (xl + pt_t[p]).min(last);
+                                let (i, j) = (pt_iu[p], pt_ju[p]);
+                                let (jx, jy) = jitter_mirrored(seed, x, yu, i, j, g, canvas);
+                                px[p] = x as i32 as f32 + 0.5 - r + (pt_i[p] + jx) * kx;
+                                py[p] = yc - r + (pt_j[p] + jy) * ky;
+                            }
+                        }
                     }
                 },
             );
@@ -361,13 +418,14 @@ pub(crate) fn row<const C: usize>(
             let (sx, sk): (&mut [u32], &mut [u32]) = (&mut f.st_x, &mut f.st_k);
             let (si, sj): (&mut [f32], &mut [f32]) = (&mut f.st_i, &mut f.st_j);
             let (skx, sky): (&mut [f32], &mut [f32]) = (&mut f.st_kx, &mut f.st_ky);
+            let mx = |t: usize| 2 * (x0 + t) as u32 + 1 > canvas.0;
             for t in 0..cnt {
                 let (nx, ny) = (nxs[t] as usize, nys[t] as usize);
                 let r = start[t]..start[t] + nx * ny;
                 sx[r.clone()].fill((x0 + t) as u32);
                 skx[r.clone()].fill(support / nx as f32);
                 sky[r.clone()].fill(support / ny as f32);
-                if t > 0 && (nxs[t - 1], nys[t - 1]) == (nxs[t], nys[t]) {
+                if t > 0 && (nxs[t - 1], nys[t - 1], mx(t - 1)) == (nxs[t], nys[t], mx(t)) {
                     // The previous texel's strata (the usual case): copied.
                     let from = start[t - 1]..start[t];
                     sk.copy_within(from.clone(), r.start);
@@ -376,11 +434,16 @@ pub(crate) fn row<const C: usize>(
                     continue;
                 }
                 let (sk, si, sj) = (&mut sk[r.clone()], &mut si[r.clone()], &mut sj[r]);
-                // (k = j·nx + i is the sample's place among its texel's.)
+                // (Its stratum index in the hash: `Mirror::kc`.)
+                let x = (x0 + t) as u32;
                 let mut k = 0;
                 for j in 0..ny {
                     for i in 0..nx {
-                        (sk[k], si[k], sj[k]) = (k as u32, i as f32, j as f32);
+                        let kc = mirror(
+                            x, yu, i as u32, j as u32, nx as u32, ny as u32, canvas.0, canvas.1,
+                        )
+                        .kc;
+                        (sk[k], si[k], sj[k]) = (kc, i as f32, j as f32);
                         k += 1;
                     }
                 }
@@ -392,7 +455,15 @@ pub(crate) fn row<const C: usize>(
                     let (px, py, sx, sk) = (&mut px[..m], &mut py[..m], &sx[..m], &sk[..m]);
                     let (si, sj, skx, sky) = (&si[..m], &sj[..m], &skx[..m], &sky[..m]);
                     for q in 0..m {
-                        let (jx, jy) = jitter_f32(hash32(seed, sx[q], yu, sk[q]));
+                        // `jitter_mirrored`, with the stratum's part from the tables.
+                        let x = sx[q];
+                        let mx = 2 * x + 1 > canvas.0;
+                        let xc = if mx { canvas.0 - 1 - x } else { x };
+                        let (jx, jy) = jitter_f32(hash32(seed, xc, ycu, sk[q]));
+                        let (jx, jy) = (
+                            if mx { 1.0 - jx } else { jx },
+                            if my { 1.0 - jy } else { jy },
+                        );
                         px[q] = sx[q] as i32 as f32 + 0.5 - r + (si[q] + jx) * skx[q];
                         py[q] = yc - r + (sj[q] + jy) * sky[q];
                     }
@@ -853,6 +924,26 @@ unsafe fn mean8_avx2<const C: usize>(
     true
 }
 
+/// The jitter of sample (i, j) of texel (x, y) on `g` = nx×ny strata of a `canvas` = w×h
+/// canvas, mirror-symmetric ([`super::Mirror`]; the values of `jitter_at`, in f32).
+#[inline(always)]
+fn jitter_mirrored(
+    seed: u32,
+    x: u32,
+    y: u32,
+    i: u32,
+    j: u32,
+    (nx, ny): (u32, u32),
+    (w, h): (u32, u32),
+) -> (f32, f32) {
+    let m = mirror(x, y, i, j, nx, ny, w, h);
+    let (jx, jy) = jitter_f32(hash32(seed, m.xc, m.yc, m.kc));
+    (
+        if m.mx { 1.0 - jx } else { jx },
+        if m.my { 1.0 - jy } else { jy },
+    )
+}
+
 /// The jitter in [0, 1)² of a sample from its hash (16 bits per axis, as `jitter32`).
 #[inline(always)]
 fn jitter_f32(h: u32) -> (f32, f32) {
@@ -894,18 +985,34 @@ mod tests {
         }
     }
 
-    /// The flat strata loop's hash, assembled from the tables' products, is `hash32`.
+    /// The jitter is mirror-symmetric: texels that mirror each other about the canvas's
+    /// centre lines have mirror-image samples (odd and even canvases; the middle texel of an
+    /// odd one is its own image), and the f32 loops' jitter is the generic path's.
     #[test]
-    fn the_flat_loops_hash_is_hash32() {
-        let f = FScratch::new(200, (4, 4));
-        for seed in [0u32, 7, 0xDEAD_BEEF] {
-            for (y, x0) in [(0u32, 0u32), (5, 64), (1023, 960), (4000, 4096)] {
-                let base = seed ^ y.wrapping_mul(HY);
-                let x0h = x0.wrapping_mul(HX);
-                for p in 0..f.pt_t.len() {
-                    let (t, k) = (f.pt_t[p], p as u32 % 16);
-                    let h = hash32_mixed(base ^ x0h.wrapping_add(f.pt_hx[p]) ^ f.pt_hk[p]);
-                    assert_eq!(h, hash32(seed, x0 + t, y, k));
+    fn the_jitter_is_mirror_symmetric_and_the_same_in_both_paths() {
+        for seed in [0u64, 7, 0xDEAD_BEEF_0123] {
+            let s32 = seed as u32 ^ (seed >> 32) as u32;
+            for (w, h) in [(8usize, 8usize), (7, 5), (64, 32)] {
+                for (nx, ny) in [(4usize, 4usize), (3, 2), (1, 5)] {
+                    for (y, x) in (0..h).flat_map(|y| (0..w).map(move |x| (y, x))) {
+                        for (j, i) in (0..ny).flat_map(|j| (0..nx).map(move |i| (j, i))) {
+                            let at = |x, y, i, j| jitter_at(seed, (x, y), (i, j), (nx, ny), (w, h));
+                            let (jx, jy) = at(x, y, i, j);
+                            let (mx, my) = at(w - 1 - x, h - 1 - y, nx - 1 - i, ny - 1 - j);
+                            let (a, b) = (2 * x + 1 == w, 2 * y + 1 == h);
+                            if !a && !b {
+                                assert_eq!((jx, jy), (1.0 - mx, 1.0 - my), "({x}, {y})");
+                            }
+                            let u = |v: usize| v as u32;
+                            let g = (u(nx), u(ny));
+                            let f = jitter_mirrored(s32, u(x), u(y), u(i), u(j), g, (u(w), u(h)));
+                            assert_eq!((f.0 as f64, f.1 as f64), (jx, jy));
+                            if !a && !b && 2 * x + 1 < w && 2 * y + 1 < h {
+                                // The top-left quadrant keeps the plain hash.
+                                assert_eq!((jx, jy), jitter32(seed, x, y, j * nx + i));
+                            }
+                        }
+                    }
                 }
             }
         }

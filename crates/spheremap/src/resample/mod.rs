@@ -910,7 +910,8 @@ fn texel<T: Real, const C: usize>(
     let mut lookups = 0;
     for j in 0..ny {
         for i in 0..nx {
-            let (jx, jy) = jitter32(opts.seed, x, y, j * nx + i);
+            let canvas = (d.wf.to_f64() as usize, d.hf.to_f64() as usize);
+            let (jx, jy) = jitter_at(opts.seed, (x, y), (i, j), (nx, ny), canvas);
             let ox = -radius + (i as f64 + jx) / nx as f64 * support;
             let oy = -radius + (j as f64 + jy) / ny as f64 * support;
             let (sx, sy) = (T::from_f64(cx + ox), T::from_f64(cy + oy));
@@ -933,6 +934,76 @@ fn texel<T: Real, const C: usize>(
         }
     });
     (v, lookups)
+}
+
+/// Where the jitter of sample (i, j) of texel (x, y), on its nx×ny strata of a w×h canvas,
+/// comes from: the pattern is mirror-symmetric about the canvas's centre lines.  A texel in
+/// the right half (x > w − 1 − x) takes the jitter of its mirror image w − 1 − x, stratum
+/// nx − 1 − i, reflected (1 − jx); one in the bottom half likewise in y.  So texels that
+/// mirror each other have mirror-image samples, and where the canvas's mirrors are folds of
+/// the source ([`rows::Fold`]: the default view) the filtered path computes a quarter of its
+/// samples' positions and folds the rest.  The pattern loses nothing by it: each quadrant's
+/// jitter is independent per texel and stratum, as before.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Mirror {
+    /// The hash's texel and stratum index (`jc·nx + ic`).
+    pub(crate) xc: u32,
+    pub(crate) yc: u32,
+    pub(crate) kc: u32,
+    /// The jitter is reflected in x / in y.
+    pub(crate) mx: bool,
+    pub(crate) my: bool,
+}
+
+/// [`Mirror`] of sample (i, j) of texel (x, y) on nx×ny strata of a w×h canvas.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn mirror(x: u32, y: u32, i: u32, j: u32, nx: u32, ny: u32, w: u32, h: u32) -> Mirror {
+    // (x > w − 1 − x without underflow; the middle texel of an odd w is its own image.)
+    let (mx, my) = (2 * x + 1 > w, 2 * y + 1 > h);
+    let (xc, ic) = if mx {
+        (
+            w.wrapping_sub(1).wrapping_sub(x),
+            nx.wrapping_sub(1).wrapping_sub(i),
+        )
+    } else {
+        (x, i)
+    };
+    let (yc, jc) = if my {
+        (
+            h.wrapping_sub(1).wrapping_sub(y),
+            ny.wrapping_sub(1).wrapping_sub(j),
+        )
+    } else {
+        (y, j)
+    };
+    Mirror {
+        xc,
+        yc,
+        kc: jc.wrapping_mul(nx).wrapping_add(ic),
+        mx,
+        my,
+    }
+}
+
+/// The jitter in [0, 1]² of sample (i, j) of texel (x, y) on nx×ny strata of a w×h canvas
+/// ([`Mirror`]; f64, the generic path's).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn jitter_at(
+    seed: u64,
+    (x, y): (usize, usize),
+    (i, j): (usize, usize),
+    (nx, ny): (usize, usize),
+    (w, h): (usize, usize),
+) -> (f64, f64) {
+    let u = |v: usize| v as u32;
+    let m = mirror(u(x), u(y), u(i), u(j), u(nx), u(ny), u(w), u(h));
+    let (jx, jy) = jitter32(seed, m.xc as usize, m.yc as usize, m.kc as usize);
+    (
+        if m.mx { 1.0 - jx } else { jx },
+        if m.my { 1.0 - jy } else { jy },
+    )
 }
 
 /// Deterministic jitter in [0,1)² for sample `k` of texel (x, y): a 32-bit integer hash
