@@ -8,12 +8,19 @@
 //! and a gather ([`super::gather`]) that sums each texel's samples in registers and writes
 //! it.  Only texels with more strata than a chunk can hold ([`CHUNK`]: `max_samples` > 1024)
 //! go one by one through the generic code.
+//!
+//! Where the canvas's mirrors fold (`rows::Fold`: the default view of a sphere map or
+//! lat-long from a lat-long, or a sphere map from a sphere map), the jitter's mirror
+//! symmetry (`super::Mirror`) gives texels that mirror each other mirror-image samples: the
+//! chunks then cover the left half of row y only, and each chunk's positions, folded, give
+//! its images in the right half and in row h − 1 − y (their taps and gathers are their own).
+//! A quarter of the samples go through the passes.
 
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
 use super::lanes::Lanes;
 use super::rows::{
-    passes, positions, prefetch, taps_level, vectorized, LevelTab, Plan, Points, Scratch, Taps,
-    SLOW,
+    fold_lanes, passes, positions, prefetch, retap, taps_level, vectorized, Fold, LevelTab, Plan,
+    Points, Scratch, Taps, SLOW,
 };
 use super::*;
 
@@ -93,6 +100,10 @@ pub(crate) struct FScratch {
     st_j: Lanes<f32>,
     st_kx: Lanes<f32>,
     st_ky: Lanes<f32>,
+    /// A chunk's level-0 positions, kept while its mirror images fold them
+    /// (`Plan::fold`), and an image's texels before they go to their places.
+    keep: [Lanes<f32>; 2],
+    tmp: Vec<std::mem::MaybeUninit<f32>>,
     /// The chunk's runs of texels at one level (`runs`), for `lo_*` and `hi_*`.
     lo_runs: Vec<(usize, std::ops::Range<usize>)>,
     hi_runs: Vec<(usize, std::ops::Range<usize>)>,
@@ -170,6 +181,9 @@ impl FScratch {
             st_j: Lanes::new(cap, 0.0),
             st_kx: Lanes::new(cap, 0.0),
             st_ky: Lanes::new(cap, 0.0),
+            keep: [Lanes::new(cap, 0.0), Lanes::new(cap, 0.0)],
+            // (Room for a chunk of 4-channel texels: at most `cap` of them.)
+            tmp: vec![std::mem::MaybeUninit::new(0.0); 4 * cap.max(w)],
             lo_runs: vec![],
             hi_runs: vec![],
         }
@@ -291,11 +305,19 @@ pub(crate) fn row<const C: usize>(
     y: usize,
     f: &mut FScratch,
     out: &mut [std::mem::MaybeUninit<f32>],
+    mut mirror_row: Option<&mut [std::mem::MaybeUninit<f32>]>,
     opts: &ResampleOptions,
     sp: &Sampling,
 ) -> (u64, usize) {
     let s = &levels[0];
     let w = f.lx.len();
+    // The canvas's mirrors that fold (`Plan::fold`; with the jitter's mirror symmetry,
+    // texels that mirror each other have mirror-image samples): the chunks then cover the
+    // row's left half, and each is folded into its images in the right half and in row
+    // h − 1 − y (`mirror_row`).
+    let fold_c = plan.fold[0];
+    let fold_r = plan.fold[1].filter(|_| mirror_row.is_some());
+    let wl = if fold_c.is_some() { w.div_ceil(2) } else { w };
     footprints::<C>(s, d, plan, y, f);
     let (gx, gy) = sp.grid;
     let mut max_n = 0;
@@ -312,21 +334,21 @@ pub(crate) fn row<const C: usize>(
     let ycu = if my { canvas.1 - 1 - yu } else { yu };
     let avx = gather::has_avx2();
     let mut x1 = 0;
-    while x1 < w {
+    while x1 < wl {
         // The next chunk: texels x0..x1 whose samples fit.
         let x0 = x1;
         let mut tot = 0;
         let mut uniform = true;
         if common {
             // `per` texels of the common grid (no need to look at each).
-            x1 = (x0 + f.per).min(w);
+            x1 = (x0 + f.per).min(wl);
             let n = gx * gy;
             for (t, b) in f.start[..x1 - x0].iter_mut().enumerate() {
                 *b = t * n;
             }
             tot = (x1 - x0) * n;
         }
-        while x1 < w && !common {
+        while x1 < wl && !common {
             let n = (f.nx[x1] * f.ny[x1]) as usize;
             if tot + n > f.cap || (tot > 0 && tot + n > FILL) {
                 break;
@@ -486,100 +508,202 @@ pub(crate) fn row<const C: usize>(
         let (lo, hi) = (x0 as f32 + 0.5 - r, (x1 - 1) as f32 + 0.5 + r);
         let within = [lo, hi, yc - r, yc + r];
         passes::<C>(s, d, plan, Points::At(Some(within)), sc);
-        // Pass 2b at the levels the chunk's deep texels read (level 0 uses the above); a run
-        // of texels at the same level is one call (their samples are consecutive).
-        let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
-        runs(&f.l0s[x0..x1], nxs, nys, start, &mut f.lo_runs);
-        runs(&f.l1[x0..x1], nxs, nys, start, &mut f.hi_runs);
-        if !f.lo_runs.is_empty() || !f.hi_runs.is_empty() {
-            let p = &sc.p;
-            let [lax, lay] = &mut f.lo_f;
-            let [hax, hay] = &mut f.hi_f;
-            let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
-            let (lo_runs, hi_runs) = (&f.lo_runs, &f.hi_runs);
-            vectorized(
-                #[inline(always)]
-                || {
-                    for (k, range) in lo_runs.iter().cloned() {
-                        let lo = Taps {
-                            idx: lo_idx,
-                            ax: lax,
-                            ay: lay,
-                        };
-                        taps_level::<C>(s.m, tab, k, p, range, lo);
-                    }
-                    for (k, range) in hi_runs.iter().cloned() {
-                        let hi = Taps {
-                            idx: hi_idx,
-                            ax: hax,
-                            ay: hay,
-                        };
-                        taps_level::<C>(s.m, tab, k, p, range, hi);
-                    }
-                },
-            );
+        level_taps::<C>(s, tab, f, x0, cnt);
+        let k = Chunk {
+            x0,
+            cnt,
+            flat: avx && uniform && plain && !black && (C == 3 || C == 4),
+            n: gx * gy,
+            plain,
+            black,
+            avx,
+        };
+        let (l, m) = gather_chunk::<C>(levels, f, &k, &mut out[x0 * C..(x0 + cnt) * C]);
+        lookups += l;
+        max_n = max_n.max(m);
+        if fold_c.is_none() && fold_r.is_none() {
+            continue;
         }
-        let chunk_out = &mut out[x0 * C..(x0 + cnt) * C];
-        // Runs of texels that read the same levels go through a flat gather when it
-        // applies (level 0 alone, the common case: `flat_gather`; else `flat_levels`); the
-        // others, texel by texel.
-        let flat = avx && uniform && plain && !black && (C == 3 || C == 4);
-        let n = gx * gy;
-        let mut t1 = 0;
-        while t1 < cnt {
-            let t0 = t1;
-            let key = |t: usize| (f.l0s[x0 + t], f.l1[x0 + t]);
-            t1 += 1;
-            while t1 < cnt && (!flat || key(t1) == key(t0)) {
-                t1 += 1;
-            }
-            let run_out = &mut chunk_out[t0 * C..t1 * C];
-            let done = flat
-                && if key(t0) == (NONE, NONE) {
-                    flat_gather::<C>(s, &f.sc, n, t0..t1, run_out)
-                } else {
-                    flat_levels::<C>(levels, f, n, x0, t0..t1, run_out)
-                };
-            if done {
-                lookups += (n * (t1 - t0)) as u64;
-                max_n = max_n.max(n);
-                continue;
-            }
-            let g = Gather {
-                levels,
-                f,
-                x0,
-                t0,
-                plain,
-                black,
-            };
-            let (l, m) = if avx {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: `avx`: this CPU has AVX2 and FMA.
-                unsafe {
-                    gather_avx2::<C>(&g, run_out)
+        // The chunk's mirror images (`Plan::fold`): its samples' positions folded, their
+        // taps again, and their gathers into the mirrored texels.  The unfolded positions
+        // are kept to fold afresh for the row mirror alone.
+        let live = ((tot + 15) & !15).min(f.cap);
+        for a in 0..2 {
+            f.keep[a][..live].copy_from_slice(&f.sc.p[a][..live]);
+        }
+        let mut image =
+            |f: &mut FScratch, fold: Fold, to: &mut [std::mem::MaybeUninit<f32>], rev: bool| {
+                fold_lanes(&fold, &mut f.sc);
+                retap::<C>(s, &mut f.sc);
+                level_taps::<C>(s, tab, f, x0, cnt);
+                let mut tmp = std::mem::take(&mut f.tmp);
+                let (l, m) = gather_chunk::<C>(levels, f, &k, &mut tmp[..cnt * C]);
+                lookups += l;
+                max_n = max_n.max(m);
+                for t in 0..cnt {
+                    let x = if rev { w - 1 - (x0 + t) } else { x0 + t };
+                    // (The middle texel of an odd row is its own column image: not again.)
+                    if rev && x == x0 + t {
+                        continue;
+                    }
+                    to[x * C..x * C + C].copy_from_slice(&tmp[t * C..t * C + C]);
                 }
-                #[cfg(not(target_arch = "x86_64"))]
-                unreachable!()
-            } else {
-                g.texels::<C, false>(run_out)
+                f.tmp = tmp;
             };
-            lookups += l;
-            max_n = max_n.max(m);
+        if let Some(fc) = fold_c {
+            image(f, fc, out, true);
+            if let (Some(fr), Some(m)) = (fold_r, mirror_row.as_deref_mut()) {
+                image(f, fr, m, true);
+            }
+            for a in 0..2 {
+                f.sc.p[a][..live].copy_from_slice(&f.keep[a][..live]);
+            }
+        }
+        if let (Some(fr), Some(m)) = (fold_r, mirror_row.as_deref_mut()) {
+            image(f, fr, m, false);
         }
     }
-    // Texels with their own strata, one by one.
-    for (x, px) in out.chunks_exact_mut(C).enumerate() {
+    // Texels with their own strata, one by one (and their images, on their strata).
+    let h = d.hf as usize;
+    for x in 0..wl {
         if common || f.nx[x] > 0 {
             continue;
         }
-        let (nx, ny, lambda) = sp.plan(f.lx[x], f.ly[x]);
-        max_n = max_n.max(nx * ny);
-        let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, (nx, ny, lambda));
-        lookups += l;
-        for c in 0..C {
-            px[c].write(v[c]);
+        let plan = sp.plan(f.lx[x], f.ly[x]);
+        max_n = max_n.max(plan.0 * plan.1);
+        let mut one = |x: usize, y: usize, to: &mut [std::mem::MaybeUninit<f32>]| {
+            let (v, l) = texel::<f32, C>(levels, d, x, y, opts, sp, plan);
+            lookups += l;
+            for c in 0..C {
+                to[x * C + c].write(v[c]);
+            }
+        };
+        let xm = w - 1 - x;
+        one(x, y, out);
+        if fold_c.is_some() && xm != x {
+            one(xm, y, out);
         }
+        if let (Some(_), Some(m)) = (fold_r, mirror_row.as_deref_mut()) {
+            one(x, h - 1 - y, m);
+            if fold_c.is_some() && xm != x {
+                one(xm, h - 1 - y, m);
+            }
+        }
+    }
+    (lookups, max_n)
+}
+
+/// Pass 2b at the levels that the deep texels of the chunk `x0..x0 + cnt` read, for the
+/// chunk's samples in `f.sc` (level 0 is the passes' own); a run of texels at the same
+/// level is one call (their samples are consecutive).
+fn level_taps<const C: usize>(
+    s: &Src<f32>,
+    tab: &LevelTab,
+    f: &mut FScratch,
+    x0: usize,
+    cnt: usize,
+) {
+    let x1 = x0 + cnt;
+    let (nxs, nys, start) = (&f.nx[x0..x1], &f.ny[x0..x1], &f.start[..cnt]);
+    runs(&f.l0s[x0..x1], nxs, nys, start, &mut f.lo_runs);
+    runs(&f.l1[x0..x1], nxs, nys, start, &mut f.hi_runs);
+    if f.lo_runs.is_empty() && f.hi_runs.is_empty() {
+        return;
+    }
+    let p = &f.sc.p;
+    let [lax, lay] = &mut f.lo_f;
+    let [hax, hay] = &mut f.hi_f;
+    let (lo_idx, hi_idx) = (&mut f.lo_idx, &mut f.hi_idx);
+    let (lo_runs, hi_runs) = (&f.lo_runs, &f.hi_runs);
+    vectorized(
+        #[inline(always)]
+        || {
+            for (k, range) in lo_runs.iter().cloned() {
+                let lo = Taps {
+                    idx: lo_idx,
+                    ax: lax,
+                    ay: lay,
+                };
+                taps_level::<C>(s.m, tab, k, p, range, lo);
+            }
+            for (k, range) in hi_runs.iter().cloned() {
+                let hi = Taps {
+                    idx: hi_idx,
+                    ax: hax,
+                    ay: hay,
+                };
+                taps_level::<C>(s.m, tab, k, p, range, hi);
+            }
+        },
+    );
+}
+
+/// What [`gather_chunk`] sums: the chunk's texels `x0..x0 + cnt`, `n` samples each on the
+/// common grid when `flat` (which also says: unit weights, no black outside, C = 3 or 4,
+/// AVX2), and how ([`Gather`]).
+struct Chunk {
+    x0: usize,
+    cnt: usize,
+    flat: bool,
+    n: usize,
+    plain: bool,
+    black: bool,
+    avx: bool,
+}
+
+/// The chunk's texels from its samples' taps in `f` into `out` (the chunk's `cnt` texels);
+/// returns (lookups, the most samples a texel took).  Runs of texels that read the same
+/// levels go through a flat gather when it applies (level 0 alone, the common case:
+/// `flat_gather`; else `flat_levels`); the others, texel by texel.
+fn gather_chunk<const C: usize>(
+    levels: &[Src<f32>],
+    f: &FScratch,
+    k: &Chunk,
+    out: &mut [std::mem::MaybeUninit<f32>],
+) -> (u64, usize) {
+    let (s, x0, cnt, n) = (&levels[0], k.x0, k.cnt, k.n);
+    let (mut lookups, mut max_n) = (0u64, 0);
+    let mut t1 = 0;
+    while t1 < cnt {
+        let t0 = t1;
+        let key = |t: usize| (f.l0s[x0 + t], f.l1[x0 + t]);
+        t1 += 1;
+        while t1 < cnt && (!k.flat || key(t1) == key(t0)) {
+            t1 += 1;
+        }
+        let run_out = &mut out[t0 * C..t1 * C];
+        let done = k.flat
+            && if key(t0) == (NONE, NONE) {
+                flat_gather::<C>(s, &f.sc, n, t0..t1, run_out)
+            } else {
+                flat_levels::<C>(levels, f, n, x0, t0..t1, run_out)
+            };
+        if done {
+            lookups += (n * (t1 - t0)) as u64;
+            max_n = max_n.max(n);
+            continue;
+        }
+        let g = Gather {
+            levels,
+            f,
+            x0,
+            t0,
+            plain: k.plain,
+            black: k.black,
+        };
+        let (l, m) = if k.avx {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `avx`: this CPU has AVX2 and FMA.
+            unsafe {
+                gather_avx2::<C>(&g, run_out)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            unreachable!()
+        } else {
+            g.texels::<C, false>(run_out)
+        };
+        lookups += l;
+        max_n = max_n.max(m);
     }
     (lookups, max_n)
 }

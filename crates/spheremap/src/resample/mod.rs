@@ -634,19 +634,20 @@ fn run<T: Real, const C: usize>(
             .collect();
         let plan = rows::Plan::new(s32, d32, &opts.rotation, w);
         let tab = rows::LevelTab::new::<C>(&lv32);
-        fill_rows(
-            out,
-            w,
-            C,
-            2,
-            progress,
-            || filtered::FScratch::new(w, sp.grid),
-            |f, y, row| {
-                let (l, m) = filtered::row::<C>(&lv32, &tab, d32, &plan, y, f, row, opts, &sp);
-                lookups.fetch_add(l, Ordering::Relaxed);
-                max_n.fetch_max(m, Ordering::Relaxed);
-            },
-        );
+        let scratch = || filtered::FScratch::new(w, sp.grid);
+        let row = |f: &mut _, y, row: &mut _, mirror: Option<&mut [MaybeUninit<f32>]>| {
+            let (l, m) = filtered::row::<C>(&lv32, &tab, d32, &plan, y, f, row, mirror, opts, &sp);
+            lookups.fetch_add(l, Ordering::Relaxed);
+            max_n.fetch_max(m, Ordering::Relaxed);
+        };
+        if plan.fold[1].is_some() {
+            // Rows y and h − 1 − y together (see `filtered::row`).
+            fill_row_pairs(out, w, C, progress, scratch, row);
+        } else {
+            fill_rows(out, w, C, 2, progress, scratch, |f, y, r| {
+                row(f, y, r, None)
+            });
+        }
         let report = ResampleReport {
             lookups: lookups.into_inner(),
             max_texel_samples: max_n.into_inner() as u32,

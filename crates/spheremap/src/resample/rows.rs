@@ -1027,6 +1027,22 @@ fn fold_all(f: Fold, sc: &mut Scratch) {
     }
 }
 
+/// The live lanes' positions folded by `f` in place (the filtered path's images of a chunk).
+pub(crate) fn fold_lanes(f: &Fold, sc: &mut Scratch) {
+    vectorized(
+        #[inline(always)]
+        || fold_all(*f, sc),
+    )
+}
+
+/// Pass 2b alone, at level 0, for the live lanes' positions (after [`fold_lanes`]).
+pub(crate) fn retap<const C: usize>(s: &Src<f32>, sc: &mut Scratch) {
+    vectorized(
+        #[inline(always)]
+        || taps::<C>(s, sc),
+    )
+}
+
 /// Pass 3 of a row: the lookups of its pass-2b results in `sc` into `out`.
 fn lookups<const C: usize>(
     s: &Src<f32>,
