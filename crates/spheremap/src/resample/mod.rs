@@ -6,9 +6,10 @@
 //! filter centred on the texel (the texel itself for the default 1-texel **box**; 2 texels wide
 //! for **tent**; 3 texels for **gaussian**, σ = ½ texel), on an n_x × n_y grid of strata with one
 //! jittered sample in each (deterministic: the jitter is a hash of the texel, the stratum and the
-//! seed).  Each sample's canvas point becomes a direction (the destination mapping's inverse),
-//! turns by the view rotation into the source's frame, and is looked up **bilinearly** in the
-//! source with the source's wrap rule.  The texel is the weighted mean, the weight of a sample
+//! seed, mirror-symmetric about the canvas's centre lines: `Mirror`).  Each sample's canvas
+//! point becomes a direction (the destination mapping's inverse), turns by the view rotation
+//! into the source's frame, and is looked up **bilinearly** in the source with the source's
+//! wrap rule.  The texel is the weighted mean, the weight of a sample
 //! being `filter(dx)·filter(dy)·dω/dA` — the mapping's solid-angle density, so that a box
 //! average is an average over solid angle and energy is preserved (a lat-long texel near a pole
 //! is not averaged as if it were flat).
