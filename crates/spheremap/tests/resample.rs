@@ -63,6 +63,15 @@ fn convert(src: Mapping, img: &Image, dst: Mapping, n: usize, o: &ResampleOption
     resample(&e, dst, w, h, o, None).unwrap().0
 }
 
+/// The largest difference of two images' values.
+fn max_diff(a: &Image, b: &Image) -> f32 {
+    a.data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max)
+}
+
 fn opts(samples: u32) -> ResampleOptions {
     ResampleOptions {
         samples,
@@ -313,12 +322,7 @@ fn f32_and_f64_take_the_same_samples() {
                         ..o
                     };
                     let b = convert(ll, &img, dst, n, &r);
-                    let worst = a
-                        .data
-                        .iter()
-                        .zip(&b.data)
-                        .map(|(x, y)| (x - y).abs())
-                        .fold(0.0f32, f32::max);
+                    let worst = max_diff(&a, &b);
                     let what = format!("{} {n} {samples}/{max_samples}", nm(&dst));
                     assert!(
                         worst < 1e-3,
@@ -361,12 +365,7 @@ fn integer_shrinks_and_pole_edges_agree_in_both_precisions() {
                 ..o
             },
         );
-        let worst = a
-            .data
-            .iter()
-            .zip(&b.data)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0f32, f32::max);
+        let worst = max_diff(&a, &b);
         assert!(
             worst < 1e-4,
             "size {n}, samples {samples}/{max_samples}: {worst}"
