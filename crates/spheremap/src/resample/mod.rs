@@ -9,8 +9,8 @@
 //! seed, mirror-symmetric about the canvas's centre lines: `Mirror`).  Each sample's canvas
 //! point becomes a direction (the destination mapping's inverse), turns by the view rotation
 //! into the source's frame, and is looked up **bilinearly** in the source with the source's
-//! wrap rule.  The texel is the weighted mean, the weight of a sample
-//! being `filter(dx)·filter(dy)·dω/dA` — the mapping's solid-angle density, so that a box
+//! wrap rule.  The texel is the weighted mean, the weight of a sample being
+//! `filter(dx)·filter(dy)·dω/dA` — the mapping's solid-angle density, so that a box
 //! average is an average over solid angle and energy is preserved (a lat-long texel near a pole
 //! is not averaged as if it were flat).
 //!
@@ -469,14 +469,16 @@ fn fill_rows<S>(
 
 /// [`fill_rows`] two rows at a time: `pair(scratch, y, row y, Some(row h − 1 − y))` for
 /// y < h/2, and for an odd h, `pair(scratch, h/2, middle row, None)`.
-fn fill_row_pairs<S>(
+fn fill_row_pairs<S, P>(
     out: &mut [MaybeUninit<f32>],
     w: usize,
     c: usize,
     progress: Option<&Progress>,
     scratch: impl Fn() -> S + Send + Sync,
-    pair: impl Fn(&mut S, usize, &mut [MaybeUninit<f32>], Option<&mut [MaybeUninit<f32>]>) + Send + Sync,
-) {
+    pair: P,
+) where
+    P: Fn(&mut S, usize, &mut [MaybeUninit<f32>], Option<&mut [MaybeUninit<f32>]>) + Send + Sync,
+{
     let n = w * c;
     if n == 0 {
         return;
