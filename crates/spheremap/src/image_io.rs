@@ -733,6 +733,12 @@ pub fn guess_mapping(img: &Image) -> (&'static str, &'static str) {
                 "square with empty corners outside the inscribed disc",
             );
         }
+        if is_rim_gutter(img) {
+            return (
+                "sphere / angular (disc, with a gutter)",
+                "square whose corners mirror the inscribed disc across its rim, as spheremap's gutter fills them",
+            );
+        }
         return (
             "octahedral or a single cube face",
             "square with content in the corners",
@@ -745,6 +751,77 @@ pub fn guess_mapping(img: &Image) -> (&'static str, &'static str) {
         );
     }
     ("unknown", "no recognised aspect ratio")
+}
+
+/// Whether the corners of a square image outside its inscribed disc are the disc's radial
+/// mirror image across the rim — what [`crate::resample::Outside::Gutter`] writes there: the
+/// point at radius `r > 1` (in units of the disc's radius, centre at the canvas centre) shows
+/// what radius `2 − r` shows, in the same direction from the centre.  The test reads a grid of
+/// points in each corner, `r` in [1.1, 1.35] (clear of the rim texels, whose footprints straddle
+/// it), and compares each with the image bilinearly read at its mirror point: the summed
+/// absolute differences must be under 8 % of the summed larger magnitudes of each pair.
+/// spheremap's sphere and angular gutters of a real HDRI measure 0.2–4 %; its octahedral maps
+/// and cube faces, which continue across the inscribed circle without this symmetry, 15–70 %.
+fn is_rim_gutter(img: &Image) -> bool {
+    let n = img.width;
+    if n < 32 || img.height != n {
+        return false;
+    }
+    let ch = img.channels.clamp(1, 3);
+    let val = |x: usize, y: usize, k: usize| -> f64 {
+        let v = img.pixel(x, y)[k];
+        if v.is_finite() {
+            v as f64
+        } else {
+            0.0
+        }
+    };
+    // Bilinear read at pixel coordinates (texel centres at integer + ½), clamped to the canvas.
+    let bilinear = |px: f64, py: f64, k: usize| -> f64 {
+        let (fx, fy) = (
+            (px - 0.5).clamp(0.0, (n - 1) as f64),
+            (py - 0.5).clamp(0.0, (n - 1) as f64),
+        );
+        let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
+        let (tx, ty) = (fx - x0 as f64, fy - y0 as f64);
+        let top = val(x0, y0, k) * (1.0 - tx) + val(x1, y0, k) * tx;
+        let bot = val(x0, y1, k) * (1.0 - tx) + val(x1, y1, k) * tx;
+        top * (1.0 - ty) + bot * ty
+    };
+    let half = n as f64 / 2.0;
+    let (mut diff, mut mag, mut count) = (0.0f64, 0.0f64, 0usize);
+    let steps = 24;
+    for j in 0..steps {
+        for i in 0..steps {
+            // A grid over the top-left corner square, then its images in the other three.
+            let (cx, cy) = (
+                (i as f64 + 0.5) / steps as f64 * 0.3 * n as f64,
+                (j as f64 + 0.5) / steps as f64 * 0.3 * n as f64,
+            );
+            for (px, py) in [
+                (cx, cy),
+                (n as f64 - cx, cy),
+                (cx, n as f64 - cy),
+                (n as f64 - cx, n as f64 - cy),
+            ] {
+                let (a, b) = ((px - half) / half, (py - half) / half);
+                let r = a.hypot(b);
+                if !(1.1..=1.35).contains(&r) {
+                    continue;
+                }
+                let m = (2.0 - r) / r;
+                let (qx, qy) = (half + a * m * half, half + b * m * half);
+                for k in 0..ch {
+                    let (v, w) = (bilinear(px, py, k), bilinear(qx, qy, k));
+                    diff += (v - w).abs();
+                    mag += v.abs().max(w.abs());
+                }
+                count += 1;
+            }
+        }
+    }
+    count > 0 && mag > 0.0 && diff <= 0.08 * mag
 }
 
 /// What to do with NaN/Inf pixel values in an input.

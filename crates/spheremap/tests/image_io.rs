@@ -337,3 +337,72 @@ fn all_finite_finds_any_nan_or_inf_in_any_block() {
         assert_eq!(find_nonfinite(&img), Some((1, i, 0)));
     }
 }
+
+/// `info`'s mapping guess on spheremap's own outputs of a real HDRI: a sphere map with the
+/// default gutter (whose corners are full) and with black corners is a disc; the octahedral
+/// map and one cube face of the same environment, also square with full corners, are not; the
+/// other shapes go by their aspect ratio.
+#[test]
+fn the_mapping_guess_tells_a_guttered_disc_from_a_full_square() {
+    use spheremap::image_io::guess_mapping;
+    use spheremap::mapping::Mapping;
+    use spheremap::resample::{resample, EnvMap, Outside, ResampleOptions};
+    let ll = read_image(&testdata("apartment.exr"), &ReadOptions::default()).unwrap();
+    assert_eq!(guess_mapping(&ll).0, "latlong");
+    let src = EnvMap::new(Mapping::parse("latlong", None).unwrap(), &ll, "ll").unwrap();
+    let make = |to: &str, w: usize, h: usize, outside: Outside| {
+        let o = ResampleOptions {
+            outside,
+            ..Default::default()
+        };
+        resample(&src, Mapping::parse(to, None).unwrap(), w, h, &o, None)
+            .unwrap()
+            .0
+    };
+    for to in ["sphere", "angular"] {
+        for n in [64, 255, 256] {
+            let g = make(to, n, n, Outside::Gutter);
+            assert_eq!(
+                guess_mapping(&g).0,
+                "sphere / angular (disc, with a gutter)",
+                "{to} {n}"
+            );
+            let b = make(to, n, n, Outside::Black);
+            assert_eq!(
+                guess_mapping(&b).0,
+                "sphere / mirror ball / angular (disc)",
+                "{to} {n}"
+            );
+        }
+    }
+    let full = "octahedral or a single cube face";
+    for n in [64, 256] {
+        assert_eq!(
+            guess_mapping(&make("octahedral", n, n, Outside::Gutter)).0,
+            full,
+            "{n}"
+        );
+        let cube = make("cube", n, 6 * n, Outside::Gutter);
+        assert_eq!(guess_mapping(&cube).0, "cube (strip)");
+        for f in 0..6 {
+            let mut face = Image::new(n, n, cube.channels);
+            let k = n * n * cube.channels;
+            face.data.copy_from_slice(&cube.data[f * k..(f + 1) * k]);
+            assert_eq!(guess_mapping(&face).0, full, "face {f} at {n}");
+        }
+    }
+    // A gutter spoilt in one corner (a quarter of the points tested) is no longer a gutter.
+    let mut g = make("sphere", 256, 256, Outside::Gutter);
+    for y in 0..40 {
+        for x in 0..40 {
+            g.pixel_mut(x, y).iter_mut().for_each(|v| *v = 50.0);
+        }
+    }
+    assert_eq!(guess_mapping(&g).0, full);
+    assert_eq!(guess_mapping(&Image::new(40, 30, 3)).0, "cube (cross)");
+    assert_eq!(
+        guess_mapping(&Image::new(30, 60, 3)).0,
+        "dual paraboloid (stacked)"
+    );
+    assert_eq!(guess_mapping(&Image::new(50, 30, 3)).0, "unknown");
+}
