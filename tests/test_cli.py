@@ -203,6 +203,55 @@ def test_convert_cli_matches_python_and_layouts(tmp_path):
     np.testing.assert_allclose(sm.cube_from_layout(sm.read_image(tmp_path / "cross.exr"), "hcross"), faces, atol=1e-5)
 
 
+def test_convert_cli_six_named_faces(tmp_path):
+    """A cube side given as six files named one by one (GL order), or by the {side}, {posx} and
+    {index} patterns: the same faces as the {face} pattern and as Python's (6, F, F, C) array."""
+    hdri = "testdata/apartment.exr"
+    names = ["right", "left", "top", "bottom", "front", "back"]
+    named = [tmp_path / f"{n}.exr" for n in names]
+    r = cli("convert", hdri, *named, "--from", "latlong", "--to", "cube", "--size", 16, "-q")
+    assert r.returncode == 0, r.stderr
+    want = sm.convert(sm.read_image(hdri), "latlong", "cube", size=16)
+    got = np.stack([sm.read_image(p) for p in named])
+    np.testing.assert_array_equal(got, want)
+    for pattern, files in [("p_{posx}.exr", ["posx", "negx", "posy", "negy", "posz", "negz"]),
+                           ("i_{index}.exr", [str(i) for i in range(6)])]:
+        r = cli("convert", hdri, tmp_path / pattern, "--from", "latlong", "--to", "cube", "--size", 16, "-q")
+        assert r.returncode == 0, r.stderr
+        stem = pattern.split("{")[0]
+        np.testing.assert_array_equal(np.stack([sm.read_image(tmp_path / f"{stem}{f}.exr") for f in files]), want)
+    # Six named inputs and the {side} pattern read the same faces.
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    r = cli("convert", *named, a, "--from", "cube", "--to", "sphere", "--size", 32, "-q", "--json")
+    assert r.returncode == 0, r.stderr
+    import json
+
+    assert json.loads(r.stdout)["inputs"] == [str(p) for p in named]
+    r = cli("convert", tmp_path / "{side}.exr", b, "--from", "cube", "--to", "sphere", "--size", 32, "-q")
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(sm.read_image(a), sm.read_image(b))
+    np.testing.assert_array_equal(sm.read_image(a), sm.convert(want, "cube", "sphere", size=32))
+    # Cube to cube: six in and six out (12 paths); seven are ambiguous and refused.
+    outs = [tmp_path / f"o{i}.exr" for i in range(6)]
+    r = cli("convert", *named, *outs, "--from", "cube", "--to", "cube", "--samples", 1, "-q")
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_allclose(np.stack([sm.read_image(p) for p in outs]), want, atol=1e-5)
+    r = cli("convert", *named, tmp_path / "x.exr", "--from", "cube", "--to", "cube")
+    assert r.returncode == 2 and "ambiguous" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert not (tmp_path / "x.exr").exists()
+    r = cli("convert", hdri, tmp_path / "y.exr", tmp_path / "z.exr", "--from", "latlong", "--to", "cube")
+    assert r.returncode == 2 and "got 3 paths" in r.stderr, r.stderr
+    # A bad sixth output is refused before any work, and none of the six is written.
+    bad = [tmp_path / f"n{i}.exr" for i in range(5)] + [tmp_path / "n5.webp"]
+    r = cli("convert", hdri, *bad, "--from", "latlong", "--to", "cube")
+    assert r.returncode == 2 and "n5.webp" in r.stderr and "does not write" in r.stderr, r.stderr
+    assert not any(p.exists() for p in bad)
+    # An output that is one of six named inputs is refused.
+    before = named[2].read_bytes()
+    r = cli("convert", *named, named[2], "--from", "cube", "--to", "sphere")
+    assert r.returncode == 2 and "--force" in r.stderr and named[2].read_bytes() == before
+
+
 def test_convert_cli_errors(tmp_path):
     hdri = "testdata/apartment.exr"
     cases = [

@@ -4,8 +4,10 @@
 use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{default_size, read_env, write_env};
-use spheremap::image_io::{check_nonfinite, ReadOptions};
+use spheremap::envio::{
+    check_nonfinite_env, default_size, read_env_files, split_paths, write_env_files,
+};
+use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
 use spheremap::resample::{resample, EnvMap, Precision, Progress, ResampleOptions};
 use spheremap::view;
@@ -13,12 +15,13 @@ use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input map (EXR, HDR, PFM, PNG, JPEG, WebP), or six cube faces as a pattern with {face}
-    /// (px nx py ny pz nz), e.g. 'sky_{face}.exr'.
-    input: String,
-    /// Output map (format by extension: .exr .hdr .pfm .png .jpg), or a {face} pattern for six
-    /// cube faces.
-    output: String,
+    /// IN OUT. IN: an image (EXR, HDR, PFM, PNG, JPEG, WebP); OUT: an image, its format by
+    /// extension (.exr .hdr .pfm .png .jpg). A cube side may instead be six face files: named
+    /// one by one in GL order (+X -X +Y -Y +Z -Z; so IN OUT is 7 or 12 paths), or a pattern:
+    /// 'sky_{face}.exr' (px nx py ny pz nz), {posx} (posx negx ...), {side} (right left top
+    /// bottom front back; front = +Z) or {index} (0-5).
+    #[arg(required = true, num_args = 2..=12, value_names = ["IN", "OUT"])]
+    paths: Vec<String>,
     /// Input mapping: sphere, latlong, cube, angular, paraboloid, octahedral.
     #[arg(long)]
     from: String,
@@ -94,19 +97,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         vec3(&a.from_look),
         vec3(&a.from_up),
     )?;
-    a.job.refuse_overwrite(&[&a.input], &[&a.output])?;
+    let (input, output) = split_paths(
+        &a.paths,
+        matches!(src, Mapping::Cube(_)),
+        matches!(dst, Mapping::Cube(_)),
+    )?;
+    a.job.refuse_overwrite(&input.paths(), &output.paths())?;
+    output.check_output(dst)?;
     let ropts = ReadOptions {
         linear: a.linear,
         ..Default::default()
     };
     let nonfinite = a.job.nonfinite()?;
     let max_memory = a.job.max_memory()?;
-    let mut img = read_env(&a.input, src, from_layout, &ropts)?;
-    check_nonfinite(&mut img, nonfinite, &a.input)?;
-    let env = EnvMap::new(src, &img, &a.input)?;
+    let mut img = read_env_files(&input, src, from_layout, &ropts)?;
+    let label = input.label();
+    check_nonfinite_env(&mut img, &input, nonfinite)?;
+    let env = EnvMap::new(src, &img, input.first())?;
     let n = match a.size {
         Some(n) => n,
-        None => default_size(src, src.size_of(img.width, img.height, &a.input)?, dst),
+        None => default_size(src, src.size_of(img.width, img.height, input.first())?, dst),
     };
     if n == 0 || n > 1 << 15 {
         bail!("size: {n} is out of range 1..=32768");
@@ -131,10 +141,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     })?;
     let seconds = t0.elapsed().as_secs_f64();
     let wopts = a.job.write_options(a.linear);
-    let written = write_env(&a.output, dst, &out, layout, &wopts)?;
+    let written = write_env_files(&output, dst, &out, layout, &wopts)?;
     if a.job.json {
         let v = serde_json::json!({
-            "input": a.input, "output": written,
+            "input": label, "inputs": input.paths(), "output": written,
             "from": src.name(), "from_preset": src.preset_name(),
             "to": dst.name(), "preset": dst.preset_name(),
             "size": n, "width": w, "height": h, "channels": out.channels,
@@ -146,7 +156,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     } else if !a.job.quiet {
         eprintln!(
             "{} ({} {}) -> {} ({} {}, {w}x{h}): {:.1} lookups/texel, {:.3} s",
-            a.input,
+            label,
             src.name(),
             src.preset_name(),
             written.join(", "),

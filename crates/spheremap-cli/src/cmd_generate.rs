@@ -4,7 +4,7 @@
 use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::{env_paths, write_env};
+use spheremap::envio::{env_paths, write_env, EnvFiles};
 use spheremap::generate::{generate, GenerateOptions, GenerateReport, RaySource};
 use spheremap::image_io::Image;
 use spheremap::mapping::Mapping;
@@ -66,6 +66,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("size: {} is out of range 1..=32768", a.size);
     }
     let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
+    EnvFiles::parse(&a.output).check_output(dst)?;
     let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
     let world = a
         .world

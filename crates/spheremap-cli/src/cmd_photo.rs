@@ -4,7 +4,7 @@
 use crate::job::{vec3, JobFlags};
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
-use spheremap::envio::write_env;
+use spheremap::envio::{write_env, EnvFiles};
 use spheremap::fisheye::{Lens, LensModel};
 use spheremap::generate::GenerateOptions;
 use spheremap::image_io::{check_nonfinite, read_image, Image, ReadOptions};
@@ -87,11 +87,16 @@ impl MapOut {
         ))
     }
 
-    /// Refuses outputs that would overwrite an input.
-    fn check_outputs(&self, inputs: &[&str]) -> anyhow::Result<()> {
+    /// Refuses outputs that would overwrite an input, or that cannot be written as `dst`
+    /// (checked before any work).
+    fn check_outputs(&self, inputs: &[&str], dst: Mapping) -> anyhow::Result<()> {
         let mut outs = vec![self.output.as_str()];
         outs.extend(self.mask.as_deref());
-        self.job.refuse_overwrite(inputs, &outs)
+        self.job.refuse_overwrite(inputs, &outs)?;
+        for o in outs {
+            EnvFiles::parse(o).check_output(dst)?;
+        }
+        Ok(())
     }
 
     fn read(&self, path: &str) -> anyhow::Result<Image> {
@@ -203,7 +208,7 @@ pub fn run_photo(a: PhotoArgs) -> anyhow::Result<()> {
     let (mut opts, dst) = a.out.options()?;
     let mut inputs = vec![a.ball.as_str()];
     inputs.extend(a.second.as_deref());
-    a.out.check_outputs(&inputs)?;
+    a.out.check_outputs(&inputs, dst)?;
     opts.reflectance = match a.reflectance.as_deref() {
         None => [1.0; 3],
         Some([r]) => [*r; 3],
@@ -284,7 +289,7 @@ pub struct FisheyeArgs {
 
 pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
     let (opts, dst) = a.out.options()?;
-    a.out.check_outputs(&[a.image.as_str()])?;
+    a.out.check_outputs(&[a.image.as_str()], dst)?;
     let k =
         a.k.as_deref()
             .map_or([0.0; 4], |k| [k[0], k[1], k[2], k[3]]);

@@ -52,7 +52,8 @@ use crate::error::{Error, Result};
 use crate::image_io::Image;
 use crate::real::Real;
 
-/// Face names in GL order, as used in file patterns (`{face}`).
+/// Face names in GL order, as used in file patterns (`{face}`; the other schemes:
+/// [`FACE_TOKENS`]).
 pub const FACE_NAMES: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
 
 /// The GL table: for each face, (major axis, sign), (sc axis, sign), (tc axis, sign).
@@ -197,8 +198,8 @@ impl Layout {
                 return Err(Error::param(
                     "layout",
                     format!(
-                        "unknown cube layout {other:?}; expected one of: {}, or six files with \
-                         a {{face}} pattern",
+                        "unknown cube layout {other:?}; expected one of: {}, or six files (named, or a \
+                         {{face}} pattern)",
                         Self::NAMES.join(", ")
                     ),
                 ))
@@ -388,13 +389,37 @@ impl Orient {
     }
 }
 
-/// Six face files: expands a pattern holding `{face}` into the six paths (GL order, names
-/// px nx py ny pz nz).
+/// The naming schemes of six face files, as pattern tokens, each with its six names in GL order
+/// (+X, −X, +Y, −Y, +Z, −Z):
+///
+/// * `{face}`: px nx py ny pz nz (three.js, Babylon.js);
+/// * `{posx}`: posx negx posy negy posz negz (Humus's cube-map packs);
+/// * `{side}`: right left top bottom front back, in the order LearnOpenGL loads them onto
+///   `GL_TEXTURE_CUBE_MAP_POSITIVE_X + i` — so front is +Z and back −Z (skybox packs that call
+///   −Z the front need `{face}` or six named files);
+/// * `{index}`: 0 1 2 3 4 5 (the face's number, as in a KTX file or D3D's face order).
+pub const FACE_TOKENS: [(&str, [&str; 6]); 4] = [
+    ("{face}", FACE_NAMES),
+    ("{posx}", ["posx", "negx", "posy", "negy", "posz", "negz"]),
+    (
+        "{side}",
+        ["right", "left", "top", "bottom", "front", "back"],
+    ),
+    ("{index}", ["0", "1", "2", "3", "4", "5"]),
+];
+
+/// Six face files: expands a pattern holding a face token ([`FACE_TOKENS`]: `{face}`,
+/// `{posx}`, `{side}` or `{index}`) into the six paths, GL order.  Every token in the pattern
+/// is replaced, each by its own scheme's name for the face.
 pub fn face_paths(pattern: &str) -> Option<[String; 6]> {
-    if !pattern.contains("{face}") {
+    if !FACE_TOKENS.iter().any(|(t, _)| pattern.contains(t)) {
         return None;
     }
-    Some(FACE_NAMES.map(|n| pattern.replace("{face}", n)))
+    Some(std::array::from_fn(|i| {
+        FACE_TOKENS
+            .iter()
+            .fold(pattern.to_string(), |p, (t, names)| p.replace(t, names[i]))
+    }))
 }
 
 /// Six face images (GL order, equal square sizes and channel counts) → stack.

@@ -1,39 +1,181 @@
-//! Environment maps in files: one image, or six cube faces named by a `{face}` pattern; cube
-//! layouts converted to and from the internal face stack; the default output size.
+//! Environment maps in files: one image, or six cube faces — named one by one or by a
+//! pattern (`{face}`, `{posx}`, `{side}`, `{index}`: [`cube::FACE_TOKENS`]); cube layouts
+//! converted to and from the internal face stack; the default output size.
 
 use crate::cube::{self, Layout};
 use crate::error::{Error, Result};
-use crate::image_io::{read_image, write_image, Image, ReadOptions, WriteOptions};
+use crate::image_io::{
+    check_nonfinite, encode, find_nonfinite, read_image, write_image, Format, Image, NonFinite,
+    ReadOptions, WriteOptions,
+};
 use crate::mapping::Mapping;
 use std::path::Path;
 
+/// The file or files that hold one environment map.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum EnvFiles {
+    /// One image (a cube map in a layout), or a face pattern that names six.
+    One(String),
+    /// Six cube-face files in GL order +X, −X, +Y, −Y, +Z, −Z, and the pattern that named
+    /// them, if one did.
+    Faces {
+        files: [String; 6],
+        pattern: Option<String>,
+    },
+}
+
+impl EnvFiles {
+    /// `path` as given: six faces when it holds a face token.
+    pub fn parse(path: &str) -> EnvFiles {
+        match cube::face_paths(path) {
+            Some(files) => EnvFiles::Faces {
+                files,
+                pattern: Some(path.to_string()),
+            },
+            None => EnvFiles::One(path.to_string()),
+        }
+    }
+
+    /// Every file path (six for faces).
+    pub fn paths(&self) -> Vec<String> {
+        match self {
+            EnvFiles::One(p) => vec![p.clone()],
+            EnvFiles::Faces { files, .. } => files.to_vec(),
+        }
+    }
+
+    /// How errors and summaries name it: the path or pattern as given, or six named files
+    /// joined by commas.
+    pub fn label(&self) -> String {
+        match self {
+            EnvFiles::One(p)
+            | EnvFiles::Faces {
+                pattern: Some(p), ..
+            } => p.clone(),
+            EnvFiles::Faces { files, .. } => files.join(","),
+        }
+    }
+
+    /// Checks, before any work, that these can be written as an output of `mapping`: six
+    /// faces only for a cube, and every file's extension one spheremap writes.
+    pub fn check_output(&self, mapping: Mapping) -> Result<()> {
+        if matches!(self, EnvFiles::Faces { .. }) && !matches!(mapping, Mapping::Cube(_)) {
+            return Err(Error::param(
+                "output",
+                format!(
+                    "{}: six face files, but the output mapping is {}",
+                    self.label(),
+                    mapping.name()
+                ),
+            ));
+        }
+        for p in self.paths() {
+            output_format(&p)?;
+        }
+        Ok(())
+    }
+
+    /// The first of its files (what the shape checks of a face stack are named after).
+    pub fn first(&self) -> &str {
+        match self {
+            EnvFiles::One(p) => p,
+            EnvFiles::Faces { files, .. } => &files[0],
+        }
+    }
+}
+
+/// Splits a conversion's positional paths into its input and its output: `IN OUT`, where a
+/// cube side may instead be six face files in GL order (+X, −X, +Y, −Y, +Z, −Z) — so 2, 7 or
+/// 12 paths.  Seven paths with a cube on both sides are ambiguous (six in and one out, or one
+/// in and six out) and refused: one side must then be a face pattern or a single image.  Six
+/// output files must be six different paths.
+pub fn split_paths(
+    paths: &[String],
+    src_is_cube: bool,
+    dst_is_cube: bool,
+) -> Result<(EnvFiles, EnvFiles)> {
+    let six = |p: &[String]| EnvFiles::Faces {
+        files: std::array::from_fn(|i| p[i].clone()),
+        pattern: None,
+    };
+    let (input, output) =
+        match (paths.len(), src_is_cube, dst_is_cube) {
+            (2, _, _) => (EnvFiles::parse(&paths[0]), EnvFiles::parse(&paths[1])),
+            (7, true, false) => (six(&paths[..6]), EnvFiles::parse(&paths[6])),
+            (7, false, true) => (EnvFiles::parse(&paths[0]), six(&paths[1..])),
+            (7, true, true) => return Err(Error::param(
+                "paths",
+                "7 paths with a cube on both sides is ambiguous (six inputs and one output, or \
+                 one input and six outputs): give that side as one image or a {face} pattern",
+            )),
+            (12, true, true) => (six(&paths[..6]), six(&paths[6..])),
+            (n, src, dst) => {
+                let expect = match (src, dst) {
+                    (false, false) => "IN OUT",
+                    (true, false) => "IN OUT, or six input faces (+X -X +Y -Y +Z -Z) and OUT",
+                    (false, true) => "IN OUT, or IN and six output faces (+X -X +Y -Y +Z -Z)",
+                    (true, true) => "IN OUT, or six input faces and six output faces",
+                };
+                return Err(Error::param(
+                    "paths",
+                    format!("got {n} paths; expected {expect}"),
+                ));
+            }
+        };
+    if let EnvFiles::Faces { files: f, .. } = &output {
+        for (i, p) in f.iter().enumerate() {
+            if f[..i].contains(p) {
+                return Err(Error::param(
+                    "output",
+                    format!("{p}: named for two cube faces; the six outputs must differ"),
+                ));
+            }
+        }
+    }
+    Ok((input, output))
+}
+
 /// Reads an environment map of `mapping` into its canvas (for a cube: the F×6F face stack).
 ///
-/// A cube map comes from six files when `path` contains `{face}` (replaced by px nx py ny pz
-/// nz), else from one image in `layout` (or the layout its shape implies: 1:6 vstrip, 4:3
-/// hcross, 3:4 vcross; a 6:1 strip must be named).
+/// A cube map comes from six files when `path` holds a face token ([`cube::FACE_TOKENS`]), else
+/// from one image in `layout` (or the layout its shape implies: 1:6 vstrip, 4:3 hcross, 3:4
+/// vcross; a 6:1 strip must be named).
 pub fn read_env(
     path: &str,
     mapping: Mapping,
     layout: Option<Layout>,
     opts: &ReadOptions,
 ) -> Result<Image> {
-    if let Some(paths) = cube::face_paths(path) {
-        if !matches!(mapping, Mapping::Cube(_)) {
-            return Err(Error::param(
-                "input",
-                format!(
-                    "{path}: a {{face}} pattern names six cube faces, but the input mapping is {}",
-                    mapping.name()
-                ),
-            ));
+    read_env_files(&EnvFiles::parse(path), mapping, layout, opts)
+}
+
+/// [`read_env`] from [`EnvFiles`]: one image or six faces.
+pub fn read_env_files(
+    files: &EnvFiles,
+    mapping: Mapping,
+    layout: Option<Layout>,
+    opts: &ReadOptions,
+) -> Result<Image> {
+    let path = match files {
+        EnvFiles::Faces { files: paths, .. } => {
+            if !matches!(mapping, Mapping::Cube(_)) {
+                return Err(Error::param(
+                    "input",
+                    format!(
+                        "{}: six face files, but the input mapping is {}",
+                        files.label(),
+                        mapping.name()
+                    ),
+                ));
+            }
+            let faces = paths
+                .iter()
+                .map(|p| read_image(Path::new(p), opts))
+                .collect::<Result<Vec<_>>>()?;
+            return cube::stack_faces(&faces, paths);
         }
-        let faces = paths
-            .iter()
-            .map(|p| read_image(Path::new(p), opts))
-            .collect::<Result<Vec<_>>>()?;
-        return cube::stack_faces(&faces, &paths);
-    }
+        EnvFiles::One(p) => p,
+    };
     let img = read_image(Path::new(path), opts)?;
     if let Mapping::Cube(_) = mapping {
         let layout = match layout {
@@ -49,9 +191,8 @@ pub fn read_env(
     Ok(img)
 }
 
-/// Writes a canvas of `mapping` (cube: face stack) to `path`: six files for a `{face}` pattern,
-/// else one image (cube maps in `layout`, default hcross).  Every file is written atomically;
-/// the output paths are returned.
+/// Writes a canvas of `mapping` (cube: face stack) to `path`: six files for a face pattern,
+/// else one image (cube maps in `layout`, default hcross).  The output paths are returned.
 pub fn write_env(
     path: &str,
     mapping: Mapping,
@@ -59,30 +200,37 @@ pub fn write_env(
     layout: Option<Layout>,
     opts: &WriteOptions,
 ) -> Result<Vec<String>> {
-    if let Some(paths) = cube::face_paths(path) {
-        if !matches!(mapping, Mapping::Cube(_)) {
-            return Err(Error::param(
-                "output",
-                format!(
-                    "{path}: a {{face}} pattern names six cube faces, but the output mapping is {}",
-                    mapping.name()
-                ),
-            ));
+    write_env_files(&EnvFiles::parse(path), mapping, img, layout, opts)
+}
+
+/// [`write_env`] to [`EnvFiles`].  Written atomically: six faces are all encoded, then all
+/// written beside their targets and renamed into place together
+/// ([`crate::io::atomic_write_all`]), so a bad extension or a failed write leaves none of them.
+pub fn write_env_files(
+    files: &EnvFiles,
+    mapping: Mapping,
+    img: &Image,
+    layout: Option<Layout>,
+    opts: &WriteOptions,
+) -> Result<Vec<String>> {
+    files.check_output(mapping)?;
+    let path = match files {
+        EnvFiles::Faces { files: paths, .. } => {
+            let bytes = paths
+                .iter()
+                .zip(cube::split_stack(img))
+                .map(|(p, face)| encode(Path::new(p), &face, output_format(p)?, opts))
+                .collect::<Result<Vec<_>>>()?;
+            let writes: Vec<(&Path, &[u8])> = paths
+                .iter()
+                .zip(&bytes)
+                .map(|(p, b)| (Path::new(p.as_str()), b.as_slice()))
+                .collect();
+            crate::io::atomic_write_all(&writes)?;
+            return Ok(paths.to_vec());
         }
-        // Encode all six before writing any, so a bad extension leaves nothing behind.
-        for p in &paths {
-            crate::image_io::Format::from_extension(Path::new(p)).ok_or_else(|| {
-                Error::param(
-                    "output",
-                    format!("{p}: unknown image extension; use .exr, .hdr, .pfm, .png or .jpg"),
-                )
-            })?;
-        }
-        for (p, face) in paths.iter().zip(cube::split_stack(img)) {
-            write_image(Path::new(p), &face, opts)?;
-        }
-        return Ok(paths.to_vec());
-    }
+        EnvFiles::One(p) => p,
+    };
     let owned;
     let out = if let Mapping::Cube(_) = mapping {
         owned = layout.unwrap_or(Layout::HCross).from_stack(img)?;
@@ -94,9 +242,47 @@ pub fn write_env(
     Ok(vec![path.to_string()])
 }
 
-/// The input paths a `path` argument names (six for a `{face}` pattern).
+/// The format an output path's extension asks for (one spheremap writes: not WebP).
+fn output_format(path: &str) -> Result<Format> {
+    match Format::from_extension(Path::new(path)) {
+        Some(f) if f != Format::Webp => Ok(f),
+        found => Err(Error::param(
+            "output",
+            format!(
+                "{path}: {}; use .exr, .hdr, .pfm, .png or .jpg",
+                if found.is_some() {
+                    "spheremap reads WebP but does not write it"
+                } else {
+                    "unknown image extension"
+                }
+            ),
+        )),
+    }
+}
+
+/// [`check_nonfinite`] for a map read from `files`: a NaN/Inf in a stack of six faces is
+/// reported against its own face file, at its pixel in that face.
+pub fn check_nonfinite_env(img: &mut Image, files: &EnvFiles, policy: NonFinite) -> Result<()> {
+    if let (EnvFiles::Faces { files: f, .. }, NonFinite::Error) = (files, policy) {
+        if let Some((_, _, y)) = find_nonfinite(img) {
+            let face = img.width.max(1);
+            let k = img.width * face * img.channels;
+            let i = (y / face).min(5);
+            let mut one = Image {
+                width: img.width,
+                height: face,
+                channels: img.channels,
+                data: img.data[i * k..(i + 1) * k].to_vec(),
+            };
+            return check_nonfinite(&mut one, policy, &f[i]);
+        }
+    }
+    check_nonfinite(img, policy, files.first())
+}
+
+/// The input paths a `path` argument names (six for a face pattern).
 pub fn env_paths(path: &str) -> Vec<String> {
-    cube::face_paths(path).map_or_else(|| vec![path.to_string()], |p| p.to_vec())
+    EnvFiles::parse(path).paths()
 }
 
 /// Default output size N for converting a source of size `src_n` (see [`Mapping::canvas`]):

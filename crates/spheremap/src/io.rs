@@ -9,8 +9,6 @@ use crate::mesh::Mesh;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which
-/// is renamed to `path` only when `fill` succeeded.
 /// Reads a whole input file.  Only regular files: a device or FIFO (`/dev/zero` named by a
 /// careless MTL or a script) would be read forever.
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
@@ -28,22 +26,13 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| Error::io(path, e))
 }
 
+/// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which
+/// is renamed to `path` only when `fill` succeeded.
 pub fn atomic_write(
     path: &Path,
     fill: impl FnOnce(&mut std::fs::File) -> Result<()>,
 ) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| Error::param("output", format!("{} is not a file path", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
+    let tmp = temp_beside(path)?;
     let result = (|| {
         let mut f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
         fill(&mut f)?;
@@ -55,6 +44,49 @@ pub fn atomic_write(
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Writes several files as one: every file's bytes go to a temporary file beside it first, and
+/// only when all of them are written and synced are they renamed into place — so an error in
+/// any of them (a full disk, a missing directory) leaves none of the outputs behind.  (The
+/// renames themselves, within each file's own directory, are what can still fail midway.)
+pub fn atomic_write_all(files: &[(&Path, &[u8])]) -> Result<()> {
+    let mut temps: Vec<PathBuf> = Vec::with_capacity(files.len());
+    let result = (|| {
+        for (path, bytes) in files {
+            let tmp = temp_beside(path)?;
+            temps.push(tmp.clone());
+            let mut f = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+            f.write_all(bytes).map_err(|e| Error::io(&tmp, e))?;
+            f.sync_all().map_err(|e| Error::io(&tmp, e))?;
+        }
+        for ((path, _), tmp) in files.iter().zip(&temps) {
+            std::fs::rename(tmp, path).map_err(|e| Error::io(path, e))?;
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        for t in &temps {
+            let _ = std::fs::remove_file(t);
+        }
+    }
+    result
+}
+
+/// The temporary file beside `path` that its atomic write goes through.
+fn temp_beside(path: &Path) -> Result<PathBuf> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::param("output", format!("{} is not a file path", path.display())))?;
+    Ok(dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    )))
 }
 
 fn io_err(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
