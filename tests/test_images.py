@@ -87,3 +87,36 @@ def test_info_cli(tmp_path, repo):
     assert r.returncode == 0 and "the extension says OpenEXR, the content is PNG" in r.stdout
     bad = subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "none.hdr")], capture_output=True, text=True)
     assert bad.returncode == 2 and "none.hdr" in bad.stderr and bad.stderr.count("\n") == 1
+
+
+def test_info_in_python_is_the_cli_json(tmp_path, repo):
+    """sm.info(path) gives what `spheremap info --json` prints; the mapping guess tells
+    spheremap's own guttered sphere map from its octahedral map."""
+    hdri = repo / TESTDATA / "apartment.exr"
+    img = np.ones((4, 8, 3), np.float32)
+    img[2, 5, 1] = np.nan
+    sm.write_image(tmp_path / "n.pfm", img)
+    sm.write_image(tmp_path / "p.png", np.full((4, 4, 3), 0.5, np.float32))
+    (tmp_path / "p.png").rename(tmp_path / "p.exr")
+    for p in [hdri, tmp_path / "n.pfm", tmp_path / "p.exr"]:
+        cli = subprocess.run([sys.executable, "-m", "spheremap", "info", str(p), "--json"], capture_output=True, text=True)
+        assert cli.returncode == 0, cli.stderr
+        assert json.loads(json.dumps(sm.info(p))) == json.loads(cli.stdout), p
+    assert sm.info(tmp_path / "n.pfm")["first_non_finite"] == (5, 2)
+    assert sm.info(tmp_path / "p.exr")["extension_names"] == "OpenEXR"
+    assert sm.info(tmp_path / "p.exr", linear=True)["stats"][0]["max"] == pytest.approx(sm.info(tmp_path / "p.exr")["stats"][0]["max"] ** (1 / 2.2), abs=0.03)
+    ll = sm.read_image(hdri)
+    guesses = {}
+    for dst, outside in [("sphere", "gutter"), ("sphere", "black"), ("octahedral", "gutter")]:
+        f = tmp_path / f"{dst}_{outside}.exr"
+        sm.write_image(f, sm.convert(ll, "latlong", dst, size=128, outside=outside))
+        guesses[dst, outside] = sm.info(f)["mapping_guess"]
+    assert guesses["sphere", "gutter"]["name"] == "sphere / angular (disc, with a gutter)"
+    assert guesses["sphere", "black"]["name"] == "sphere / mirror ball / angular (disc)"
+    assert guesses["octahedral", "gutter"]["name"] == "octahedral or a single cube face"
+    assert all(g["is_a_guess"] for g in guesses.values())
+    with pytest.raises(FileNotFoundError, match="none.hdr"):
+        sm.info(tmp_path / "none.hdr")
+    (tmp_path / "junk.exr").write_bytes(b"junk")
+    with pytest.raises(sm.DataError, match="junk.exr"):
+        sm.info(tmp_path / "junk.exr")

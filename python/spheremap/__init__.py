@@ -36,6 +36,7 @@ __all__ = [
     "pixel_to_dir",
     "presets",
     "read_image",
+    "info",
     "write_image",
     "MAPPINGS",
     "dir_to_uv",
@@ -265,6 +266,23 @@ def read_image(path, *, linear: bool = False, max_pixels: int | None = None) -> 
     if max_pixels is not None:
         max_pixels = _size_any(max_pixels, "max_pixels")
     return _ext.read_image(os.fspath(path), bool(linear), max_pixels)
+
+
+def info(path, *, linear: bool = False) -> dict:
+    """Describes an image file, as `spheremap info --json` does: ``format`` (recognised by
+    content; ``extension_names`` is the other format its extension names, if it disagrees),
+    ``width``, ``height``, ``channels``, per-channel ``stats`` (min/max/mean over finite values,
+    None where there are none), ``nan``, ``inf``, ``negative``, ``first_non_finite`` ((x, y) or
+    None) and ``mapping_guess`` (``name``, ``reason``, ``is_a_guess``: True — from the shape and,
+    for a square image, whether its corners are empty or mirror the disc, never read from the
+    file). LDR statistics are of the sRGB-decoded values unless `linear`.
+
+    Raises FileNotFoundError for a missing file and spheremap.DataError for one spheremap
+    cannot read.
+    """
+    import os
+
+    return _ext.info(os.fspath(path), bool(linear))
 
 
 def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool = False) -> None:

@@ -652,6 +652,51 @@ fn read_image<'py>(
         .into_any())
 }
 
+/// Describes an image file: what `spheremap info --json` prints, as a dict.
+#[pyfunction]
+#[pyo3(signature = (path, linear))]
+fn info<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    linear: bool,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    use pyo3::types::PyDict;
+    use spheremap::image_io::{inspect, ReadOptions};
+    let opts = ReadOptions {
+        linear,
+        ..Default::default()
+    };
+    let i = py.detach(|| inspect(&path, &opts)).map_err(to_py)?;
+    let finite = |v: f64| v.is_finite().then_some(v);
+    let d = PyDict::new(py);
+    d.set_item("file", path.display().to_string())?;
+    d.set_item("format", i.format.name())?;
+    d.set_item("extension_names", i.extension_mismatch.map(|f| f.name()))?;
+    d.set_item("width", i.width)?;
+    d.set_item("height", i.height)?;
+    d.set_item("channels", i.channels)?;
+    let stats = pyo3::types::PyList::empty(py);
+    for (n, st) in i.channel_names.iter().zip(&i.stats) {
+        let c = PyDict::new(py);
+        c.set_item("channel", n)?;
+        c.set_item("min", finite(st.0 as f64))?;
+        c.set_item("max", finite(st.1 as f64))?;
+        c.set_item("mean", finite(st.2))?;
+        stats.append(c)?;
+    }
+    d.set_item("stats", stats)?;
+    d.set_item("nan", i.nan_count)?;
+    d.set_item("inf", i.inf_count)?;
+    d.set_item("negative", i.negative_count)?;
+    d.set_item("first_non_finite", i.first_non_finite)?;
+    let g = PyDict::new(py);
+    g.set_item("name", i.mapping_guess.0)?;
+    g.set_item("reason", i.mapping_guess.1)?;
+    g.set_item("is_a_guess", true)?;
+    d.set_item("mapping_guess", g)?;
+    Ok(d)
+}
+
 /// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
 /// extension.
 #[pyfunction]
@@ -741,6 +786,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(uv_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(texel_solid_angles, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
