@@ -55,6 +55,30 @@ def test_convert_shapes_and_cube_round_trip(hdri):
     assert psnr(back, small) > 30
 
 
+def test_convert_reads_a_cube_in_a_layout(hdri):
+    """src='cube' takes one image in a layout, named by src_layout or implied by its shape as
+    the CLI does; the result is that of the (6, F, F, C) faces. A 6:1 image must be named."""
+    cube = spheremap.convert(hdri, "latlong", "cube", size=16)
+    want = spheremap.convert(cube, "cube", "sphere", size=32)
+    for layout in spheremap.CUBE_LAYOUTS:
+        img = spheremap.cube_to_layout(cube, layout)
+        got = spheremap.convert(img, "cube", "sphere", size=32, src_layout=layout)
+        np.testing.assert_array_equal(got, want, err_msg=layout)
+        if layout in ("hcross", "vcross", "vstrip", "dice"):
+            np.testing.assert_array_equal(spheremap.convert(img, "cube", "sphere", size=32), want, err_msg=layout)
+    with pytest.raises(ValueError, match="^image: a 96x16 image could be 'hstrip'"):
+        spheremap.convert(spheremap.cube_to_layout(cube, "hstrip"), "cube", "sphere")
+    with pytest.raises(ValueError, match="^image: a cube map is .* a 50x30 image is no cube layout"):
+        spheremap.convert(np.zeros((30, 50, 3), np.float32), "cube", "sphere")
+    with pytest.raises(ValueError, match="^image layout: "):
+        spheremap.convert(cube[0], "cube", "sphere", src_layout="zigzag")
+    with pytest.raises(ValueError, match="^src_layout: only for src='cube'"):
+        spheremap.convert(hdri, "latlong", "sphere", src_layout="hcross")
+    # Six one-channel faces without a channel axis are still faces.
+    one = spheremap.convert(cube[..., 0], "cube", "sphere", size=32)
+    np.testing.assert_array_equal(one[..., 0], spheremap.convert(cube[..., :1], "cube", "sphere", size=32)[..., 0])
+
+
 def test_furnace_and_single_channel():
     const = np.full((32, 64), 2.5, np.float32)
     for dst in spheremap.MAPPINGS:

@@ -387,13 +387,16 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
             look=None, up=None, yaw: float | None = None, pitch: float | None = None,
             roll: float | None = None, src_look=None, src_up=None,
             src_preset: str | None = None, dst_preset: str | None = None,
+            src_layout: str | None = None,
             seed: int = 0, precision: str = "f32", nonfinite: str = "error",
             max_memory: int | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Converts an environment map between mappings (the engine of ``spheremap convert``).
 
     image: (H, W, C) float32/float64, C = 1..4 (an (H, W) array is one channel), in `src`'s
         canvas; for src="cube" a (6, F, F, C) array of faces in GL order +X, -X, +Y, -Y, +Z, -Z
-        (GL/KTX face orientation; use `cube_from_layout` for crosses and strips).
+        (GL/KTX face orientation), or one image in a layout: `src_layout` (one of CUBE_LAYOUTS)
+        names it, else its shape does as the CLI's does (1:6 vstrip, 4:3 hcross, 3:4 vcross; a
+        6:1 image is hstrip or horizon and must be named).
     src, dst: one of MAPPINGS; src_preset / dst_preset name their conventions (see the README).
     size: N of the output (sphere N x N, latlong 2N x N, cube faces N x N, ...); default from
         the input.
@@ -423,9 +426,10 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     _choice(outside, "outside", ("gutter", "black"))
     _choice(precision, "precision", ("f32", "f64"))
     a = _floats(image, "image")
+    if src_layout is not None and src != "cube":
+        raise ValueError(f"src_layout: only for src='cube', not {src!r}")
     if src == "cube":
-        if a.ndim == 3:
-            a = a[..., None]
+        a = _cube_faces(a, src_layout, "image")
         if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2] or not 1 <= a.shape[3] <= 4:
             raise ValueError(f"image: a cube map is (6, F, F, C) with C in 1..4, got shape {a.shape}")
         a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
@@ -464,6 +468,37 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
         f = res.shape[1]
         res = res.reshape(6, f, f, res.shape[2])
     return res
+
+
+def _cube_layout_of(shape, name: str) -> str:
+    """The cube layout an image's shape implies, by the core's rule (cube::Layout::from_shape)."""
+    h, w = shape[0], shape[1]
+    if w > 0 and h == 6 * w:
+        return "vstrip"
+    if h > 0 and 3 * w == 4 * h and w % 4 == 0:
+        return "hcross"
+    if w > 0 and 4 * w == 3 * h and w % 3 == 0:
+        return "vcross"
+    if h > 0 and w == 6 * h:
+        raise ValueError(f"{name}: a {w}x{h} image could be 'hstrip' (GL faces) or 'horizon' (py360convert); "
+                         f"name its layout")
+    raise ValueError(f"{name}: a cube map is (6, F, F, C) faces or one image in a layout, and a {w}x{h} image is "
+                     f"no cube layout (vstrip 1:6, hstrip/horizon 6:1, hcross 4:3, vcross 3:4 with square faces)")
+
+
+def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:
+    """A cube map given as faces or as one image in a layout -> (6, F, F, C) (or the array
+    unchanged when it is neither, for the caller's shape error)."""
+    if layout is not None:
+        _choice(layout, f"{name} layout", CUBE_LAYOUTS)
+        if a.ndim not in (2, 3):
+            raise ValueError(f"{name}: a cube map in a layout is (H, W) or (H, W, C), got shape {a.shape}")
+        return cube_from_layout(a, layout)
+    if a.ndim == 3 and a.shape[0] == 6 and a.shape[1] == a.shape[2]:
+        return a[..., None]  # six one-channel faces
+    if a.ndim == 2 or (a.ndim == 3 and 1 <= a.shape[2] <= 4):
+        return cube_from_layout(a, _cube_layout_of(a.shape, name))
+    return a
 
 
 def cube_from_layout(image, layout: str) -> np.ndarray:
@@ -873,7 +908,7 @@ def _env_image(env, env_format: str, linear: bool) -> np.ndarray:
         a = _floats(env, "env")
     if env_format == "cube":
         if a.ndim == 3 and a.shape[1] * 6 != a.shape[0]:
-            a = cube_from_layout(a, _guess_layout(a.shape))
+            a = _cube_faces(a, None, "env")
         if a.ndim == 4:
             if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
                 raise ValueError(f"env: a cube map is (6, F, F, C), got shape {a.shape}")
@@ -884,14 +919,6 @@ def _env_image(env, env_format: str, linear: bool) -> np.ndarray:
         raise ValueError(f"env: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
     a = _nonfinite(a, "error", "env")
     return np.ascontiguousarray(a, dtype=np.float32)
-
-
-def _guess_layout(shape) -> str:
-    h, w = shape[0], shape[1]
-    for layout, (cw, ch) in {"hcross": (4, 3), "vcross": (3, 4), "hstrip": (6, 1), "vstrip": (1, 6)}.items():
-        if w * ch == h * cw:
-            return layout
-    raise ValueError(f"env: cannot tell the cube layout of a {w}x{h} image; pass (6, F, F, C) faces")
 
 
 def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere",

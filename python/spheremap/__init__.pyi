@@ -67,6 +67,7 @@ def convert(image: npt.ArrayLike, src: str, dst: str, *, size: int | None = None
             yaw: float | None = None, pitch: float | None = None, roll: float | None = None,
             src_look: npt.ArrayLike | None = None, src_up: npt.ArrayLike | None = None,
             src_preset: str | None = None, dst_preset: str | None = None,
+            src_layout: str | None = None,
             seed: int = 0, precision: str = "f32", nonfinite: str = "error",
             max_memory: int | None = None,
             out: npt.NDArray[np.float32] | None = None) -> npt.NDArray[np.float32]: ...
