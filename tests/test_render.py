@@ -147,3 +147,22 @@ def test_python_render_errors(teapot):
     a = sm.render((p, None, t), mode="normals", size=(32, 32))
     b = sm.render((p, n, t), mode="normals", size=(32, 32))
     assert a.shape == b.shape == (32, 32, 3)
+
+
+def test_python_render_takes_a_cube_env_in_any_layout(teapot):
+    """A cube env as (6, F, F, C) faces, or one image in a layout (env_layout, or implied by its
+    shape as in convert), draws the same picture; a 6:1 image must be named."""
+    p, n, t = teapot
+    hdri = sm.read_image("testdata/apartment.exr")
+    faces = sm.convert(hdri, "latlong", "cube", size=16)
+    kw = dict(mode="per-pixel", env_format="cube", size=(48, 32))
+    want = sm.render((p, n, t), faces, **kw)
+    assert want.std() > 0.01
+    for layout in sm.CUBE_LAYOUTS:
+        img = sm.cube_to_layout(faces, layout)
+        np.testing.assert_array_equal(sm.render((p, n, t), img, env_layout=layout, **kw), want, err_msg=layout)
+    np.testing.assert_array_equal(sm.render((p, n, t), sm.cube_to_layout(faces, "vcross"), **kw), want)
+    with pytest.raises(ValueError, match="^env: a 96x16 image could be 'hstrip'"):
+        sm.render((p, n, t), sm.cube_to_layout(faces, "hstrip"), **kw)
+    with pytest.raises(ValueError, match="^env_layout: only for env_format='cube'"):
+        sm.render((p, n, t), hdri, mode="per-pixel", env_format="latlong", env_layout="hcross")

@@ -901,14 +901,14 @@ def _mesh_arrays(mesh):
     return p, n, np.ascontiguousarray(t, dtype=np.uint32)
 
 
-def _env_image(env, env_format: str, linear: bool) -> np.ndarray:
+def _env_image(env, env_format: str, linear: bool, layout: str | None = None) -> np.ndarray:
     if isinstance(env, (str, os.PathLike)):
         a = read_image(env, linear=linear)
     else:
         a = _floats(env, "env")
     if env_format == "cube":
-        if a.ndim == 3 and a.shape[1] * 6 != a.shape[0]:
-            a = _cube_faces(a, None, "env")
+        if layout is not None or (a.ndim == 3 and a.shape[1] * 6 != a.shape[0]):
+            a = _cube_faces(a, layout, "env")
         if a.ndim == 4:
             if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
                 raise ValueError(f"env: a cube map is (6, F, F, C), got shape {a.shape}")
@@ -925,12 +925,14 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
            env_preset: str | None = None, matcap_variant: str = "classic", eye=None, target=None,
            up=None, fovy: float = 40.0, near: float | None = None, far: float | None = None,
            size=(512, 512), background=(0.0, 0.0, 0.0), aa: int = 1, wrap: str = "clamp-to-edge",
-           linear: bool = False) -> np.ndarray:
+           linear: bool = False, env_layout: str | None = None) -> np.ndarray:
     """Draws a mesh with the CPU rasterizer (``spheremap render``; see the README).
 
     mesh: a path (OBJ, glTF/GLB) or (positions (N, 3), normals (N, 3) or None, triangles (M, 3)).
     env: the sphere map (per-vertex, per-pixel), MatCap image (matcap) or environment map in
-        `env_format` (per-pixel), as an array or a path; not needed for normals and error.
+        `env_format` (per-pixel), as an array or a path; not needed for normals and error. A
+        cube map is (6, F, F, C) faces or one image in a layout (`env_layout`, one of
+        CUBE_LAYOUTS, or implied by its shape as in `convert`).
     mode: one of RENDER_MODES. per-vertex is OpenGL's fixed-function GL_SPHERE_MAP path
         (texgen per vertex, (s, t) interpolated, GL_LINEAR); per-pixel the reflection vector per
         pixel (a sphere map in eye space, other mappings in world space).
@@ -950,7 +952,9 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
                          "convert the map to a sphere map first")
     if env is None and mode not in ("normals", "error"):
         raise ValueError(f"env: mode {mode!r} needs an environment map")
-    e = None if env is None else _env_image(env, env_format, linear)
+    if env_layout is not None and env_format != "cube":
+        raise ValueError(f"env_layout: only for env_format='cube', not {env_format!r}")
+    e = None if env is None else _env_image(env, env_format, linear, env_layout)
     try:
         w, h = (int(v) for v in size)
     except (TypeError, ValueError):

@@ -137,7 +137,7 @@ def render(mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | N
            up: npt.ArrayLike | None = None, fovy: float = 40.0, near: float | None = None,
            far: float | None = None, size: tuple[int, int] = (512, 512),
            background: npt.ArrayLike = (0.0, 0.0, 0.0), aa: int = 1, wrap: str = "clamp-to-edge",
-           linear: bool = False) -> npt.NDArray[np.float32]: ...
+           linear: bool = False, env_layout: str | None = None) -> npt.NDArray[np.float32]: ...
 def analyze(map: _Photo | None = None, *, mapping: str = "sphere", preset: str | None = None,
             size: int = 256, mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike] | None = None,
             eye: npt.ArrayLike | None = None, target: npt.ArrayLike | None = None,
