@@ -297,3 +297,68 @@ def test_outputs_never_overwrite_inputs(tmp_path):
         assert sph.read_bytes() == before
     r = cli("render", TEAPOT, "--env", sph, "--size", 8, 8, "--force", "-q", "-o", sph)
     assert r.returncode == 0, r.stderr
+
+
+def test_maps_record_their_mapping(tmp_path):
+    """convert notes the mapping, preset and cube layout or face in what it writes: info shows
+    it (not a guess), a later convert needs no --from, and other readers open the files."""
+    import json
+
+    from PIL import Image
+
+    hdri = "testdata/apartment.exr"
+    for ext in ["exr", "png", "jpg", "hdr"]:
+        out = tmp_path / f"s.{ext}"
+        r = cli("convert", hdri, out, "--from", "latlong", "--to", "sphere", "--preset", "skylibs", "--size", 32, "-q")
+        assert r.returncode == 0, r.stderr
+        info = json.loads(cli("info", out, "--json").stdout)
+        assert info["recorded"] == {"mapping": "sphere", "preset": "skylibs", "layout": None, "face": None,
+                                    "look": None, "up": None}, ext
+        assert sm.info(out)["recorded"] == info["recorded"]
+        assert "recorded in the file by spheremap" in cli("info", out).stdout
+        # Without --from: read as what it records (a skylibs sphere map), so the round trip
+        # to a GL sphere map matches the direct conversion.
+        back = tmp_path / f"gl_{ext}.exr"
+        r = cli("convert", out, back, "--to", "sphere", "--size", 32, "--samples", 1, "--json")
+        assert r.returncode == 0, r.stderr
+        assert (json.loads(r.stdout)["from"], json.loads(r.stdout)["from_preset"]) == ("sphere", "skylibs")
+        if ext in ("png", "jpg"):
+            with Image.open(out) as im:  # an independent reader
+                im.load()
+                assert im.size == (32, 32)
+                if ext == "png":
+                    assert im.text.get("spheremap") == "mapping=sphere preset=skylibs"
+    direct = sm.convert(sm.read_image(hdri), "latlong", "sphere", size=32)
+    gl = sm.read_image(tmp_path / "gl_exr.exr")
+    assert np.median(np.abs(gl - direct)) < 0.2 * np.median(np.abs(gl - direct[:, ::-1]))
+    # A --from that disagrees with the note is obeyed, with a one-line note.
+    r = cli("convert", tmp_path / "s.exr", tmp_path / "x.exr", "--from", "angular", "--to", "latlong", "--size", 8)
+    assert r.returncode == 0 and "records mapping sphere (preset skylibs); converting it as angular" in r.stderr, r.stderr
+    # A cube layout and face files record theirs; both convert back without --from.
+    r = cli("convert", hdri, tmp_path / "c.png", "--from", "latlong", "--to", "cube", "--layout", "vcross", "--size", 8, "-q")
+    assert r.returncode == 0, r.stderr
+    assert sm.info(tmp_path / "c.png")["recorded"]["layout"] == "vcross"
+    r = cli("convert", hdri, tmp_path / "f_{posx}.exr", "--from", "latlong", "--to", "cube", "--size", 8, "-q")
+    assert r.returncode == 0, r.stderr
+    assert sm.info(tmp_path / "f_negy.exr")["recorded"]["face"] == "ny"
+    for src in ["c.png", "f_{posx}.exr"]:
+        r = cli("convert", tmp_path / src, tmp_path / "o.exr", "--to", "sphere", "--size", 16, "-q")
+        assert r.returncode == 0, (src, r.stderr)
+    # A map made for a turned view records it, and converts back to the world frame unasked.
+    r = cli("convert", hdri, tmp_path / "v.exr", "--from", "latlong", "--to", "sphere", "--size", 64,
+            "--look", 1, 0.5, -1, "--up", 0, 1, 0.2, "-q")
+    assert r.returncode == 0, r.stderr
+    rec = sm.info(tmp_path / "v.exr")["recorded"]
+    assert rec["look"] is not None and np.dot(rec["look"], [1, 0.5, -1]) / np.linalg.norm([1, 0.5, -1]) > 0.999999
+    r = cli("convert", tmp_path / "v.exr", tmp_path / "w.exr", "--to", "latlong", "--size", 32, "-q")
+    assert r.returncode == 0, r.stderr
+    world = sm.convert(sm.read_image(hdri), "latlong", "latlong", size=32)
+    ll = sm.read_image(tmp_path / "w.exr")
+    unturned = sm.convert(sm.read_image(tmp_path / "v.exr"), "sphere", "latlong", size=32)
+    assert np.median(np.abs(ll - world)) < 0.25 * np.median(np.abs(unturned - world))
+    # A file without a note needs --from, and says so.
+    sm.write_image(tmp_path / "plain.exr", np.ones((8, 16, 3), np.float32))
+    assert sm.info(tmp_path / "plain.exr")["recorded"] is None
+    r = cli("convert", tmp_path / "plain.exr", tmp_path / "p.exr", "--to", "sphere")
+    assert r.returncode == 2 and "records no mapping" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert not (tmp_path / "p.exr").exists()

@@ -275,7 +275,10 @@ def info(path, *, linear: bool = False) -> dict:
     None where there are none), ``nan``, ``inf``, ``negative``, ``first_non_finite`` ((x, y) or
     None) and ``mapping_guess`` (``name``, ``reason``, ``is_a_guess``: True — from the shape and,
     for a square image, whether its corners are empty or mirror the disc, never read from the
-    file). LDR statistics are of the sRGB-decoded values unless `linear`.
+    file) and ``recorded``: the ``mapping``, ``preset``, cube ``layout`` or ``face``, and the
+    view's ``look`` and ``up`` (None for the identity view) that spheremap noted in the file
+    when it wrote it (EXR, PNG, JPEG, HDR), or None. LDR statistics
+    are of the sRGB-decoded values unless `linear`.
 
     Raises FileNotFoundError for a missing file and spheremap.DataError for one spheremap
     cannot read.

@@ -5,7 +5,7 @@ use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{
-    check_nonfinite_env, default_size, read_env_files, split_paths, write_env_files,
+    check_nonfinite_env, default_size, read_env_files, recorded, split_paths, write_env_files,
 };
 use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
@@ -22,9 +22,10 @@ pub struct Args {
     /// bottom front back; front = +Z) or {index} (0-5).
     #[arg(required = true, num_args = 2..=12, value_names = ["IN", "OUT"])]
     paths: Vec<String>,
-    /// Input mapping: sphere, latlong, cube, angular, paraboloid, octahedral.
+    /// Input mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: the
+    /// mapping (and preset, and cube layout) that spheremap recorded in IN when it wrote it.
     #[arg(long)]
-    from: String,
+    from: Option<String>,
     /// Output mapping (same names).
     #[arg(long)]
     to: String,
@@ -78,10 +79,42 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let src = Mapping::parse(&a.from, a.from_preset.as_deref()).context("--from/--from-preset")?;
+    // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset and
+    // --from-layout, and a check on them when given.
+    let recorded = a.paths.first().and_then(|p| recorded(p));
+    let src = match (&a.from, &recorded) {
+        (Some(f), _) => Mapping::parse(f, a.from_preset.as_deref()),
+        (None, Some(t)) => Mapping::parse(
+            t.mapping.name(),
+            Some(a.from_preset.as_deref().unwrap_or(t.mapping.preset_name())),
+        ),
+        (None, None) => bail!(
+            "--from: {} records no mapping (spheremap records one in the EXR, PNG, JPEG and HDR \
+             maps it writes); name it with --from",
+            a.paths[0]
+        ),
+    }
+    .context("--from/--from-preset")?;
+    if let (Some(t), false) = (&recorded, a.job.quiet) {
+        if (t.mapping.name(), t.mapping.preset_name()) != (src.name(), src.preset_name()) {
+            eprintln!(
+                "note: {} records mapping {} (preset {}); converting it as {} (preset {})",
+                a.paths[0],
+                t.mapping.name(),
+                t.mapping.preset_name(),
+                src.name(),
+                src.preset_name()
+            );
+        }
+    }
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
-    let from_layout = a.from_layout.as_deref().map(Layout::parse).transpose()?;
+    let from_layout = match a.from_layout.as_deref() {
+        Some(l) => Some(Layout::parse(l)?),
+        None => recorded
+            .and_then(|t| t.layout)
+            .filter(|_| matches!(src, Mapping::Cube(_))),
+    };
     let precision = Precision::parse(&a.precision)?;
     let ypr = (a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some()).then(|| {
         [
@@ -90,13 +123,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.roll.unwrap_or(0.0),
         ]
     });
-    let rotation = view::conversion_rotation(
-        vec3(&a.look),
-        vec3(&a.up),
-        ypr,
-        vec3(&a.from_look),
-        vec3(&a.from_up),
-    )?;
+    // The input's view: --from-look/--from-up, else the one IN records (when the note is what
+    // IN is read as).
+    let note_applies = recorded.is_some_and(|t| {
+        (t.mapping.name(), t.mapping.preset_name()) == (src.name(), src.preset_name())
+    });
+    let (from_look, from_up) = match (vec3(&a.from_look), recorded.and_then(|t| t.view)) {
+        (None, Some((l, u))) if note_applies && a.from_up.is_none() => (Some(l), Some(u)),
+        _ => (vec3(&a.from_look), vec3(&a.from_up)),
+    };
+    let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), ypr, from_look, from_up)?;
+    let out_view = view::output_view(vec3(&a.look), vec3(&a.up), ypr)?;
     let (input, output) = split_paths(
         &a.paths,
         matches!(src, Mapping::Cube(_)),
@@ -141,7 +178,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     })?;
     let seconds = t0.elapsed().as_secs_f64();
     let wopts = a.job.write_options(a.linear);
-    let written = write_env_files(&output, dst, &out, layout, &wopts)?;
+    let written = write_env_files(&output, dst, &out, layout, &out_view, &wopts)?;
     if a.job.json {
         let v = serde_json::json!({
             "input": label, "inputs": input.paths(), "output": written,

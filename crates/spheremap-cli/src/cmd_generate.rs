@@ -91,7 +91,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (w, h) = dst.canvas(a.size);
     let (out, report) = run_generate(dst, w, h, source, &opts, show, "ray tracing")?;
     let seconds = t0.elapsed().as_secs_f64();
-    let mut written = write_env(&a.output, dst, &out, layout, &wopts)?;
+    let mut written = write_env(&a.output, dst, &out, layout, &rotation, &wopts)?;
     if let Some(dir) = &a.faces_out {
         // The cube faces are made in the world frame (no view), as the seed's six cameras.
         let cube = Mapping::parse("cube", None)?;
@@ -106,7 +106,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         };
         let (faces, _) = run_generate(cube, f, 6 * f, source, &fo, show, "cube faces")?;
         let pattern = dir.join("{face}.exr").display().to_string();
-        written.extend(write_env(&pattern, cube, &faces, None, &wopts)?);
+        written.extend(write_env(&pattern, cube, &faces, None, &IDENTITY, &wopts)?);
     }
     summary(&a, dst, w, h, &report, seconds, &written, scene);
     Ok(())

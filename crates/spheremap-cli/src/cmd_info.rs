@@ -1,4 +1,5 @@
 use spheremap::image_io::{inspect, ReadOptions};
+use spheremap::tag::MapTag;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -26,6 +27,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ..Default::default()
         },
     )?;
+    let recorded = i.tag.as_deref().and_then(MapTag::parse);
     let mut o = String::new();
     let mismatch = i.extension_mismatch.map(|f| f.name());
     if a.json {
@@ -48,6 +50,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "negative": i.negative_count,
             "first_non_finite": i.first_non_finite,
             "mapping_guess": {"name": i.mapping_guess.0, "reason": i.mapping_guess.1, "is_a_guess": true},
+            "recorded": recorded.map(|t| serde_json::json!({
+                "mapping": t.mapping.name(), "preset": t.mapping.preset_name(),
+                "layout": t.layout.map(|l| l.name()),
+                "face": t.face.map(|f| spheremap::cube::FACE_NAMES[f]),
+                "look": t.view.map(|v| v.0), "up": t.view.map(|v| v.1),
+            })),
         });
         let _ = writeln!(o, "{v}");
     } else {
@@ -80,11 +88,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .map_or(String::new(), |(x, y)| format!(" (first at x={x}, y={y})"))
         );
         let _ = writeln!(o, "  negative values: {}", i.negative_count);
-        let _ = writeln!(
-            o,
-            "  mapping (a guess from the shape, not read from the file): {} — {}",
-            i.mapping_guess.0, i.mapping_guess.1
-        );
+        match recorded {
+            Some(t) => {
+                let _ = writeln!(
+                    o,
+                    "  mapping (recorded in the file by spheremap when it wrote it): {}",
+                    t.text()
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    o,
+                    "  mapping (a guess from the shape, not read from the file): {} — {}",
+                    i.mapping_guess.0, i.mapping_guess.1
+                );
+            }
+        }
     }
     crate::out(&o);
     if a.check {

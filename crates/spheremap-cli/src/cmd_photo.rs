@@ -112,11 +112,13 @@ impl MapOut {
     fn write(&self, dst: Mapping, map: &Image, mask: &Image) -> anyhow::Result<Vec<String>> {
         let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
         let wopts = self.job.write_options(self.linear);
-        let mut written = write_env(&self.output, dst, map, layout, &wopts)?;
+        // The map's view, in the camera's frame (what `options` turned into the rotation).
+        let view = view::output_view(vec3(&self.look), vec3(&self.up), None)?;
+        let mut written = write_env(&self.output, dst, map, layout, &view, &wopts)?;
         if let Some(m) = &self.mask {
             // The mask is data: written linear whatever the format.
             let mopts = self.job.write_options(true);
-            written.extend(write_env(m, dst, mask, layout, &mopts)?);
+            written.extend(write_env(m, dst, mask, layout, &view, &mopts)?);
         }
         Ok(written)
     }

@@ -694,6 +694,20 @@ fn info<'py>(
     g.set_item("reason", i.mapping_guess.1)?;
     g.set_item("is_a_guess", true)?;
     d.set_item("mapping_guess", g)?;
+    let recorded = i.tag.as_deref().and_then(spheremap::tag::MapTag::parse);
+    match recorded {
+        Some(t) => {
+            let r = PyDict::new(py);
+            r.set_item("mapping", t.mapping.name())?;
+            r.set_item("preset", t.mapping.preset_name())?;
+            r.set_item("layout", t.layout.map(|l| l.name()))?;
+            r.set_item("face", t.face.map(|f| spheremap::cube::FACE_NAMES[f]))?;
+            r.set_item("look", t.view.map(|v| v.0))?;
+            r.set_item("up", t.view.map(|v| v.1))?;
+            d.set_item("recorded", r)?;
+        }
+        None => d.set_item("recorded", py.None())?,
+    }
     Ok(d)
 }
 

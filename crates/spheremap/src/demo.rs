@@ -81,15 +81,18 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         "apartment.exr",
     )?;
     let look = [0, 1, 2].map(|k| DEMO_TARGET[k] - DEMO_EYE[k]);
+    let view = crate::view::look_up(look, DEMO_UP)?;
     let opts = crate::resample::ResampleOptions {
-        rotation: crate::view::look_up(look, DEMO_UP)?,
+        rotation: view,
         ..Default::default()
     };
     let sphere = crate::Mapping::parse("sphere", None)?;
     let (map, _) = crate::resample::resample(&src, sphere, chart_size, chart_size, &opts, None)?;
+    // Written as `convert` writes maps: with the note of their mapping and view (crate::tag).
     for name in ["apartment_sphere.exr", "apartment_sphere.png"] {
         let p = outdir.join(name);
-        crate::image_io::write_image(&p, &map, &Default::default())?;
+        let path = p.display().to_string();
+        crate::envio::write_env(&path, sphere, &map, None, &view, &Default::default())?;
         files.push(p);
     }
     // The teapot drawn with that sphere map by the rasterizer, from the demo camera: OpenGL's
@@ -110,7 +113,9 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         crate::generate::generate(sphere, chart_size, chart_size, &scene, &gopts, None)?;
     for name in ["raytraced_sphere.exr", "raytraced_sphere.png"] {
         let p = outdir.join(name);
-        crate::image_io::write_image(&p, &traced, &Default::default())?;
+        let path = p.display().to_string();
+        let identity = crate::view::IDENTITY;
+        crate::envio::write_env(&path, sphere, &traced, None, &identity, &Default::default())?;
         files.push(p);
     }
     let nan_texcoords = st

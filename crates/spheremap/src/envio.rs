@@ -5,10 +5,11 @@
 use crate::cube::{self, Layout};
 use crate::error::{Error, Result};
 use crate::image_io::{
-    check_nonfinite, encode, find_nonfinite, read_image, write_image, Format, Image, NonFinite,
-    ReadOptions, WriteOptions,
+    check_nonfinite, encode_tagged, find_nonfinite, read_image, write_image_tagged, Format, Image,
+    NonFinite, ReadOptions, WriteOptions,
 };
 use crate::mapping::Mapping;
+use crate::tag::MapTag;
 use std::path::Path;
 
 /// The file or files that hold one environment map.
@@ -191,19 +192,22 @@ pub fn read_env_files(
     Ok(img)
 }
 
-/// Writes a canvas of `mapping` (cube: face stack) to `path`: six files for a face pattern,
-/// else one image (cube maps in `layout`, default hcross).  The output paths are returned.
+/// Writes a canvas of `mapping` (cube: face stack), made for `view` ([`crate::view`]; the
+/// identity for the world frame), to `path`: six files for a face pattern, else one image
+/// (cube maps in `layout`, default hcross).  The output paths are returned.
 pub fn write_env(
     path: &str,
     mapping: Mapping,
     img: &Image,
     layout: Option<Layout>,
+    view: &crate::view::Mat3,
     opts: &WriteOptions,
 ) -> Result<Vec<String>> {
-    write_env_files(&EnvFiles::parse(path), mapping, img, layout, opts)
+    write_env_files(&EnvFiles::parse(path), mapping, img, layout, view, opts)
 }
 
-/// [`write_env`] to [`EnvFiles`].  Written atomically: six faces are all encoded, then all
+/// [`write_env`] to [`EnvFiles`].  Every file records its mapping, preset and cube layout or
+/// face ([`crate::tag`]).  Written atomically: six faces are all encoded, then all
 /// written beside their targets and renamed into place together
 /// ([`crate::io::atomic_write_all`]), so a bad extension or a failed write leaves none of them.
 pub fn write_env_files(
@@ -211,15 +215,32 @@ pub fn write_env_files(
     mapping: Mapping,
     img: &Image,
     layout: Option<Layout>,
+    view: &crate::view::Mat3,
     opts: &WriteOptions,
 ) -> Result<Vec<String>> {
+    let view = crate::view::as_look_up(view);
     files.check_output(mapping)?;
     let path = match files {
         EnvFiles::Faces { files: paths, .. } => {
             let bytes = paths
                 .iter()
                 .zip(cube::split_stack(img))
-                .map(|(p, face)| encode(Path::new(p), &face, output_format(p)?, opts))
+                .enumerate()
+                .map(|(i, (p, face))| {
+                    let tag = MapTag {
+                        mapping,
+                        layout: None,
+                        face: Some(i),
+                        view,
+                    };
+                    encode_tagged(
+                        Path::new(p),
+                        &face,
+                        output_format(p)?,
+                        opts,
+                        Some(&tag.text()),
+                    )
+                })
                 .collect::<Result<Vec<_>>>()?;
             let writes: Vec<(&Path, &[u8])> = paths
                 .iter()
@@ -232,14 +253,29 @@ pub fn write_env_files(
         EnvFiles::One(p) => p,
     };
     let owned;
+    let mut tag = MapTag {
+        mapping,
+        layout: None,
+        face: None,
+        view,
+    };
     let out = if let Mapping::Cube(_) = mapping {
-        owned = layout.unwrap_or(Layout::HCross).from_stack(img)?;
+        let layout = layout.unwrap_or(Layout::HCross);
+        tag.layout = Some(layout);
+        owned = layout.from_stack(img)?;
         &owned
     } else {
         img
     };
-    write_image(Path::new(path), out, opts)?;
+    write_image_tagged(Path::new(path), out, opts, Some(&tag.text()))?;
     Ok(vec![path.to_string()])
+}
+
+/// The mapping the file `path` names records ([`crate::tag`]; for a face pattern, its first
+/// face's file), if it records one.
+pub fn recorded(path: &str) -> Option<MapTag> {
+    let files = EnvFiles::parse(path);
+    MapTag::parse(&crate::tag::read_file(Path::new(files.first()))?)
 }
 
 /// The format an output path's extension asks for (one spheremap writes: not WebP).

@@ -449,6 +449,16 @@ fn decode_pfm(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Image> {
 
 /// Writes an image; the format follows the extension.
 pub fn write_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<()> {
+    write_image_tagged(path, img, opts, None)
+}
+
+/// [`write_image`] with a note recorded in the file ([`crate::tag`]: the mapping it holds).
+pub fn write_image_tagged(
+    path: &Path,
+    img: &Image,
+    opts: &WriteOptions,
+    tag: Option<&str>,
+) -> Result<()> {
     let format = Format::from_extension(path).ok_or_else(|| {
         Error::param(
             "output",
@@ -464,7 +474,7 @@ pub fn write_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<()> 
     if img.width == 0 || img.height == 0 {
         return Err(Error::param("image", "empty image"));
     }
-    let bytes = encode(path, img, format, opts)?;
+    let bytes = encode_tagged(path, img, format, opts, tag)?;
     atomic_write(path, |f| {
         f.write_all(&bytes).map_err(|e| Error::io(path, e))
     })
@@ -472,12 +482,24 @@ pub fn write_image(path: &Path, img: &Image, opts: &WriteOptions) -> Result<()> 
 
 /// Encodes into memory in `format`.
 pub fn encode(path: &Path, img: &Image, format: Format, opts: &WriteOptions) -> Result<Vec<u8>> {
+    encode_tagged(path, img, format, opts, None)
+}
+
+/// [`encode`] with a note recorded in the file where the format has a place for one
+/// ([`crate::tag`]).
+pub fn encode_tagged(
+    path: &Path,
+    img: &Image,
+    format: Format,
+    opts: &WriteOptions,
+    tag: Option<&str>,
+) -> Result<Vec<u8>> {
     let bad =
         |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
     let mut buf = Cursor::new(Vec::new());
     let (w, h, c) = (img.width as u32, img.height as u32, img.channels);
     match format {
-        Format::Exr => encode_exr(path, img, opts.half, &mut buf)?,
+        Format::Exr => encode_exr(path, img, opts.half, tag, &mut buf)?,
         Format::Pfm => encode_pfm(img, &mut buf),
         Format::Hdr => {
             let rgb = to_rgb(img);
@@ -549,7 +571,11 @@ pub fn encode(path: &Path, img: &Image, format: Format, opts: &WriteOptions) -> 
             ))
         }
     }
-    Ok(buf.into_inner())
+    let bytes = buf.into_inner();
+    Ok(match tag {
+        Some(t) if format != Format::Exr => crate::tag::insert(format, bytes, t),
+        _ => bytes,
+    })
 }
 
 /// RGB values of any image (grey repeated, alpha dropped).
@@ -570,6 +596,7 @@ fn encode_exr(
     path: &Path,
     img: &crate::image_io::Image,
     half: bool,
+    tag: Option<&str>,
     buf: &mut Cursor<Vec<u8>>,
 ) -> Result<()> {
     use exr::prelude::*;
@@ -586,9 +613,16 @@ fn encode_exr(
     let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = (0..c)
         .map(|k| AnyChannel::new(names[k], plane(k)))
         .collect();
+    let mut attributes = LayerAttributes::default();
+    if let Some(t) = tag {
+        attributes.other.insert(
+            Text::from(crate::tag::KEY),
+            AttributeValue::Text(Text::from(t)),
+        );
+    }
     let layer = Layer::new(
         (w, h),
-        LayerAttributes::default(),
+        attributes,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
@@ -637,6 +671,8 @@ pub struct Inspection {
     pub first_non_finite: Option<(usize, usize)>,
     /// A guess of the environment mapping, labelled as such.
     pub mapping_guess: (&'static str, &'static str),
+    /// The note spheremap recorded in the file when it wrote it ([`crate::tag`]), as text.
+    pub tag: Option<String>,
 }
 
 /// Reads a file and describes it.
@@ -686,6 +722,7 @@ pub fn inspect(path: &Path, opts: &ReadOptions) -> Result<Inspection> {
         negative_count: neg,
         first_non_finite: first,
         mapping_guess: guess_mapping(&img),
+        tag: crate::tag::read(&bytes),
     })
 }
 

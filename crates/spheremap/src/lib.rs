@@ -47,6 +47,7 @@ pub mod resample;
 pub mod scene;
 pub mod shader;
 pub mod sphere;
+pub mod tag;
 pub mod texgen;
 pub mod tonemap;
 pub mod view;

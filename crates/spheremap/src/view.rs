@@ -112,7 +112,23 @@ pub fn conversion_rotation(
     src_up: Option<[f64; 3]>,
 ) -> Result<Mat3> {
     const Y: [f64; 3] = [0.0, 1.0, 0.0];
-    let dst = match (look, yaw_pitch_roll_deg) {
+    let dst = output_view(look, up, yaw_pitch_roll_deg)?;
+    let src = match src_look {
+        Some(l) => look_up(l, src_up.unwrap_or(Y))?,
+        None => IDENTITY,
+    };
+    Ok(between(&src, &dst))
+}
+
+/// The view of a map made for `look`/`up` or yaw/pitch/roll (neither: the identity), as the
+/// options of [`conversion_rotation`] give it.
+pub fn output_view(
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+    yaw_pitch_roll_deg: Option<[f64; 3]>,
+) -> Result<Mat3> {
+    const Y: [f64; 3] = [0.0, 1.0, 0.0];
+    Ok(match (look, yaw_pitch_roll_deg) {
         (Some(_), Some(_)) => {
             return Err(Error::param(
                 "look",
@@ -125,12 +141,19 @@ pub fn conversion_rotation(
             return Err(Error::param("up", "needs look (the direction of the view)"))
         }
         (None, None) => IDENTITY,
-    };
-    let src = match src_look {
-        Some(l) => look_up(l, src_up.unwrap_or(Y))?,
-        None => IDENTITY,
-    };
-    Ok(between(&src, &dst))
+    })
+}
+
+/// A view as the `look` and `up` world vectors that [`look_up`] turns back into it (the eye's
+/// −Z and +Y columns); `None` for the identity view (to rounding).
+pub fn as_look_up(view: &Mat3) -> Option<([f64; 3], [f64; 3])> {
+    let identity = (0..3).all(|i| (0..3).all(|j| (view[i][j] - IDENTITY[i][j]).abs() < 1e-12));
+    (!identity).then(|| {
+        (
+            [0, 1, 2].map(|i| -view[i][2]),
+            [0, 1, 2].map(|i| view[i][1]),
+        )
+    })
 }
 
 #[cfg(test)]

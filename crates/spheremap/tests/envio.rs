@@ -7,6 +7,7 @@ use spheremap::envio::{
 };
 use spheremap::image_io::{Image, NonFinite, ReadOptions, WriteOptions};
 use spheremap::mapping::Mapping;
+use spheremap::view::IDENTITY;
 
 fn strings(v: &[&str]) -> Vec<String> {
     v.iter().map(|s| s.to_string()).collect()
@@ -106,7 +107,7 @@ fn six_named_faces_round_trip_and_a_failed_one_leaves_none() {
     };
     let img = stack(8);
     let wopts = WriteOptions::default();
-    write_env_files(&faces, cube, &img, None, &wopts).unwrap();
+    write_env_files(&faces, cube, &img, None, &IDENTITY, &wopts).unwrap();
     let back = read_env_files(&faces, cube, None, &ReadOptions::default()).unwrap();
     assert_eq!(back.data, img.data);
     // The same files through the {side} pattern.
@@ -127,7 +128,7 @@ fn six_named_faces_round_trip_and_a_failed_one_leaves_none() {
             files: std::array::from_fn(|i| files[i].clone()),
             pattern: None,
         };
-        let e = write_env_files(&bad, cube, &img, None, &wopts)
+        let e = write_env_files(&bad, cube, &img, None, &IDENTITY, &wopts)
             .unwrap_err()
             .to_string();
         assert!(e.contains("k."), "{last}: {e}");
@@ -190,4 +191,145 @@ fn tempdir() -> std::path::PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// Every map written through `write_env_files` records its mapping, preset and cube layout or
+/// face in the formats that have a place for it; the pixels are those of an untagged file.
+#[test]
+fn written_maps_record_their_mapping_and_read_back_the_same() {
+    use spheremap::cube::Layout;
+    use spheremap::image_io::{decode, encode, Format};
+    use spheremap::tag::{self, MapTag};
+    let dir = tempdir();
+    let sky = Mapping::parse("sphere", Some("skylibs")).unwrap();
+    let mut img = Image::new(16, 16, 3);
+    for (i, v) in img.data.iter_mut().enumerate() {
+        *v = (i % 97) as f32 / 97.0;
+    }
+    let ropts = ReadOptions::default();
+    // A view that is not the identity: its look/up are recorded and give the view back.
+    let (look, up) = ([0.3, -0.2, -1.7], [0.1, 1.0, 0.2]);
+    let turned = spheremap::view::look_up(look, up).unwrap();
+    for ext in ["exr", "png", "jpg", "hdr", "pfm"] {
+        let p = dir.join(format!("s.{ext}")).display().to_string();
+        write_env_files(
+            &EnvFiles::One(p.clone()),
+            sky,
+            &img,
+            None,
+            &turned,
+            &WriteOptions::default(),
+        )
+        .unwrap();
+        let got = tag::read_file(std::path::Path::new(&p)).and_then(|t| MapTag::parse(&t));
+        if ext == "pfm" {
+            assert_eq!(got, None);
+        } else {
+            let t = got.unwrap_or_else(|| panic!("{ext}: no note"));
+            assert_eq!(
+                (t.mapping.name(), t.mapping.preset_name()),
+                ("sphere", "skylibs"),
+                "{ext}"
+            );
+            assert_eq!((t.layout, t.face), (None, None));
+            let (l, u) = t.view.expect("the view is recorded");
+            // The same view, to the rounding of look_up's normalizations.
+            let back = spheremap::view::look_up(l, u).unwrap();
+            let err = (0..9).map(|k| (back[k / 3][k % 3] - turned[k / 3][k % 3]).abs());
+            assert!(err.fold(0.0, f64::max) < 1e-14, "{ext}: {back:?}");
+            assert_eq!(spheremap::envio::recorded(&p), Some(t));
+        }
+        // The note changes no pixel: the file decodes as the same image encoded without it.
+        let bytes = std::fs::read(&p).unwrap();
+        let fmt = Format::sniff(&bytes).unwrap();
+        let plain = encode(
+            std::path::Path::new(&p),
+            &img,
+            fmt,
+            &WriteOptions::default(),
+        )
+        .unwrap();
+        let a = decode(std::path::Path::new(&p), &bytes, &ropts).unwrap();
+        let b = decode(std::path::Path::new(&p), &plain, &ropts).unwrap();
+        assert_eq!(a.data, b.data, "{ext}");
+        if ext != "exr" && ext != "pfm" {
+            assert!(bytes.len() > plain.len(), "{ext}: the note is in the file");
+        }
+    }
+    // A cube in a layout records the layout; six faces record each its face.
+    let cube = Mapping::parse("cube", Some("d3d")).unwrap();
+    let p = dir.join("c.png").display().to_string();
+    write_env_files(
+        &EnvFiles::One(p.clone()),
+        cube,
+        &stack(4),
+        Some(Layout::VCross),
+        &IDENTITY,
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    let t = spheremap::envio::recorded(&p).unwrap();
+    assert_eq!(t.view, None, "the identity view is not written");
+    assert_eq!(
+        (t.mapping.preset_name(), t.layout),
+        ("d3d", Some(Layout::VCross))
+    );
+    let pattern = dir.join("f_{face}.hdr").display().to_string();
+    let faces = EnvFiles::parse(&pattern);
+    write_env_files(
+        &faces,
+        cube,
+        &stack(4),
+        None,
+        &IDENTITY,
+        &WriteOptions::default(),
+    )
+    .unwrap();
+    for (i, f) in faces.paths().iter().enumerate() {
+        let t = spheremap::envio::recorded(f).unwrap();
+        assert_eq!((t.mapping.name(), t.face), ("cube", Some(i)), "{f}");
+    }
+    assert_eq!(spheremap::envio::recorded(&pattern).unwrap().face, Some(0));
+}
+
+#[test]
+fn notes_parse_strictly_and_skip_unknown_keys() {
+    use spheremap::tag::MapTag;
+    let t = MapTag::parse("mapping=latlong preset=pbrt").unwrap();
+    assert_eq!(
+        (t.mapping.name(), t.mapping.preset_name()),
+        ("latlong", "pbrt")
+    );
+    assert_eq!(MapTag::parse(&t.text()), Some(t));
+    // A key from a later version is skipped; a missing preset is the mapping's own.
+    let t = MapTag::parse("mapping=cube preset=gl layout=horizon version=9").unwrap();
+    assert_eq!(t.layout.map(|l| l.name()), Some("horizon"));
+    assert_eq!(
+        MapTag::parse("mapping=sphere")
+            .unwrap()
+            .mapping
+            .preset_name(),
+        "gl"
+    );
+    let t = MapTag::parse("mapping=sphere look=1,0,0 up=0,1,0").unwrap();
+    assert_eq!(t.view, Some(([1.0, 0.0, 0.0], [0.0, 1.0, 0.0])));
+    assert_eq!(MapTag::parse(&t.text()), Some(t));
+    for bad in [
+        "mapping=sphere look=1,0,0",
+        "mapping=sphere look=1,0 up=0,1,0",
+        "mapping=sphere look=0,1,0 up=0,1,0",
+        "mapping=sphere look=nan,0,1 up=0,1,0",
+    ] {
+        assert_eq!(MapTag::parse(bad), None, "{bad:?}");
+    }
+    for bad in [
+        "",
+        "preset=gl",
+        "mapping=globe",
+        "mapping=sphere preset=nope",
+        "mapping=cube face=up",
+        "hello world",
+    ] {
+        assert_eq!(MapTag::parse(bad), None, "{bad:?}");
+    }
 }
