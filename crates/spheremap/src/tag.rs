@@ -11,7 +11,7 @@
 //! |---|---|---|
 //! | OpenEXR | a string attribute `spheremap` in the header | listed as an extra attribute |
 //! | PNG | a `tEXt` chunk, keyword `spheremap`, right after `IHDR` | ignored (ancillary chunk) |
-//! | JPEG | a `COM` (comment) segment right after `SOI` | ignored |
+//! | JPEG | a `COM` (comment) segment after `SOI` (and the JFIF `APP0`) | ignored |
 //! | Radiance HDR | a header line `SPHEREMAP=…` before the blank line | unknown variables skipped |
 //! | PFM | none (the format has no place for it) | – |
 //!
@@ -127,12 +127,21 @@ pub fn insert(format: Format, mut bytes: Vec<u8>, text: &str) -> Vec<u8> {
             bytes
         }
         Format::Jpeg => {
-            // After SOI (FF D8): FF FE, a 2-byte length that counts itself, the text.
+            // A COM segment: FF FE, a 2-byte length that counts itself, the text.  It goes
+            // after SOI (FF D8) and after the JFIF APP0 segment when there is one, which JFIF
+            // wants right after SOI.
             let body = format!("{KEY}: {text}");
             let mut seg = vec![0xff, 0xfe];
             seg.extend(((body.len() + 2) as u16).to_be_bytes());
             seg.extend(body.bytes());
-            bytes.splice(2..2, seg);
+            let at = match bytes.get(2..6) {
+                Some([0xff, 0xe0, hi, lo]) => 4 + u16::from_be_bytes([*hi, *lo]) as usize,
+                _ => 2,
+            };
+            if at > bytes.len() {
+                return bytes;
+            }
+            bytes.splice(at..at, seg);
             bytes
         }
         Format::Hdr => {
