@@ -302,6 +302,10 @@ fn run_image(data: &[u8]) {
             assert_eq!(img.data.len(), img.width * img.height * img.channels);
         }
     }
+    // spheremap's note in the file's header (crate::tag), and its parse.
+    if let Some(t) = spheremap::tag::read(data) {
+        let _ = spheremap::tag::MapTag::parse(&t);
+    }
 }
 
 /// OBJ, or OBJ + MTL when the input holds a line `#MTL` (the MTL follows it).
@@ -340,6 +344,9 @@ fn run_text(data: &[u8]) {
     let _ = Mapping::parse(m, p);
     let _ = Filter::parse(&text);
     let _ = spheremap::envio::env_paths(&text);
+    if let Some(t) = spheremap::tag::MapTag::parse(&text) {
+        assert_eq!(spheremap::tag::MapTag::parse(&t.text()), Some(t));
+    }
 }
 
 fn image_seeds() -> Vec<Vec<u8>> {
@@ -378,6 +385,11 @@ fn image_seeds() -> Vec<Vec<u8>> {
             if let Ok(b) = image_io::encode(Path::new("seed"), im, f, &o) {
                 seeds.push(b);
             }
+        }
+        // The same with spheremap's note (crate::tag) in the header.
+        let note = "mapping=cube preset=d3d layout=vcross look=0.5,0,-1 up=0,1,0";
+        if let Ok(b) = image_io::encode_tagged(Path::new("seed"), &img, f, &o, Some(note)) {
+            seeds.push(b);
         }
     }
     if let Ok(b) = std::fs::read(root().join("testdata/matcap_0177.webp")) {
@@ -437,6 +449,7 @@ fn targets() -> Vec<Target> {
                 "sphere:skylibs",
                 "sky_{face}.exr",
                 "gaussian",
+                "mapping=sphere preset=skylibs face=px layout=dice look=1,0,0 up=0,1,0",
             ]
             .iter()
             .map(|s| s.as_bytes().to_vec())
