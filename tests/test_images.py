@@ -120,3 +120,32 @@ def test_info_in_python_is_the_cli_json(tmp_path, repo):
     (tmp_path / "junk.exr").write_bytes(b"junk")
     with pytest.raises(sm.DataError, match="junk.exr"):
         sm.info(tmp_path / "junk.exr")
+
+
+def test_write_image_records_a_mapping(tmp_path, repo):
+    """write_image(..., mapping=...) notes what the image is, as the CLI does for its maps; the
+    CLI then converts it without --from, with its preset and view."""
+    hdri = sm.read_image(repo / TESTDATA / "apartment.exr")
+    sph = sm.convert(hdri, "latlong", "sphere", size=32, dst_preset="skylibs", look=(1, 0, 0))
+    sm.write_image(tmp_path / "s.png", sph, mapping="sphere", preset="skylibs", look=(1, 0, 0))
+    rec = sm.info(tmp_path / "s.png")["recorded"]
+    assert (rec["mapping"], rec["preset"], rec["look"], rec["up"]) == ("sphere", "skylibs", [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    sm.write_image(tmp_path / "s.exr", sph, mapping="sphere", preset="skylibs", look=(1, 0, 0))
+    r = subprocess.run([sys.executable, "-m", "spheremap", "convert", str(tmp_path / "s.exr"), str(tmp_path / "w.exr"),
+                        "--to", "latlong", "--size", "32", "-q"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    world = sm.convert(hdri, "latlong", "latlong", size=32)
+    assert np.median(np.abs(sm.read_image(tmp_path / "w.exr") - world)) < 0.05
+    cross = sm.cube_to_layout(sm.convert(hdri, "latlong", "cube", size=8), "vcross")
+    sm.write_image(tmp_path / "c.exr", cross, mapping="cube", layout="vcross")
+    assert sm.info(tmp_path / "c.exr")["recorded"]["layout"] == "vcross"
+    sm.write_image(tmp_path / "plain.exr", sph)
+    assert sm.info(tmp_path / "plain.exr")["recorded"] is None
+    x = np.zeros((4, 4, 3), np.float32)
+    for kw, msg in [(dict(mapping="globe"), "^mapping"), (dict(mapping="sphere", preset="nope"), "preset"),
+                    (dict(mapping="cube"), "^layout"), (dict(mapping="sphere", layout="hcross"), "^layout"),
+                    (dict(preset="gl"), "^mapping"), (dict(mapping="sphere", look=(0, 0, 0)), "^look"),
+                    (dict(mapping="sphere", up=(0, 1, 0)), "^up")]:
+        with pytest.raises(ValueError, match=msg):
+            sm.write_image(tmp_path / "bad.exr", x, **kw)
+    assert not (tmp_path / "bad.exr").exists()

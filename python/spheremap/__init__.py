@@ -288,10 +288,17 @@ def info(path, *, linear: bool = False) -> dict:
     return _ext.info(os.fspath(path), bool(linear))
 
 
-def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool = False) -> None:
+def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool = False,
+                mapping: str | None = None, preset: str | None = None, layout: str | None = None,
+                look=None, up=None) -> None:
     """Writes an (H, W) or (H, W, C) array (C = 1..4, linear values, row 0 at the top) to
     `path`; the format follows the extension: .exr (float, or `half`), .hdr, .pfm, .png (`bits`
     8 or 16, sRGB-encoded unless `linear`), .jpg. The file is written atomically.
+
+    mapping, preset, layout, look, up: record what the image is (one of MAPPINGS, its preset,
+    for a cube its layout, and the view it was made for) in the file, as the CLI records it in
+    the maps it writes (EXR, PNG, JPEG, HDR; not PFM): `info` then reports it and `spheremap
+    convert` reads the file without --from.
     """
     import os
 
@@ -302,7 +309,14 @@ def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool 
         raise ValueError(f"array: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
     if bits not in (8, 16):
         raise ValueError(f"bits: must be 8 or 16, got {bits!r}")
-    _ext.write_image(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32), bool(linear), bits == 16, bool(half))
+    note = None
+    if mapping is not None:
+        _choice(mapping, "mapping", MAPPINGS)
+        note = _ext.map_note(mapping, preset, layout, _vec3(look, "look"), _vec3(up, "up"))
+    elif (preset, layout, look, up) != (None, None, None, None):
+        raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
+    _ext.write_image(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32), bool(linear), bits == 16,
+                     bool(half), note)
 
 
 def _size_any(v, name: str) -> int:

@@ -714,7 +714,7 @@ fn info<'py>(
 /// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
 /// extension.
 #[pyfunction]
-#[pyo3(signature = (path, array, linear, png16, half))]
+#[pyo3(signature = (path, array, linear, png16, half, note))]
 fn write_image(
     py: Python<'_>,
     path: std::path::PathBuf,
@@ -722,6 +722,7 @@ fn write_image(
     linear: bool,
     png16: bool,
     half: bool,
+    note: Option<String>,
 ) -> PyResult<()> {
     use spheremap::image_io::{Image, WriteOptions};
     let shape = array.shape().to_vec();
@@ -733,7 +734,7 @@ fn write_image(
         data,
     };
     py.detach(|| {
-        spheremap::image_io::write_image(
+        spheremap::image_io::write_image_tagged(
             &path,
             &img,
             &WriteOptions {
@@ -741,9 +742,48 @@ fn write_image(
                 png16,
                 half,
             },
+            note.as_deref(),
         )
     })
     .map_err(to_py)
+}
+
+/// The note ([`spheremap::tag`]) that records a map's mapping, preset, cube layout and view;
+/// each argument checked and named in its error.
+#[pyfunction]
+#[pyo3(signature = (mapping, preset, layout, look, up))]
+fn map_note(
+    mapping: &str,
+    preset: Option<&str>,
+    layout: Option<&str>,
+    look: Option<[f64; 3]>,
+    up: Option<[f64; 3]>,
+) -> PyResult<String> {
+    let mapping = spheremap::Mapping::parse(mapping, preset).map_err(to_py)?;
+    let layout = layout
+        .map(spheremap::cube::Layout::parse)
+        .transpose()
+        .map_err(to_py)?;
+    if layout.is_some() != matches!(mapping, spheremap::Mapping::Cube(_)) {
+        return Err(PyValueError::new_err(
+            "layout: a cube map written as one image needs its layout, and only a cube map has one",
+        ));
+    }
+    let view = match look {
+        Some(l) => {
+            let v = spheremap::view::look_up(l, up.unwrap_or([0.0, 1.0, 0.0])).map_err(to_py)?;
+            spheremap::view::as_look_up(&v)
+        }
+        None if up.is_some() => return Err(PyValueError::new_err("up: needs look")),
+        None => None,
+    };
+    Ok(spheremap::tag::MapTag {
+        mapping,
+        layout,
+        face: None,
+        view,
+    }
+    .text())
 }
 
 /// Runs the command line (one definition, in Rust) with `argv` (argv[0] = program name).
@@ -801,6 +841,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(texel_solid_angles, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
+    m.add_function(wrap_pyfunction!(map_note, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
