@@ -344,14 +344,17 @@ def test_maps_record_their_mapping(tmp_path):
     for src in ["c.png", "f_{posx}.exr"]:
         r = cli("convert", tmp_path / src, tmp_path / "o.exr", "--to", "sphere", "--size", 16, "-q")
         assert r.returncode == 0, (src, r.stderr)
+    r = cli("convert", tmp_path / "f_posz.exr", tmp_path / "o2.exr", "--to", "sphere")
+    assert r.returncode == 2 and "one face (pz) of a cube map of six files" in r.stderr, r.stderr
     # A map made for a turned view records it, and converts back to the world frame unasked.
     r = cli("convert", hdri, tmp_path / "v.exr", "--from", "latlong", "--to", "sphere", "--size", 64,
             "--look", 1, 0.5, -1, "--up", 0, 1, 0.2, "-q")
     assert r.returncode == 0, r.stderr
     rec = sm.info(tmp_path / "v.exr")["recorded"]
     assert rec["look"] is not None and np.dot(rec["look"], [1, 0.5, -1]) / np.linalg.norm([1, 0.5, -1]) > 0.999999
-    r = cli("convert", tmp_path / "v.exr", tmp_path / "w.exr", "--to", "latlong", "--size", 32, "-q")
+    r = cli("convert", tmp_path / "v.exr", tmp_path / "w.exr", "--to", "latlong", "--size", 32, "-q", "--json")
     assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["from_look"] == rec["look"]
     world = sm.convert(sm.read_image(hdri), "latlong", "latlong", size=32)
     ll = sm.read_image(tmp_path / "w.exr")
     unturned = sm.convert(sm.read_image(tmp_path / "v.exr"), "sphere", "latlong", size=32)

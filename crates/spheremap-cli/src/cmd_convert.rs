@@ -6,6 +6,7 @@ use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{
     check_nonfinite_env, default_size, read_env_files, recorded, split_paths, write_env_files,
+    EnvFiles,
 };
 use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
@@ -79,8 +80,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset and
-    // --from-layout, and a check on them when given.
+    // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset,
+    // --from-layout and --from-look/--from-up, and a check on --from when given.
     let recorded = a.paths.first().and_then(|p| recorded(p));
     let src = match (&a.from, &recorded) {
         (Some(f), _) => Mapping::parse(f, a.from_preset.as_deref()),
@@ -139,6 +140,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         matches!(src, Mapping::Cube(_)),
         matches!(dst, Mapping::Cube(_)),
     )?;
+    if let (Some(f), EnvFiles::One(p)) = (recorded.and_then(|t| t.face), &input) {
+        if matches!(src, Mapping::Cube(_)) {
+            bail!(
+                "{p}: one face ({}) of a cube map of six files; give all six, or a pattern such \
+                 as 'sky_{{face}}.exr'",
+                spheremap::cube::FACE_NAMES[f]
+            );
+        }
+    }
     a.job.refuse_overwrite(&input.paths(), &output.paths())?;
     output.check_output(dst)?;
     let ropts = ReadOptions {
@@ -183,6 +193,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let v = serde_json::json!({
             "input": label, "inputs": input.paths(), "output": written,
             "from": src.name(), "from_preset": src.preset_name(),
+            "from_look": from_look, "from_up": from_up,
             "to": dst.name(), "preset": dst.preset_name(),
             "size": n, "width": w, "height": h, "channels": out.channels,
             "samples": a.sampling.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
