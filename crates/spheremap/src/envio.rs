@@ -206,8 +206,8 @@ pub fn write_env(
     write_env_files(&EnvFiles::parse(path), mapping, img, layout, view, opts)
 }
 
-/// [`write_env`] to [`EnvFiles`].  Every file records its mapping, preset and cube layout or
-/// face ([`crate::tag`]).  Written atomically: six faces are all encoded, then all
+/// [`write_env`] to [`EnvFiles`].  Every file records its mapping, preset, cube layout or
+/// face, and view ([`crate::tag`]).  Written atomically: six faces are all encoded, then all
 /// written beside their targets and renamed into place together
 /// ([`crate::io::atomic_write_all`]), so a bad extension or a failed write leaves none of them.
 pub fn write_env_files(
