@@ -166,3 +166,26 @@ def test_python_render_takes_a_cube_env_in_any_layout(teapot):
         sm.render((p, n, t), sm.cube_to_layout(faces, "hstrip"), **kw)
     with pytest.raises(ValueError, match="^env_layout: only for env_format='cube'"):
         sm.render((p, n, t), hdri, mode="per-pixel", env_format="latlong", env_layout="hcross")
+
+
+def test_a_sphere_map_in_another_preset_renders_as_the_gl_one(teapot, tmp_path):
+    """Texgen addresses a GL sphere map; one in another preset (named, or noted in its file)
+    is resampled into it first, so it is not drawn mirrored. Read as GL, it would be."""
+    p, n, t = teapot
+    hdri = sm.read_image("testdata/apartment.exr")
+    gl = sm.convert(hdri, "latlong", "sphere", size=64)
+    sky = sm.convert(hdri, "latlong", "sphere", size=64, dst_preset="skylibs")
+    for mode in ["per-vertex", "per-pixel"]:
+        kw = dict(mode=mode, size=(64, 48))
+        want = sm.render((p, n, t), gl, **kw)
+        got = sm.render((p, n, t), sky, env_preset="skylibs", **kw)
+        wrong = sm.render((p, n, t), sky, **kw)
+        assert np.abs(got - want).mean() < 0.1 * np.abs(wrong - want).mean(), mode
+    # The CLI takes the preset from the file's note.
+    sm.write_image(tmp_path / "sky.exr", sky, mapping="sphere", preset="skylibs")
+    sm.write_image(tmp_path / "gl.exr", gl, mapping="sphere")
+    for f in ["sky", "gl"]:
+        r = cli("render", TEAPOT, "--env", tmp_path / f"{f}.exr", "--size", 64, 48, "-o", tmp_path / f"{f}.exr.out.exr", "-q")
+        assert r.returncode == 0, r.stderr
+    a, b = (sm.read_image(tmp_path / f"{f}.exr.out.exr") for f in ["sky", "gl"])
+    assert np.abs(a - b).mean() < 0.1 * np.abs(wrong - want).mean()

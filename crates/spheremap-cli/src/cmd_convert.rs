@@ -5,8 +5,8 @@ use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{
-    check_nonfinite_env, default_size, read_env_files, recorded, split_paths, write_env_files,
-    EnvFiles,
+    check_nonfinite_env, default_size, mapping_for, read_env_files, recorded, split_paths,
+    write_env_files, EnvFiles,
 };
 use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
@@ -83,19 +83,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset,
     // --from-layout and --from-look/--from-up, and a check on --from when given.
     let recorded = a.paths.first().and_then(|p| recorded(p));
-    let src = match (&a.from, &recorded) {
-        (Some(f), _) => Mapping::parse(f, a.from_preset.as_deref()),
-        (None, Some(t)) => Mapping::parse(
-            t.mapping.name(),
-            Some(a.from_preset.as_deref().unwrap_or(t.mapping.preset_name())),
-        ),
-        (None, None) => bail!(
+    let src = mapping_for(
+        a.from.as_deref(),
+        a.from_preset.as_deref(),
+        recorded.as_ref(),
+        None,
+    )
+    .context("--from/--from-preset")?;
+    let Some(src) = src else {
+        bail!(
             "--from: {} records no mapping (spheremap records one in the EXR, PNG, JPEG and HDR \
              maps it writes); name it with --from",
             a.paths[0]
-        ),
-    }
-    .context("--from/--from-preset")?;
+        )
+    };
     if let (Some(t), false) = (&recorded, a.job.quiet) {
         if (t.mapping.name(), t.mapping.preset_name()) != (src.name(), src.preset_name()) {
             eprintln!(

@@ -5,7 +5,6 @@ use crate::job::JobFlags;
 use anyhow::{bail, Context};
 use spheremap::envio::read_env;
 use spheremap::image_io::{check_nonfinite, write_image, Format, Image, ReadOptions};
-use spheremap::mapping::Mapping;
 use spheremap::matcap::MatcapVariant;
 use spheremap::mesh::load_mesh;
 use spheremap::render::{self, heat_colour, Env, EnvInput, GlCamera, Mode, RenderOptions, Wrap};
@@ -21,9 +20,10 @@ pub struct Args {
     /// mapping with --env-format (per-pixel). Not needed for normals and error.
     #[arg(long)]
     env: Option<String>,
-    /// Mapping of --env: sphere (default), latlong, cube, angular, paraboloid, octahedral.
-    #[arg(long, default_value = "sphere")]
-    env_format: String,
+    /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
+    /// spheremap recorded in the file when it wrote it, else sphere.
+    #[arg(long)]
+    env_format: Option<String>,
     /// Preset of --env's mapping.
     #[arg(long)]
     env_preset: Option<String>,
@@ -92,12 +92,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .camera
         .camera(&mesh.positions, (a.size[0], a.size[1]))
         .with_context(|| a.mesh.clone())?;
-    let mapping = Mapping::parse(&a.env_format, a.env_preset.as_deref()).context("--env-format")?;
-    let layout = a
-        .env_layout
-        .as_deref()
-        .map(spheremap::cube::Layout::parse)
-        .transpose()?;
+    let (mapping, layout) = crate::job::env_mapping(
+        a.env.as_deref().unwrap_or(""),
+        a.env_format.as_deref(),
+        a.env_preset.as_deref(),
+        a.env_layout.as_deref(),
+        "sphere",
+        "--env-format",
+    )?;
     let env_img: Option<Image> = match (&a.env, mode) {
         (None, Mode::Normals | Mode::Error) => None,
         (None, _) => bail!("--env: mode {} needs an environment map", a.mode),
@@ -111,12 +113,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Some(img)
         }
     };
-    let input = EnvInput::new(
-        mapping,
-        env_img.as_ref(),
-        wrap,
-        a.env.as_deref().unwrap_or("env"),
-    )?;
+    let what = a.env.as_deref().unwrap_or("env");
+    // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
+    let gl = match &env_img {
+        Some(img) => spheremap::render::gl_sphere_for(mode, mapping, img, what)?,
+        None => None,
+    };
+    let (mapping, env_img) = match gl {
+        Some(g) => (spheremap::Mapping::parse("sphere", None)?, Some(g)),
+        None => (mapping, env_img),
+    };
+    let input = EnvInput::new(mapping, env_img.as_ref(), wrap, what)?;
     input.check(mode)?;
     let env = input.env();
     let opts = RenderOptions {

@@ -89,3 +89,29 @@ impl JobFlags {
 pub fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
     v.as_ref().map(|v| [v[0], v[1], v[2]])
 }
+
+/// An environment map's mapping and cube layout from `--…-format`/`--…-preset`/`--…-layout`
+/// flags: what is given, else what the file records (spheremap's note, `spheremap::tag`;
+/// `envio::mapping_for`), else `default` (the flag's documented default).  `flag` names the
+/// format flag in errors.
+pub fn env_mapping(
+    path: &str,
+    format: Option<&str>,
+    preset: Option<&str>,
+    layout: Option<&str>,
+    default: &str,
+    flag: &str,
+) -> anyhow::Result<(spheremap::Mapping, Option<spheremap::cube::Layout>)> {
+    use anyhow::Context;
+    let recorded = spheremap::envio::recorded(path);
+    let mapping = spheremap::envio::mapping_for(format, preset, recorded.as_ref(), Some(default))
+        .with_context(|| flag.to_string())?
+        .expect("a default mapping is given");
+    let layout = match layout {
+        Some(l) => Some(spheremap::cube::Layout::parse(l)?),
+        None => recorded
+            .filter(|t| t.mapping.name() == mapping.name())
+            .and_then(|t| t.layout),
+    };
+    Ok((mapping, layout))
+}

@@ -3,8 +3,7 @@
 //! through a camera).
 
 use crate::job::{vec3, JobFlags};
-use anyhow::{bail, Context};
-use spheremap::cube::Layout;
+use anyhow::bail;
 use spheremap::envio::read_env;
 use spheremap::generate::{EnvSource, RaySource};
 use spheremap::image_io::{check_nonfinite, Image, ReadOptions};
@@ -25,9 +24,10 @@ pub struct SceneArgs {
     /// 'faces_{face}.exr' --env-format cube).
     #[arg(long)]
     pub env: Option<String>,
-    /// Mapping of --env: sphere, latlong (default), cube, angular, paraboloid, octahedral.
-    #[arg(long, default_value = "latlong")]
-    env_format: String,
+    /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
+    /// spheremap recorded in the file when it wrote it, else latlong.
+    #[arg(long)]
+    env_format: Option<String>,
     /// Preset of --env's mapping.
     #[arg(long)]
     env_preset: Option<String>,
@@ -126,9 +126,14 @@ impl SceneArgs {
         job.refuse_overwrite(&inputs, outputs)?;
         let env: Option<(Image, Mapping)> = match &self.env {
             Some(e) => {
-                let m = Mapping::parse(&self.env_format, self.env_preset.as_deref())
-                    .context("--env-format/--env-preset")?;
-                let l = self.env_layout.as_deref().map(Layout::parse).transpose()?;
+                let (m, l) = crate::job::env_mapping(
+                    e,
+                    self.env_format.as_deref(),
+                    self.env_preset.as_deref(),
+                    self.env_layout.as_deref(),
+                    "latlong",
+                    "--env-format/--env-preset",
+                )?;
                 let mut img = read_env(e, m, l, &ReadOptions::default())?;
                 check_nonfinite(&mut img, job.nonfinite()?, e)?;
                 EnvMap::new(m, &img, e)?;

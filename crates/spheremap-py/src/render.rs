@@ -144,6 +144,15 @@ pub fn render<'py>(
             })
         })
         .transpose()?;
+    // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
+    let gl = match &img {
+        Some(i) => spheremap::render::gl_sphere_for(mode, mapping, i, "env").map_err(to_py)?,
+        None => None,
+    };
+    let (mapping, img) = match gl {
+        Some(g) => (parse_mapping("sphere", None)?, Some(g)),
+        None => (mapping, img),
+    };
     let input = EnvInput::new(mapping, img.as_ref(), wrap, "env").map_err(to_py)?;
     input.check(mode).map_err(to_py)?;
     let env = input.env();

@@ -278,6 +278,29 @@ pub fn recorded(path: &str) -> Option<MapTag> {
     MapTag::parse(&crate::tag::read_file(Path::new(files.first()))?)
 }
 
+/// The mapping to read a file as: the `name` and `preset` given, each one absent taken from
+/// the file's note `recorded` (its preset only when the note is of the same mapping: a
+/// `--from sphere` on a file noted `mapping=sphere preset=skylibs` reads it as skylibs), else
+/// `default` with its own preset.  `None` when there is no name, note or default.
+pub fn mapping_for(
+    name: Option<&str>,
+    preset: Option<&str>,
+    recorded: Option<&MapTag>,
+    default: Option<&str>,
+) -> Result<Option<Mapping>> {
+    let noted = recorded.map(|t| t.mapping);
+    let name = match (name, noted) {
+        (Some(n), _) => Mapping::parse(n, None)?.name(),
+        (None, Some(m)) => m.name(),
+        (None, None) => match default {
+            Some(d) => d,
+            None => return Ok(None),
+        },
+    };
+    let preset = preset.or(noted.filter(|m| m.name() == name).map(|m| m.preset_name()));
+    Mapping::parse(name, preset).map(Some)
+}
+
 /// The format an output path's extension asks for (one spheremap writes: not WebP).
 fn output_format(path: &str) -> Result<Format> {
     match Format::from_extension(Path::new(path)) {

@@ -337,3 +337,43 @@ fn notes_parse_strictly_and_skip_unknown_keys() {
         assert_eq!(MapTag::parse(bad), None, "{bad:?}");
     }
 }
+
+/// What a file is read as: each flag given wins; each one absent comes from the file's note
+/// (a preset only from a note of the same mapping), else from the default.
+#[test]
+fn flags_fill_in_from_the_note() {
+    use spheremap::envio::mapping_for;
+    use spheremap::tag::MapTag;
+    let note = MapTag::parse("mapping=sphere preset=skylibs").unwrap();
+    let n = Some(&note);
+    let get = |name, preset, rec, default| {
+        mapping_for(name, preset, rec, default)
+            .unwrap()
+            .map(|m| format!("{} {}", m.name(), m.preset_name()))
+    };
+    assert_eq!(get(None, None, n, None).as_deref(), Some("sphere skylibs"));
+    assert_eq!(
+        get(Some("sphere"), None, n, None).as_deref(),
+        Some("sphere skylibs")
+    );
+    assert_eq!(
+        get(Some("sphere"), Some("gl"), n, None).as_deref(),
+        Some("sphere gl")
+    );
+    assert_eq!(get(None, Some("gl"), n, None).as_deref(), Some("sphere gl"));
+    assert_eq!(
+        get(Some("latlong"), None, n, None).as_deref(),
+        Some("latlong blender")
+    );
+    assert_eq!(
+        get(None, None, None, Some("latlong")).as_deref(),
+        Some("latlong blender")
+    );
+    assert_eq!(
+        get(None, Some("pbrt"), None, Some("latlong")).as_deref(),
+        Some("latlong pbrt")
+    );
+    assert_eq!(get(None, None, None, None), None);
+    assert!(mapping_for(Some("globe"), None, n, None).is_err());
+    assert!(mapping_for(Some("latlong"), Some("skylibs-nope"), n, None).is_err());
+}

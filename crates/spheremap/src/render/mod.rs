@@ -312,6 +312,30 @@ pub enum Env<'a> {
     None,
 }
 
+/// A sphere map in a preset other than GL's (skylibs, a mirror-ball photo, …) resampled into
+/// the GL sphere map that texgen's (s, t) address, for the per-vertex and per-pixel modes: the
+/// same size, the default footprint filter.  `None` when nothing needs converting (a GL sphere
+/// map, another mapping, or a MatCap, which has no preset).  Without it such a map would be
+/// read as a GL one: mirrored or turned.
+pub fn gl_sphere_for(
+    mode: Mode,
+    mapping: crate::Mapping,
+    image: &Image,
+    what: &str,
+) -> Result<Option<Image>> {
+    let crate::Mapping::Sphere(p) = mapping else {
+        return Ok(None);
+    };
+    if p.name == "gl" || !matches!(mode, Mode::PerVertex | Mode::PerPixel) {
+        return Ok(None);
+    }
+    let src = EnvMap::new(mapping, image, what)?;
+    let gl = crate::Mapping::parse("sphere", None)?;
+    let opts = crate::resample::ResampleOptions::default();
+    let (out, _) = crate::resample::resample(&src, gl, image.width, image.height, &opts, None)?;
+    Ok(Some(out))
+}
+
 /// An environment image prepared for rendering: a sphere map (or MatCap) becomes a GL
 /// texture, any other mapping a direction-lookup map.
 pub struct EnvInput<'a> {
