@@ -189,3 +189,27 @@ def test_a_sphere_map_in_another_preset_renders_as_the_gl_one(teapot, tmp_path):
         assert r.returncode == 0, r.stderr
     a, b = (sm.read_image(tmp_path / f"{f}.exr.out.exr") for f in ["sky", "gl"])
     assert np.abs(a - b).mean() < 0.1 * np.abs(wrong - want).mean()
+
+
+def test_python_render_reads_the_files_note(teapot, tmp_path):
+    """render(mesh, path) takes env_format/env_preset/env_layout from the file's note, as the
+    CLI does; a flag given wins."""
+    p, n, t = teapot
+    hdri = sm.read_image("testdata/apartment.exr")
+    kw = dict(mode="per-pixel", size=(48, 32))
+    sm.write_image(tmp_path / "ll.exr", hdri, mapping="latlong")
+    np.testing.assert_array_equal(sm.render((p, n, t), tmp_path / "ll.exr", **kw),
+                                  sm.render((p, n, t), hdri, env_format="latlong", **kw))
+    sky = sm.convert(hdri, "latlong", "sphere", size=64, dst_preset="skylibs")
+    sm.write_image(tmp_path / "sky.exr", sky, mapping="sphere", preset="skylibs")
+    np.testing.assert_array_equal(sm.render((p, n, t), tmp_path / "sky.exr", **kw),
+                                  sm.render((p, n, t), sky, env_preset="skylibs", **kw))
+    cross = sm.cube_to_layout(sm.convert(hdri, "latlong", "cube", size=16), "horizon")
+    sm.write_image(tmp_path / "h.exr", cross, mapping="cube", layout="horizon")
+    np.testing.assert_array_equal(sm.render((p, n, t), tmp_path / "h.exr", **kw),
+                                  sm.render((p, n, t), cross, env_format="cube", env_layout="horizon", **kw))
+    # A file without a note is a sphere map unless told; a flag given wins over the note.
+    sm.write_image(tmp_path / "plain.exr", sky)
+    np.testing.assert_array_equal(sm.render((p, n, t), tmp_path / "plain.exr", **kw), sm.render((p, n, t), sky, **kw))
+    np.testing.assert_array_equal(sm.render((p, n, t), tmp_path / "sky.exr", env_preset="gl", **kw),
+                                  sm.render((p, n, t), sky, **kw))

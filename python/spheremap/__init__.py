@@ -938,7 +938,7 @@ def _env_image(env, env_format: str, linear: bool, layout: str | None = None) ->
     return np.ascontiguousarray(a, dtype=np.float32)
 
 
-def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere",
+def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str | None = None,
            env_preset: str | None = None, matcap_variant: str = "classic", eye=None, target=None,
            up=None, fovy: float = 40.0, near: float | None = None, far: float | None = None,
            size=(512, 512), background=(0.0, 0.0, 0.0), aa: int = 1, wrap: str = "clamp-to-edge",
@@ -949,7 +949,10 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
     env: the sphere map (per-vertex, per-pixel), MatCap image (matcap) or environment map in
         `env_format` (per-pixel), as an array or a path; not needed for normals and error. A
         cube map is (6, F, F, C) faces or one image in a layout (`env_layout`, one of
-        CUBE_LAYOUTS, or implied by its shape as in `convert`).
+        CUBE_LAYOUTS, or implied by its shape as in `convert`). env_format, env_preset and
+        env_layout default, for a path, to what spheremap noted in the file when it wrote it
+        (as the CLI's --env-format does), else to "sphere". A sphere map in another preset than
+        "gl" is resampled into the GL sphere map texgen addresses first.
     mode: one of RENDER_MODES. per-vertex is OpenGL's fixed-function GL_SPHERE_MAP path
         (texgen per vertex, (s, t) interpolated, GL_LINEAR); per-pixel the reflection vector per
         pixel (a sphere map in eye space, other mappings in world space).
@@ -960,7 +963,13 @@ def render(mesh, env=None, *, mode: str = "per-pixel", env_format: str = "sphere
     in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
     """
     _choice(mode, "mode", RENDER_MODES)
-    _choice(env_format, "env_format", MAPPINGS)
+    if env_format is not None:
+        _choice(env_format, "env_format", MAPPINGS)
+    if isinstance(env, (str, os.PathLike)):
+        env_format, env_preset, noted_layout = _ext.mapping_for(os.fspath(env), env_format, env_preset, "sphere")
+        env_layout = env_layout if env_layout is not None else noted_layout
+    elif env_format is None:
+        env_format = "sphere"
     _choice(matcap_variant, "matcap_variant", MATCAP_VARIANTS)
     _choice(wrap, "wrap", ("clamp-to-edge", "repeat"))
     p, n, t = _mesh_arrays(mesh)

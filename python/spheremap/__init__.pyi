@@ -133,7 +133,7 @@ def from_fisheye(image: _Photo, *, model: str, fov: float, centre: npt.ArrayLike
 RENDER_MODES: tuple[str, ...]
 def load_mesh(path: str | os.PathLike[str]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.uint32]]: ...
 def render(mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike],
-           env: _Photo | None = None, *, mode: str = "per-pixel", env_format: str = "sphere",
+           env: _Photo | None = None, *, mode: str = "per-pixel", env_format: str | None = None,
            env_preset: str | None = None, matcap_variant: str = "classic",
            eye: npt.ArrayLike | None = None, target: npt.ArrayLike | None = None,
            up: npt.ArrayLike | None = None, fovy: float = 40.0, near: float | None = None,

@@ -748,6 +748,28 @@ fn write_image(
     .map_err(to_py)
 }
 
+/// What to read the map at `path` as: (mapping, preset, layout) from the `mapping`/`preset`
+/// given, each one absent taken from the file's note ([`spheremap::envio::mapping_for`]), else
+/// `default`; the layout is the note's when the mapping is its cube.
+#[pyfunction]
+#[pyo3(signature = (path, mapping, preset, default))]
+fn mapping_for(
+    path: &str,
+    mapping: Option<&str>,
+    preset: Option<&str>,
+    default: &str,
+) -> PyResult<(&'static str, &'static str, Option<&'static str>)> {
+    let recorded = spheremap::envio::recorded(path);
+    let m = spheremap::envio::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
+        .map_err(to_py)?
+        .expect("a default is given");
+    let layout = recorded
+        .filter(|t| t.mapping.name() == m.name())
+        .and_then(|t| t.layout)
+        .map(|l| l.name());
+    Ok((m.name(), m.preset_name(), layout))
+}
+
 /// The note ([`spheremap::tag`]) that records a map's mapping, preset, cube layout and view;
 /// each argument checked and named in its error.
 #[pyfunction]
@@ -842,6 +864,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(map_note, m)?)?;
+    m.add_function(wrap_pyfunction!(mapping_for, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
