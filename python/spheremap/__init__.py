@@ -489,18 +489,12 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
 
 def _cube_layout_of(shape, name: str) -> str:
     """The cube layout an image's shape implies, by the core's rule (cube::Layout::from_shape)."""
-    h, w = shape[0], shape[1]
-    if w > 0 and h == 6 * w:
-        return "vstrip"
-    if h > 0 and 3 * w == 4 * h and w % 4 == 0:
-        return "hcross"
-    if w > 0 and 4 * w == 3 * h and w % 3 == 0:
-        return "vcross"
-    if h > 0 and w == 6 * h:
-        raise ValueError(f"{name}: a {w}x{h} image could be 'hstrip' (GL faces) or 'horizon' (py360convert); "
-                         f"name its layout")
-    raise ValueError(f"{name}: a cube map is (6, F, F, C) faces or one image in a layout, and a {w}x{h} image is "
-                     f"no cube layout (vstrip 1:6, hstrip/horizon 6:1, hcross 4:3, vcross 3:4 with square faces)")
+    layout, why = _ext.cube_layout_of(int(shape[1]), int(shape[0]))
+    if layout is not None:
+        return layout
+    if "could be" in why:  # 6:1: hstrip or horizon
+        raise ValueError(f"{name}: {why}")
+    raise ValueError(f"{name}: a cube map is (6, F, F, C) faces or one image in a layout, and {why}")
 
 
 def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:

@@ -5,8 +5,8 @@ use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{
-    check_nonfinite_env, default_size, mapping_for, read_env_files, recorded, split_paths,
-    write_env_files, EnvFiles,
+    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_files, recorded,
+    split_paths, write_env_files, EnvFiles,
 };
 use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
@@ -111,12 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
-    let from_layout = match a.from_layout.as_deref() {
-        Some(l) => Some(Layout::parse(l)?),
-        None => recorded
-            .and_then(|t| t.layout)
-            .filter(|_| matches!(src, Mapping::Cube(_))),
-    };
+    let from_layout = layout_for(a.from_layout.as_deref(), recorded.as_ref(), src)?;
     let precision = Precision::parse(&a.precision)?;
     let ypr = (a.yaw.is_some() || a.pitch.is_some() || a.roll.is_some()).then(|| {
         [

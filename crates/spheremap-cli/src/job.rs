@@ -107,11 +107,6 @@ pub fn env_mapping(
     let mapping = spheremap::envio::mapping_for(format, preset, recorded.as_ref(), Some(default))
         .with_context(|| flag.to_string())?
         .expect("a default mapping is given");
-    let layout = match layout {
-        Some(l) => Some(spheremap::cube::Layout::parse(l)?),
-        None => recorded
-            .filter(|t| t.mapping.name() == mapping.name())
-            .and_then(|t| t.layout),
-    };
+    let layout = spheremap::envio::layout_for(layout, recorded.as_ref(), mapping)?;
     Ok((mapping, layout))
 }

@@ -763,11 +763,21 @@ fn mapping_for(
     let m = spheremap::envio::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
         .map_err(to_py)?
         .expect("a default is given");
-    let layout = recorded
-        .filter(|t| t.mapping.name() == m.name())
-        .and_then(|t| t.layout)
+    let layout = spheremap::envio::layout_for(None, recorded.as_ref(), m)
+        .map_err(to_py)?
         .map(|l| l.name());
     Ok((m.name(), m.preset_name(), layout))
+}
+
+/// The cube layout a `width`×`height` image's shape implies (the core's rule,
+/// `cube::Layout::from_shape`): (name, None), or (None, why not).
+#[pyfunction]
+fn cube_layout_of(width: usize, height: usize) -> (Option<&'static str>, Option<String>) {
+    match spheremap::cube::Layout::from_shape(width, height) {
+        Ok(l) => (Some(l.name()), None),
+        Err(spheremap::Error::InvalidParameter { reason, .. }) => (None, Some(reason)),
+        Err(e) => (None, Some(e.to_string())),
+    }
 }
 
 /// The note ([`spheremap::tag`]) that records a map's mapping, preset, cube layout and view;
@@ -865,6 +875,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(map_note, m)?)?;
     m.add_function(wrap_pyfunction!(mapping_for, m)?)?;
+    m.add_function(wrap_pyfunction!(cube_layout_of, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;

@@ -301,6 +301,21 @@ pub fn mapping_for(
     Mapping::parse(name, preset).map(Some)
 }
 
+/// The cube layout to read a file in: the `layout` given, else the one its note `recorded`
+/// names when the note is of `mapping` (the mapping it is read as).
+pub fn layout_for(
+    layout: Option<&str>,
+    recorded: Option<&MapTag>,
+    mapping: Mapping,
+) -> Result<Option<Layout>> {
+    match layout {
+        Some(l) => Layout::parse(l).map(Some),
+        None => Ok(recorded
+            .filter(|t| t.mapping.name() == mapping.name())
+            .and_then(|t| t.layout)),
+    }
+}
+
 /// The format an output path's extension asks for (one spheremap writes: not WebP).
 fn output_format(path: &str) -> Result<Format> {
     match Format::from_extension(Path::new(path)) {
