@@ -75,11 +75,17 @@ def test_texgen_modelview_forms(tmp_path, repo):
     (tmp_path / "mv.txt").write_text(rows)
     outs = []
     for k, args in enumerate([["--modelview", rows], ["--modelview", cols, "--column-major"],
-                              ["--modelview", tmp_path / "mv.txt"], ["--modelview", "lookat:0,0,40,0,0,0,0,1,0"]]):
+                              ["--modelview", tmp_path / "mv.txt"], ["--modelview", "lookat:0,0,40,0,0,0,0,1,0"],
+                              ["--modelview", *rows.split()], ["--modelview", *cols.split(), "--column-major"]]):
         o = tmp_path / f"o{k}.npy"
         r = cli("texgen", mesh, *args, "-o", o)
         assert r.returncode == 0, r.stderr
         outs.append(np.load(o))
+        # The mesh may also follow the flag, whichever form the flag takes.
+        o2 = tmp_path / f"p{k}.npy"
+        r = cli("texgen", *args, mesh, "-o", o2)
+        assert r.returncode == 0, r.stderr
+        np.testing.assert_array_equal(np.load(o2), outs[-1])
     for o in outs[1:]:
         np.testing.assert_array_equal(o, outs[0])
 
@@ -88,6 +94,10 @@ def test_texgen_modelview_forms(tmp_path, repo):
     "args, needle",
     [
         (["texgen", "MESH", "--modelview", "1 2 3", "-o", "OUT.csv"], "--modelview: expected 16 numbers"),
+        (["texgen", "MESH", "--modelview", "1", "0", "0", "-o", "OUT.csv"], "--modelview: expected 16 numbers (a 4x4 matrix), got 3"),
+        (["texgen", "--modelview", *"1 0 0 0 0 1 0 0 0 0 1 0 0 0 0".split(), "MESH", "-o", "OUT.csv"],
+         "--modelview: expected 16 numbers (a 4x4 matrix), got 15"),
+        (["texgen", "--modelview", "identity", "-o", "OUT.csv"], "MESH"),
         (["texgen", "MESH", "--modelview", "identity", "-o", "OUT.png"], "unknown output extension"),
         (["texgen", "MISSING.obj", "--modelview", "identity", "-o", "OUT.csv"], "MISSING.obj"),
         (["texgen", "GARBAGE.glb", "--modelview", "identity", "-o", "OUT.csv"], "GARBAGE.glb"),

@@ -18,7 +18,7 @@ import spheremap
 
 HERE = os.path.dirname(__file__)
 BUNDLED = os.path.join(HERE, "..", "testdata", "apartment.exr")
-SHARED = sorted(glob.glob(os.path.join(HERE, "..", "..", "shared", "assets", "hdri", "*.exr")))
+HDRIS = sorted(glob.glob(os.path.join(HERE, "..", "testdata", "hdri", "*.exr")))
 
 
 def psnr(a, b, mask=None):
@@ -208,10 +208,9 @@ def test_py360convert_agreement(hdri):
     assert psnr(flipped, theirs, used) < db - 6
 
 
-@pytest.mark.skipif(not SHARED, reason="../shared/assets/hdri not present (optional extra corpus)")
-def test_skylibs_agreement_on_shared_hdris():
+def test_skylibs_agreement_on_real_hdris():
     pytest.importorskip("envmap")
-    for path in SHARED[:6]:
+    for path in HDRIS[:6]:
         img = spheremap.read_image(path)
         theirs = _skylibs_sphere(img, 128)
         ours = spheremap.convert(img, "latlong", "sphere", size=128, samples=1, src_preset="skylibs", dst_preset="skylibs")

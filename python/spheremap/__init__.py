@@ -289,11 +289,16 @@ def info(path, *, linear: bool = False) -> dict:
 
 
 def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool = False,
-                mapping: str | None = None, preset: str | None = None, layout: str | None = None,
-                look=None, up=None) -> None:
+                clamp_half: bool = False, mapping: str | None = None, preset: str | None = None,
+                layout: str | None = None, look=None, up=None) -> dict:
     """Writes an (H, W) or (H, W, C) array (C = 1..4, linear values, row 0 at the top) to
     `path`; the format follows the extension: .exr (float, or `half`), .hdr, .pfm, .png (`bits`
     8 or 16, sRGB-encoded unless `linear`), .jpg. The file is written atomically.
+
+    half: a value beyond the half-float range (65504), which half would hold as Inf, raises
+    spheremap.DataError naming the count and the largest, unless `clamp_half` (clamp to 65504).
+    Returns what the format lost: {"clipped": values clipped to the format's range (PNG/JPEG
+    [0, 1], HDR no negatives), "clamped_half": values clamped with `clamp_half`}.
 
     mapping, preset, layout, look, up: record what the image is (one of MAPPINGS, its preset,
     for a cube its layout, and the view it was made for) in the file, as the CLI records it in
@@ -315,8 +320,11 @@ def write_image(path, array, *, linear: bool = False, bits: int = 8, half: bool 
         note = _ext.map_note(mapping, preset, layout, _vec3(look, "look"), _vec3(up, "up"))
     elif (preset, layout, look, up) != (None, None, None, None):
         raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
-    _ext.write_image(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32), bool(linear), bits == 16,
-                     bool(half), note)
+    if clamp_half and not half:
+        raise ValueError("clamp_half: applies to half=True")
+    clipped, clamped = _ext.write_image(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32), bool(linear),
+                                        bits == 16, bool(half), bool(clamp_half), note)
+    return {"clipped": clipped, "clamped_half": clamped}
 
 
 def _size_any(v, name: str) -> int:
@@ -565,13 +573,16 @@ class Scene:
         return scene
 
     @classmethod
-    def builtin(cls, name: str = "demo", **kwargs) -> "Scene":
+    def builtin(cls, name: str = "demo", *, reflectance: float = 0.75, **kwargs) -> "Scene":
         """A built-in scene: "demo" (the demo's little world; view it from (0, 1, 0)),
         "octants" (inside a sphere whose octants glow in 8 colours) or "mirror-ball" (a chrome
-        ball of radius 1 at the origin, reflectance 0.75, to photograph inside an environment).
-        Keyword arguments as load."""
+        ball of radius 1 at the origin, `reflectance` 0.75 by default, to photograph inside an
+        environment). Other keyword arguments as load."""
         _choice(name, "name", ("demo", "octants", "mirror-ball"))
-        scene = cls(_ext.Scene.builtin(name))
+        reflectance = _finite(reflectance, "reflectance")
+        if not 0 <= reflectance <= 1:
+            raise ValueError(f"reflectance: expected a number in [0, 1], got {reflectance!r}")
+        scene = cls(_ext.Scene.builtin(name, reflectance=reflectance))
         if kwargs:
             args = dict(background=None, environment=None, environment_mapping="latlong",
                         environment_preset=None, shading="full", max_depth=8, indirect_samples=1,

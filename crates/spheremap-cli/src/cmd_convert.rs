@@ -5,7 +5,7 @@ use crate::job::vec3;
 use anyhow::{bail, Context};
 use spheremap::cube::Layout;
 use spheremap::envio::{
-    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_files, recorded,
+    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, recorded,
     split_paths, write_env_files, EnvFiles,
 };
 use spheremap::image_io::ReadOptions;
@@ -27,13 +27,14 @@ pub struct Args {
     /// mapping (and preset, and cube layout) that spheremap recorded in IN when it wrote it.
     #[arg(long)]
     from: Option<String>,
-    /// Output mapping (same names).
+    /// Output mapping (same names). Default: the input's mapping, preset, cube layout and
+    /// view, so that `convert IN OUT` changes only the file format (the texels are copied).
     #[arg(long)]
-    to: String,
+    to: Option<String>,
     /// Preset of the input mapping (see `spheremap conventions`); default: the mapping's own.
     #[arg(long)]
     from_preset: Option<String>,
-    /// Preset of the output mapping.
+    /// Preset of the output mapping (default: the mapping's own; without --to, the input's).
     #[arg(long)]
     preset: Option<String>,
     /// Output size N: sphere/angular/octahedral N×N, latlong/paraboloid 2N×N, cube faces N×N.
@@ -82,7 +83,7 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset,
     // --from-layout and --from-look/--from-up, and a check on --from when given.
-    let recorded = a.paths.first().and_then(|p| recorded(p));
+    let recorded = recorded(&a.paths[0])?;
     let src = mapping_for(
         a.from.as_deref(),
         a.from_preset.as_deref(),
@@ -109,7 +110,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
+    // No --to: the same mapping (its preset unless --preset), layout and view as the input.
+    let same = a.to.is_none();
+    let dst = match &a.to {
+        Some(to) => Mapping::parse(to, a.preset.as_deref()).context("--to/--preset")?,
+        None => match a.preset.as_deref() {
+            Some(p) => Mapping::parse(src.name(), Some(p)).context("--preset")?,
+            None => src,
+        },
+    };
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
     let from_layout = layout_for(a.from_layout.as_deref(), recorded.as_ref(), src)?;
     let precision = Precision::parse(&a.precision)?;
@@ -129,8 +138,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         (None, Some((l, u))) if note_applies && a.from_up.is_none() => (Some(l), Some(u)),
         _ => (vec3(&a.from_look), vec3(&a.from_up)),
     };
-    let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), ypr, from_look, from_up)?;
-    let out_view = view::output_view(vec3(&a.look), vec3(&a.up), ypr)?;
+    // Without --to and any output view, the output keeps the input's view.
+    let (look, up) = match (same && a.look.is_none() && ypr.is_none(), from_look) {
+        (true, Some(l)) => (Some(l), from_up),
+        _ => (vec3(&a.look), vec3(&a.up)),
+    };
+    let rotation = view::conversion_rotation(look, up, ypr, from_look, from_up)?;
+    let out_view = view::output_view(look, up, ypr)?;
     let (input, output) = split_paths(
         &a.paths,
         matches!(src, Mapping::Cube(_)),
@@ -153,7 +167,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let nonfinite = a.job.nonfinite()?;
     let max_memory = a.job.max_memory()?;
-    let mut img = read_env_files(&input, src, from_layout, &ropts)?;
+    let (mut img, in_layout) = read_env_layout(&input, src, from_layout, &ropts)?;
+    let layout = layout.or(if same { in_layout } else { None });
     let label = input.label();
     check_nonfinite_env(&mut img, &input, nonfinite)?;
     let env = EnvMap::new(src, &img, input.first())?;
@@ -186,7 +201,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let wopts = a.job.write_options(a.linear);
     let written = write_env_files(&output, dst, &out, layout, &out_view, &wopts)?;
     if a.job.json {
-        let v = serde_json::json!({
+        let mut v = serde_json::json!({
             "input": label, "inputs": input.paths(), "output": written,
             "from": src.name(), "from_preset": src.preset_name(),
             "from_look": from_look, "from_up": from_up,
@@ -194,9 +209,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "size": n, "width": w, "height": h, "channels": out.channels,
             "samples": a.sampling.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
             "lookups": report.lookups, "max_texel_samples": report.max_texel_samples,
+            "copied": report.copied,
             "seconds": seconds,
         });
+        a.job.add_losses(&mut v, &out, &written[0], a.linear);
         crate::out(&format!("{v}\n"));
+    } else if !a.job.quiet && report.copied {
+        eprintln!(
+            "{} ({} {}) -> {} ({w}x{h}): the same mapping, size and view: texels copied, {:.3} s",
+            label,
+            src.name(),
+            src.preset_name(),
+            written.join(", "),
+            seconds
+        );
     } else if !a.job.quiet {
         eprintln!(
             "{} ({} {}) -> {} ({} {}, {w}x{h}): {:.1} lookups/texel, {:.3} s",

@@ -108,7 +108,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pattern = dir.join("{face}.exr").display().to_string();
         written.extend(write_env(&pattern, cube, &faces, None, &IDENTITY, &wopts)?);
     }
-    summary(&a, dst, w, h, &report, seconds, &written, scene);
+    summary(&a, dst, &out, &report, seconds, &written, scene);
     Ok(())
 }
 
@@ -133,16 +133,16 @@ fn run_generate(
 fn summary(
     a: &Args,
     dst: Mapping,
-    w: usize,
-    h: usize,
+    out: &Image,
     r: &GenerateReport,
     seconds: f64,
     written: &[String],
     scene: Option<&Scene>,
 ) {
     let rays_per_texel = r.rays as f64 / r.texels.max(1) as f64;
+    let (w, h) = (out.width, out.height);
     if a.job.json {
-        let v = serde_json::json!({
+        let mut v = serde_json::json!({
             "scene": a.world.scene, "env": a.world.env, "output": written,
             "to": dst.name(), "preset": dst.preset_name(),
             "size": a.size, "width": w, "height": h,
@@ -154,6 +154,7 @@ fn summary(
             "max_texel_samples": r.max_texel_samples,
             "seconds": seconds, "rays_per_second": r.rays as f64 / seconds.max(1e-9),
         });
+        a.job.add_losses(&mut v, out, &written[0], false);
         crate::out(&format!("{v}\n"));
     } else if !a.job.quiet {
         if let Some(n) = scene.map(|s| s.degenerate_count()).filter(|&n| n > 0) {

@@ -249,7 +249,7 @@ pub fn run_photo(a: PhotoArgs) -> anyhow::Result<()> {
     let seconds = t0.elapsed().as_secs_f64();
     let written = a.out.write(dst, &map, &mask)?;
     let models: Vec<String> = std::iter::once(d1).chain(m2.map(|m| m.1)).collect();
-    summary(&a.out, dst, &report, &models, seconds, &written, &inputs);
+    summary(&a.out, dst, &map, &report, &models, seconds, &written, &inputs);
     Ok(())
 }
 
@@ -322,6 +322,7 @@ pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
     summary(
         &a.out,
         dst,
+        &map,
         &report,
         &[desc],
         seconds,
@@ -331,9 +332,11 @@ pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn summary(
     out: &MapOut,
     dst: Mapping,
+    map: &Image,
     r: &PhotoReport,
     models: &[String],
     seconds: f64,
@@ -353,7 +356,7 @@ fn summary(
                 })
             })
             .collect();
-        let v = serde_json::json!({
+        let mut v = serde_json::json!({
             "inputs": inputs, "output": written, "models": models,
             "to": dst.name(), "preset": dst.preset_name(), "size": out.size,
             "samples": out.sampling.samples, "fill": out.fill,
@@ -363,6 +366,7 @@ fn summary(
             "seen_fraction": r.seen_fraction, "samples_total": r.rays,
             "seconds": seconds,
         });
+        out.job.add_losses(&mut v, map, &written[0], out.linear);
         crate::out(&format!("{v}\n"));
     } else if !out.job.quiet {
         for (i, (s, m)) in r.shots.iter().zip(models).enumerate() {

@@ -101,10 +101,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let seconds = t0.elapsed().as_secs_f64();
     write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;
     if a.job.json {
-        let v = serde_json::json!({
+        let mut v = serde_json::json!({
             "output": a.output, "width": w, "height": h, "samples": a.samples,
             "focal_px": cam.focal_px(), "seconds": seconds,
         });
+        a.job.add_losses(&mut v, &img, &a.output, false);
         crate::out(&format!("{v}\n"));
     } else if !a.job.quiet {
         eprintln!(

@@ -147,6 +147,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "triangles_drawn": stats.triangles, "covered_pixels": stats.covered_pixels,
             "modelview": cam.modelview, "projection": cam.projection, "seconds": seconds,
         });
+        a.job.add_losses(&mut v, &out, &a.output, false);
         if let Some((mean, p95, max)) = error_stats {
             v["error_deg"] = serde_json::json!({"mean": mean, "p95": p95, "max": max});
         }

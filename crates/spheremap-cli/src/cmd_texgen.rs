@@ -6,11 +6,13 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Mesh file: OBJ, glTF (.gltf) or GLB.
-    mesh: PathBuf,
-    /// The 4x4 modelview: 16 numbers row-major (eye = M p), 'identity',
-    /// 'lookat:EX,EY,EZ,TX,TY,TZ,UX,UY,UZ' (gluLookAt), or a text file holding one of these.
-    #[arg(long, allow_hyphen_values = true)]
-    modelview: String,
+    mesh: Option<PathBuf>,
+    /// The 4x4 modelview: 16 numbers row-major (eye = M p), as 16 separate arguments
+    /// (--modelview 1 0 0 0 0 1 0 0 ...) or in one ('1,0,0,0,...'); 'identity';
+    /// 'lookat:EX,EY,EZ,TX,TY,TZ,UX,UY,UZ' (gluLookAt); or a text file holding one of these.
+    #[arg(long, required = true, num_args = 1..=16, value_name = "SPEC",
+          allow_negative_numbers = true)]
+    modelview: Vec<String>,
     /// Read the 16 numbers in OpenGL memory order (column-major, as glGetFloatv returns them).
     #[arg(long)]
     column_major: bool,
@@ -42,20 +44,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             a.output.display()
         );
     }
-    if !a.force && same_file(&a.mesh, &a.output) {
+    let (spec, mesh_path) = modelview_args(&a.modelview, a.mesh.as_deref())?;
+    if !a.force && same_file(&mesh_path, &a.output) {
         bail!(
             "{}: the output would overwrite the input mesh (use --force to allow)",
             a.output.display()
         );
     }
-    let spec = modelview_spec(&a.modelview)?;
+    let spec = modelview_spec(&spec)?;
     let m = parse::parse_matrix4(&spec, a.column_major, "--modelview")?;
     let mv = ModelviewState::new(m)?;
     let opts = TexgenOptions {
         normalize: NormalMode::parse(&a.normalize, "--normalize")?,
         singular: Singular::parse(&a.singular, "--singular")?,
     };
-    let mesh = mesh::load_mesh(&a.mesh)?;
+    let mesh = mesh::load_mesh(&mesh_path)?;
     let pos: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
     let nrm: Vec<f32> = mesh.normals.iter().flatten().copied().collect();
     let mut st = vec![0.0f32; 2 * mesh.positions.len()];
@@ -91,6 +94,39 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+/// The modelview spec and the mesh path from `--modelview`'s values and the positional MESH.
+/// The flag takes 16 separate numbers or one argument (a spec, or a file); since it takes up to
+/// 16 values, a MESH written after it (`--modelview identity teapot.obj`) arrives among them and
+/// is taken back from there.
+fn modelview_args(values: &[String], mesh: Option<&Path>) -> anyhow::Result<(String, PathBuf)> {
+    let is_number = |v: &str| v.trim().parse::<f64>().is_ok();
+    // Separate numbers: the leading run of them; one argument of any other form: itself.
+    let taken = if is_number(&values[0]) {
+        values.iter().take_while(|v| is_number(v)).count()
+    } else {
+        1
+    };
+    let spec = values[..taken].join(" ");
+    let mut rest = values[taken..].iter();
+    let mesh = match (mesh, rest.next()) {
+        (Some(m), None) => m.to_path_buf(),
+        (None, Some(m)) => PathBuf::from(m),
+        (None, None) => bail!("MESH: the mesh file is missing"),
+        (Some(_), Some(extra)) => bail!(
+            "--modelview: {extra:?} is not a number; the flag takes 16 numbers, 'identity', \
+             'lookat:...' or a file (got {taken} value{} before it)",
+            if taken == 1 { "" } else { "s" }
+        ),
+    };
+    if let Some(extra) = rest.next() {
+        bail!("--modelview: unexpected value {extra:?} after the mesh file");
+    }
+    if taken > 1 && taken != 16 {
+        bail!("--modelview: expected 16 numbers (a 4x4 matrix), got {taken}");
+    }
+    Ok((spec, mesh))
 }
 
 /// The spec itself, or the contents of the file it names.

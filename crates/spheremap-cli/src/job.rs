@@ -6,9 +6,14 @@ use std::path::Path;
 
 #[derive(clap::Args, Debug)]
 pub struct JobFlags {
-    /// EXR output as half floats.
+    /// EXR output as half floats. A value beyond the half range (65504) is refused, unless
+    /// --clamp-half.
     #[arg(long)]
     pub half: bool,
+    /// With --half: clamp values beyond 65504 to it instead of refusing them (the --json
+    /// summary counts them).
+    #[arg(long, requires = "half")]
+    pub clamp_half: bool,
     /// 16-bit PNG output.
     #[arg(long)]
     pub png16: bool,
@@ -60,7 +65,24 @@ impl JobFlags {
             linear,
             png16: self.png16,
             half: self.half,
+            clamp_half: self.clamp_half,
         }
+    }
+
+    /// Adds what writing `img` to `path` lost ([`spheremap::image_io::Losses`]) to a `--json`
+    /// summary: `clipped` (values out of the format's range) and `clamped_half`.
+    pub fn add_losses(
+        &self,
+        summary: &mut serde_json::Value,
+        img: &spheremap::image_io::Image,
+        path: &str,
+        linear: bool,
+    ) {
+        let l = spheremap::image_io::Format::from_extension(Path::new(path))
+            .map(|f| spheremap::image_io::Losses::of(img, f, &self.write_options(linear)))
+            .unwrap_or_default();
+        summary["clipped"] = l.clipped.into();
+        summary["clamped_half"] = l.beyond_half.into();
     }
 
     /// `--max-memory` (absent: the core's default).
@@ -93,7 +115,7 @@ pub fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
 /// An environment map's mapping and cube layout from `--…-format`/`--…-preset`/`--…-layout`
 /// flags: what is given, else what the file records (spheremap's note, `spheremap::tag`;
 /// `envio::mapping_for`), else `default` (the flag's documented default).  `flag` names the
-/// format flag in errors.
+/// format flag in errors; a file that cannot be read is an error naming it.
 pub fn env_mapping(
     path: &str,
     format: Option<&str>,
@@ -103,7 +125,11 @@ pub fn env_mapping(
     flag: &str,
 ) -> anyhow::Result<(spheremap::Mapping, Option<spheremap::cube::Layout>)> {
     use anyhow::Context;
-    let recorded = spheremap::envio::recorded(path);
+    // No file (an empty path: the command has no --env) records nothing.
+    let recorded = match path {
+        "" => None,
+        p => spheremap::envio::recorded(p)?,
+    };
     let mapping = spheremap::envio::mapping_for(format, preset, recorded.as_ref(), Some(default))
         .with_context(|| flag.to_string())?
         .expect("a default mapping is given");

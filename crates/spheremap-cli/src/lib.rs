@@ -104,6 +104,9 @@ where
             "spheremap: internal error (a bug; please report it with the command line): {info}"
         );
     }));
+    // Warnings go to stderr while the command runs, even inside a host (the Python module's
+    // console script) that collects them otherwise.
+    let previous_sink = spheremap::error::set_warning_sink(None);
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Texgen(a) => cmd_texgen::run(a),
         Command::Demo(a) => cmd_demo::run(a),
@@ -119,6 +122,7 @@ where
         Command::Shader(a) => cmd_shader::run(a),
     });
     std::panic::set_hook(previous_hook);
+    spheremap::error::set_warning_sink(previous_sink);
     match result {
         Ok(Ok(())) => 0,
         Ok(Err(e)) if e.downcast_ref::<FoundProblem>().is_some() => {

@@ -40,17 +40,20 @@ impl Scene {
     /// Loads an OBJ (+MTL) or glTF 2.0 file.
     #[staticmethod]
     fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Scene> {
-        let inner = py.detach(|| scene::Scene::load(&path)).map_err(to_py)?;
+        let inner = py.detach(|| scene::Scene::load(&path));
+        crate::emit_warnings(py)?;
+        let inner = inner.map_err(to_py)?;
         Ok(Scene { inner })
     }
 
-    /// A built-in scene: "demo", "octants" or "mirror-ball".
+    /// A built-in scene: "demo", "octants" or "mirror-ball" (of `reflectance`).
     #[staticmethod]
-    fn builtin(name: &str) -> PyResult<Scene> {
+    #[pyo3(signature = (name, reflectance = 0.75))]
+    fn builtin(name: &str, reflectance: f32) -> PyResult<Scene> {
         let inner = match name {
             "demo" => scene::demo_scene(),
             "octants" => scene::octant_sphere_scene(10.0, 16),
-            "mirror-ball" => scene::mirror_ball_scene(0.75),
+            "mirror-ball" => scene::mirror_ball_scene(reflectance),
             _ => {
                 return Err(PyValueError::new_err(format!(
                     "name: unknown built-in scene {name:?}; expected 'demo', 'octants' or 'mirror-ball'"

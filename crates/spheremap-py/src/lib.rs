@@ -44,6 +44,33 @@ pyo3::create_exception!(
     "Valid input that spheremap does not handle."
 );
 
+/// Warnings the core gave while the GIL was released ([`spheremap::error::warn`]), waiting to
+/// be emitted as `UserWarning`s by [`emit_warnings`].
+static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+fn queue_warning(msg: &str) {
+    WARNINGS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(msg.to_string());
+}
+
+/// Emits the queued core warnings as `UserWarning`s (called after each core call that reads
+/// files).
+pub(crate) fn emit_warnings(py: Python<'_>) -> PyResult<()> {
+    let pending = std::mem::take(&mut *WARNINGS.lock().unwrap_or_else(|e| e.into_inner()));
+    for w in pending {
+        let msg = std::ffi::CString::new(w.replace('\0', " ")).expect("no NUL left");
+        PyErr::warn(
+            py,
+            py.get_type::<pyo3::exceptions::PyUserWarning>().as_any(),
+            &msg,
+            2,
+        )?;
+    }
+    Ok(())
+}
+
 /// The one mapping from core errors to Python exceptions.
 fn to_py(e: spheremap::Error) -> PyErr {
     use spheremap::Error as E;
@@ -643,9 +670,9 @@ fn read_image<'py>(
     if let Some(m) = max_pixels {
         limits.max_pixels = m;
     }
-    let img = py
-        .detach(|| spheremap::image_io::read_image(&path, &ReadOptions { linear, limits }))
-        .map_err(to_py)?;
+    let img = py.detach(|| spheremap::image_io::read_image(&path, &ReadOptions { linear, limits }));
+    emit_warnings(py)?;
+    let img = img.map_err(to_py)?;
     let (h, w, c) = (img.height, img.width, img.channels);
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([h, w, c])?
@@ -714,7 +741,8 @@ fn info<'py>(
 /// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
 /// extension.
 #[pyfunction]
-#[pyo3(signature = (path, array, linear, png16, half, note))]
+#[pyo3(signature = (path, array, linear, png16, half, clamp_half, note))]
+#[allow(clippy::too_many_arguments)]
 fn write_image(
     py: Python<'_>,
     path: std::path::PathBuf,
@@ -722,9 +750,10 @@ fn write_image(
     linear: bool,
     png16: bool,
     half: bool,
+    clamp_half: bool,
     note: Option<String>,
-) -> PyResult<()> {
-    use spheremap::image_io::{Image, WriteOptions};
+) -> PyResult<(u64, u64)> {
+    use spheremap::image_io::{Format, Image, Losses, WriteOptions};
     let shape = array.shape().to_vec();
     let data = contiguous(&array, "array")?.to_vec();
     let img = Image {
@@ -733,17 +762,18 @@ fn write_image(
         channels: shape[2],
         data,
     };
+    let opts = WriteOptions {
+        linear,
+        png16,
+        half,
+        clamp_half,
+    };
     py.detach(|| {
-        spheremap::image_io::write_image_tagged(
-            &path,
-            &img,
-            &WriteOptions {
-                linear,
-                png16,
-                half,
-            },
-            note.as_deref(),
-        )
+        spheremap::image_io::write_image_tagged(&path, &img, &opts, note.as_deref())?;
+        let l = Format::from_extension(&path)
+            .map(|f| Losses::of(&img, f, &opts))
+            .unwrap_or_default();
+        Ok((l.clipped, l.beyond_half))
     })
     .map_err(to_py)
 }
@@ -759,7 +789,7 @@ fn mapping_for(
     preset: Option<&str>,
     default: &str,
 ) -> PyResult<(&'static str, &'static str, Option<&'static str>)> {
-    let recorded = spheremap::envio::recorded(path);
+    let recorded = spheremap::envio::recorded(path).map_err(to_py)?;
     let m = spheremap::envio::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
         .map_err(to_py)?
         .expect("a default is given");
@@ -852,6 +882,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
             previous(info)
         }
     }));
+    spheremap::error::set_warning_sink(Some(queue_warning));
     m.add("__version__", spheremap::VERSION)?;
     m.add("MAX_SPLIT", spheremap::analyze::MAX_SPLIT)?;
     m.add("Error", m.py().get_type::<Error>())?;

@@ -157,6 +157,17 @@ pub fn read_env_files(
     layout: Option<Layout>,
     opts: &ReadOptions,
 ) -> Result<Image> {
+    read_env_layout(files, mapping, layout, opts).map(|(img, _)| img)
+}
+
+/// [`read_env_files`], and the cube layout the image was read in (the one given, else the one
+/// its shape implies; `None` for six faces and other mappings).
+pub fn read_env_layout(
+    files: &EnvFiles,
+    mapping: Mapping,
+    layout: Option<Layout>,
+    opts: &ReadOptions,
+) -> Result<(Image, Option<Layout>)> {
     let path = match files {
         EnvFiles::Faces { files: paths, .. } => {
             if !matches!(mapping, Mapping::Cube(_)) {
@@ -173,7 +184,7 @@ pub fn read_env_files(
                 .iter()
                 .map(|p| read_image(Path::new(p), opts))
                 .collect::<Result<Vec<_>>>()?;
-            return cube::stack_faces(&faces, paths);
+            return Ok((cube::stack_faces(&faces, paths)?, None));
         }
         EnvFiles::One(p) => p,
     };
@@ -184,12 +195,13 @@ pub fn read_env_files(
             None => Layout::from_shape(img.width, img.height)
                 .map_err(|e| Error::data(path, e.to_string()))?,
         };
-        return layout
+        let stack = layout
             .to_stack(&img)
-            .map_err(|e| Error::data(path, e.to_string()));
+            .map_err(|e| Error::data(path, e.to_string()))?;
+        return Ok((stack, Some(layout)));
     }
     mapping.size_of(img.width, img.height, path)?;
-    Ok(img)
+    Ok((img, None))
 }
 
 /// Writes a canvas of `mapping` (cube: face stack), made for `view` ([`crate::view`]; the
@@ -272,10 +284,12 @@ pub fn write_env_files(
 }
 
 /// The mapping the file `path` names records ([`crate::tag`]; for a face pattern, its first
-/// face's file), if it records one.
-pub fn recorded(path: &str) -> Option<MapTag> {
+/// face's file), if it records one; an error when that file cannot be read.
+pub fn recorded(path: &str) -> Result<Option<MapTag>> {
     let files = EnvFiles::parse(path);
-    MapTag::parse(&crate::tag::read_file(Path::new(files.first()))?)
+    Ok(crate::tag::read_file(Path::new(files.first()))?
+        .as_deref()
+        .and_then(MapTag::parse))
 }
 
 /// The mapping to read a file as: the `name` and `preset` given, each one absent taken from

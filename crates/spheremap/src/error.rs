@@ -116,6 +116,28 @@ pub fn check_memory(what: &str, bytes: u128, cap: u64) -> Result<()> {
     Ok(())
 }
 
+/// Where [`warn`] sends a warning: `None` prints it on stderr.
+static WARNING_SINK: std::sync::RwLock<Option<fn(&str)>> = std::sync::RwLock::new(None);
+
+/// Installs the function that receives every warning (Python's glue queues them and emits a
+/// `UserWarning` for each); `None` restores printing on stderr.  Returns the sink it replaces.
+pub fn set_warning_sink(sink: Option<fn(&str)>) -> Option<fn(&str)> {
+    std::mem::replace(
+        &mut *WARNING_SINK.write().unwrap_or_else(|e| e.into_inner()),
+        sink,
+    )
+}
+
+/// Something the user must hear that does not stop the work (a file whose content disagrees
+/// with its name): one line, naming the file.  Printed on stderr as `spheremap: warning: …`
+/// unless a sink is installed ([`set_warning_sink`]).
+pub fn warn(msg: &str) {
+    match *WARNING_SINK.read().unwrap_or_else(|e| e.into_inner()) {
+        Some(sink) => sink(msg),
+        None => eprintln!("spheremap: warning: {msg}"),
+    }
+}
+
 thread_local! {
     static GUARDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }

@@ -174,8 +174,74 @@ pub struct WriteOptions {
     pub linear: bool,
     /// PNG bit depth: 8 (default) or 16.
     pub png16: bool,
-    /// EXR sample type: half (16-bit float) instead of 32-bit float.
+    /// EXR sample type: half (16-bit float) instead of 32-bit float.  A value beyond the half
+    /// range (±65504) is refused (an error naming the count and the largest) unless
+    /// `clamp_half`: half would hold it as Inf.
     pub half: bool,
+    /// With `half`: clamp values beyond the half range to ±65504 instead of refusing them.
+    pub clamp_half: bool,
+}
+
+/// The largest finite half-float.
+pub const HALF_MAX: f32 = 65504.0;
+
+/// What encoding an image in a format loses: values the format cannot hold.  NaN and Inf that
+/// the image holds are not counted (EXR and PFM keep them; the LDR formats and Radiance HDR
+/// have no place for them and count them as clipped).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Losses {
+    /// Values clipped to the format's range: PNG and JPEG hold [0, 1] (a value counts when it
+    /// lies out of range by more than half a quantisation step), Radiance HDR holds no
+    /// negative values; NaN and Inf in either.
+    pub clipped: u64,
+    /// Finite values beyond the half-float range (EXR with `half`): refused, or clamped to
+    /// ±65504 with `clamp_half`.
+    pub beyond_half: u64,
+    /// The largest magnitude among `beyond_half`.
+    pub largest: f32,
+}
+
+impl Losses {
+    /// What writing `img` as `format` with `opts` loses.
+    pub fn of(img: &Image, format: Format, opts: &WriteOptions) -> Losses {
+        let c = img.channels.max(1);
+        let mut l = Losses::default();
+        match format {
+            Format::Exr if opts.half => {
+                for &v in &img.data {
+                    if v.is_finite() && v.abs() > HALF_MAX && exr::prelude::f16::from_f32(v).is_infinite() {
+                        l.beyond_half += 1;
+                        l.largest = l.largest.max(v.abs());
+                    }
+                }
+            }
+            Format::Png | Format::Jpeg => {
+                let step = if format == Format::Png && opts.png16 { 65535.0 } else { 255.0 };
+                let half_step = 0.5 / step;
+                for (i, &v) in img.data.iter().enumerate() {
+                    let alpha = (c == 2 || c == 4) && i % c == c - 1;
+                    let e = if opts.linear || alpha || !v.is_finite() {
+                        v
+                    } else if v > 1.0 {
+                        // sRGB's encoding past 1 (its formula continued): what would clip.
+                        1.055 * v.powf(1.0 / 2.4) - 0.055
+                    } else if v < 0.0 {
+                        12.92 * v
+                    } else {
+                        0.5 // in range
+                    };
+                    if !e.is_finite() || e > 1.0 + half_step || e < -half_step {
+                        l.clipped += 1;
+                    }
+                }
+            }
+            Format::Hdr => {
+                l.clipped = img.data.iter().filter(|v| !(**v >= 0.0) || v.is_infinite()).count() as u64;
+            }
+            _ => {}
+        }
+        l
+    }
 }
 
 /// sRGB transfer function, decoding (IEC 61966-2-1).
@@ -199,10 +265,29 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
-/// Reads an image file (format by content).
+/// Reads an image file (format by content).  A name whose extension names another format
+/// than the content is read by its content, with a warning ([`crate::error::warn`]:
+/// [`extension_warning`]).
 pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<Image> {
     let bytes = crate::io::read_file(path)?;
+    if let Some(w) = extension_warning(path, &bytes) {
+        crate::error::warn(&w);
+    }
     decode(path, &bytes, opts)
+}
+
+/// The warning for a file whose extension names another format than its content holds (PNG
+/// bytes named `.exr`), if it does.
+pub fn extension_warning(path: &Path, bytes: &[u8]) -> Option<String> {
+    let content = Format::sniff(bytes)?;
+    let named = Format::from_extension(path).filter(|f| *f != content)?;
+    Some(format!(
+        "{}: the file holds {} but its extension names {}; reading it as {}",
+        path.display(),
+        content.name(),
+        named.name(),
+        content.name()
+    ))
 }
 
 /// Decodes an image held in memory; `path` names it in messages.
@@ -498,6 +583,22 @@ pub fn encode_tagged(
         |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
     let mut buf = Cursor::new(Vec::new());
     let (w, h, c) = (img.width as u32, img.height as u32, img.channels);
+    if format == Format::Exr && opts.half && !opts.clamp_half {
+        let l = Losses::of(img, format, opts);
+        if l.beyond_half > 0 {
+            return Err(Error::data(
+                path,
+                format!(
+                    "{} value{} beyond the half-float range (the largest {:e}; half ends at \
+                     65504) would be written as Inf: write 32-bit floats (no --half, \
+                     half=False) or clamp them to 65504 (--clamp-half, clamp_half=True)",
+                    l.beyond_half,
+                    if l.beyond_half == 1 { " lies" } else { "s lie" },
+                    l.largest
+                ),
+            ));
+        }
+    }
     match format {
         Format::Exr => encode_exr(path, img, opts.half, tag, &mut buf)?,
         Format::Pfm => encode_pfm(img, &mut buf),
@@ -604,7 +705,10 @@ fn encode_exr(
     let plane = |k: usize| -> FlatSamples {
         let v = img.data.iter().skip(k).step_by(c).copied();
         if half {
-            FlatSamples::F16(v.map(f16::from_f32).collect())
+            // Finite values beyond the half range are clamped to it (refused before this unless
+            // the caller asked for clamping); NaN and Inf stay what they are.
+            let clamp = |x: f32| if x.is_finite() { x.clamp(-HALF_MAX, HALF_MAX) } else { x };
+            FlatSamples::F16(v.map(|x| f16::from_f32(clamp(x))).collect())
         } else {
             FlatSamples::F32(v.collect())
         }

@@ -23,7 +23,11 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
             },
         ));
     }
-    std::fs::read(path).map_err(|e| Error::io(path, e))
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if bytes.is_empty() {
+        return Err(Error::data(path, "the file is empty"));
+    }
+    Ok(bytes)
 }
 
 /// Writes `path` atomically: `fill` writes into a temporary file in the same directory, which

@@ -169,20 +169,32 @@ pub fn read(bytes: &[u8]) -> Option<String> {
 }
 
 /// The note in the file at `path`, read from its first 4 MiB (every format keeps it in its
-/// header); `None` when the file records none or cannot be read (reading it for its pixels
-/// reports that).
-pub fn read_file(path: &std::path::Path) -> Option<String> {
+/// header), if it records one.  A file that cannot be read is an error naming it (missing,
+/// not a regular file, empty): the first thing a command learns of its input is why it
+/// cannot have it.
+pub fn read_file(path: &std::path::Path) -> crate::error::Result<Option<String>> {
+    use crate::error::Error;
     use std::io::Read;
-    if !std::fs::metadata(path).ok()?.is_file() {
-        return None; // a FIFO or device would block or never end
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        // A FIFO or device would block or never end.
+        return Err(Error::data(
+            path,
+            if meta.is_dir() {
+                "is a directory, not a file"
+            } else {
+                "not a regular file"
+            },
+        ));
+    }
+    if meta.len() == 0 {
+        return Err(Error::data(path, "the file is empty"));
     }
     let mut head = Vec::new();
     std::fs::File::open(path)
-        .ok()?
-        .take(4 << 20)
-        .read_to_end(&mut head)
-        .ok()?;
-    read(&head)
+        .and_then(|f| f.take(4 << 20).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    Ok(read(&head))
 }
 
 fn read_png(bytes: &[u8]) -> Option<String> {

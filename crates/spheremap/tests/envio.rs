@@ -221,7 +221,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
             &WriteOptions::default(),
         )
         .unwrap();
-        let got = tag::read_file(std::path::Path::new(&p)).and_then(|t| MapTag::parse(&t));
+        let got = tag::read_file(std::path::Path::new(&p)).unwrap().and_then(|t| MapTag::parse(&t));
         if ext == "pfm" {
             assert_eq!(got, None);
         } else {
@@ -237,7 +237,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
             let back = spheremap::view::look_up(l, u).unwrap();
             let err = (0..9).map(|k| (back[k / 3][k % 3] - turned[k / 3][k % 3]).abs());
             assert!(err.fold(0.0, f64::max) < 1e-14, "{ext}: {back:?}");
-            assert_eq!(spheremap::envio::recorded(&p), Some(t));
+            assert_eq!(spheremap::envio::recorded(&p).unwrap(), Some(t));
         }
         // The note changes no pixel: the file decodes as the same image encoded without it.
         let bytes = std::fs::read(&p).unwrap();
@@ -272,7 +272,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
         &WriteOptions::default(),
     )
     .unwrap();
-    let t = spheremap::envio::recorded(&p).unwrap();
+    let t = spheremap::envio::recorded(&p).unwrap().unwrap();
     assert_eq!(t.view, None, "the identity view is not written");
     assert_eq!(
         (t.mapping.preset_name(), t.layout),
@@ -290,10 +290,10 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
     )
     .unwrap();
     for (i, f) in faces.paths().iter().enumerate() {
-        let t = spheremap::envio::recorded(f).unwrap();
+        let t = spheremap::envio::recorded(f).unwrap().unwrap();
         assert_eq!((t.mapping.name(), t.face), ("cube", Some(i)), "{f}");
     }
-    assert_eq!(spheremap::envio::recorded(&pattern).unwrap().face, Some(0));
+    assert_eq!(spheremap::envio::recorded(&pattern).unwrap().unwrap().face, Some(0));
 }
 
 #[test]

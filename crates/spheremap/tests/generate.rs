@@ -477,3 +477,164 @@ fn errors_are_named() {
     let e = generate(SPHERE, 16, 16, &Failing, &opts(1), None).unwrap_err();
     assert_eq!(e.to_string(), "fire_ray: went wrong");
 }
+
+/// A floor quad at y = 0 (normal +Y) of material `M` from `mtl`, with `extra` OBJ lines after
+/// it (more geometry, other materials).
+fn floor_scene(mtl: &str, extra: &str) -> scene::Scene {
+    let obj = format!(
+        "mtllib m.mtl\nv -10 0 -10\nv 10 0 -10\nv 10 0 10\nv -10 0 10\nvn 0 1 0\nusemtl M\n\
+         f 1//1 3//1 2//1\nf 1//1 4//1 3//1\n{extra}"
+    );
+    scene::Scene::load_obj_bytes("floor.obj", obj.as_bytes(), Some(mtl.as_bytes())).unwrap()
+}
+
+/// The MTL illumination models: `illum 0` is the constant colour Kd + Ke whatever lights,
+/// environment and glowing neighbours surround it; `1` is diffuse (Ks ignored); `2` adds the
+/// lights' normalised Blinn–Phong highlights; `3` and up add a mirror of colour Ks.
+#[test]
+fn mtl_illumination_models() {
+    // A glowing ceiling at y = 2 (its cosine rays reach it), a point light below it, and a
+    // bright environment: none of it may reach an illum 0 floor.
+    let ceiling = "v -10 2 -10\nv 10 2 -10\nv 10 2 10\nv -10 2 10\nusemtl Glow\nf 5 6 7\nf 5 7 8\n";
+    let glow = "newmtl Glow\nKe 5 5 5\nKd 0 0 0\n";
+    let unlit = format!("newmtl M\nillum 0\nKd 0.3 0.4 0.5\nKe 0.1 0.1 0.1\nKs 1 1 1\n{glow}");
+    let mut sc = floor_scene(&unlit, ceiling);
+    sc.environment = Environment::Constant([3.0; 3]);
+    sc.lights.push(Light::Point {
+        position: [0.0, 1.5, 0.0],
+        intensity: [10.0; 3],
+    });
+    sc.options.indirect_samples = 16;
+    let l = sc.radiance([0.3, 1.0, 0.2], [0.0, -1.0, 0.0]);
+    assert_eq!(l, [0.4, 0.5, 0.6], "illum 0 is the constant Kd + Ke");
+    // The same floor as illum 1 gains the ceiling's light (the test above is not vacuous).
+    let lit = floor_scene(&unlit.replace("illum 0", "illum 1"), ceiling);
+    let mut lit = lit;
+    lit.options.indirect_samples = 16;
+    assert!(lit.radiance([0.3, 1.0, 0.2], [0.0, -1.0, 0.0])[0] > 0.5);
+
+    // illum 1 ignores Ks; illum 2 adds the highlight, exactly: a sun from straight above seen
+    // from straight above has n·h = 1, so L = Kd/π E + Ks (s + 8)/(8π) E.
+    let sun = Light::Directional {
+        direction: [0.0, -1.0, 0.0],
+        irradiance: [3.0; 3],
+    };
+    let radiance = |illum: u32| {
+        let mut sc = floor_scene(
+            &format!("newmtl M\nillum {illum}\nKd 0.2 0.2 0.2\nKs 0.5 0.25 0.0\nNs 20\n"),
+            "",
+        );
+        sc.lights.push(sun);
+        sc.options.indirect_samples = 0;
+        sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0])
+    };
+    let pi = std::f32::consts::PI;
+    let diffuse = 0.2 / pi * 3.0;
+    let l1 = radiance(1);
+    assert!(l1.iter().all(|v| (v - diffuse).abs() < 1e-6), "{l1:?}");
+    let l2 = radiance(2);
+    for (k, ks) in [0.5f32, 0.25, 0.0].into_iter().enumerate() {
+        let want = diffuse + ks * 28.0 / (8.0 * pi) * 3.0;
+        assert!((l2[k] - want).abs() < 1e-5 * want.max(1.0), "{l2:?} {k} {want}");
+    }
+    // Away from the mirror direction the highlight falls as (n·h)^s.
+    let mut sc = floor_scene("newmtl M\nillum 2\nKd 0 0 0\nKs 1 1 1\nNs 20\n", "");
+    sc.lights.push(sun);
+    sc.options.indirect_samples = 0;
+    let v = [0.6f32, 0.8, 0.0]; // toward the viewer
+    let l = sc.radiance([0.6, 0.8, 0.0], [-0.6, -0.8, 0.0]);
+    let h = [v[0], v[1] + 1.0, 0.0];
+    let nh = h[1] / (h[0] * h[0] + h[1] * h[1]).sqrt();
+    let want = 28.0 / (8.0 * pi) * 3.0 * nh.powf(20.0);
+    assert!((l[0] - want).abs() < 1e-5, "{l:?} {want}");
+
+    // illum 3 and up: a mirror of colour Ks (the environment seen in it), plus the highlight.
+    for illum in [3, 4, 5, 6, 7, 8, 9] {
+        let mut sc = floor_scene(
+            &format!("newmtl M\nillum {illum}\nKd 0 0 0\nKs 0.5 0.25 1\nNs 20\n"),
+            "",
+        );
+        sc.environment = Environment::Constant([2.0; 3]);
+        assert_eq!(
+            sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
+            [1.0, 0.5, 2.0],
+            "illum {illum}"
+        );
+    }
+    // illum 10 (shadow matte) is drawn diffuse.
+    let mut sc = floor_scene("newmtl M\nillum 10\nKd 0.2 0.2 0.2\nKs 1 1 1\n", "");
+    sc.lights.push(sun);
+    sc.options.indirect_samples = 0;
+    let l = sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]);
+    assert!((l[0] - diffuse).abs() < 1e-6, "{l:?}");
+}
+
+/// The models the renderer only approximates are named in a warning.
+#[test]
+fn approximated_illumination_models_are_named() {
+    static SEEN: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    fn sink(m: &str) {
+        SEEN.lock().unwrap().push(m.to_string());
+    }
+    spheremap::error::set_warning_sink(Some(sink));
+    let _ = floor_scene("newmtl M\nillum 7\nKs 1 1 1\n", "");
+    let _ = floor_scene("newmtl M\nillum 2\nKs 1 1 1\n", "");
+    spheremap::error::set_warning_sink(None);
+    let seen = SEEN.lock().unwrap();
+    let ours: Vec<_> = seen.iter().filter(|m| m.starts_with("floor.obj")).collect();
+    assert_eq!(ours.len(), 1, "{seen:?}");
+    assert!(ours[0].contains("\"M\" asks for illum 7") && ours[0].contains("refraction"));
+}
+
+/// glTF's `KHR_materials_unlit` is `illum 0`: the base colour (plus the emission) whatever
+/// the lights and the environment.
+#[test]
+fn gltf_unlit_material_is_its_base_colour() {
+    fn base64(bytes: &[u8]) -> String {
+        const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut s = String::new();
+        for c in bytes.chunks(3) {
+            let n = (c[0] as u32) << 16
+                | (*c.get(1).unwrap_or(&0) as u32) << 8
+                | *c.get(2).unwrap_or(&0) as u32;
+            for k in 0..4 {
+                s.push(if k <= c.len() {
+                    A[(n >> (18 - 6 * k) & 63) as usize] as char
+                } else {
+                    '='
+                });
+            }
+        }
+        s
+    }
+    let tri: [f32; 9] = [-10.0, 0.0, -10.0, 0.0, 0.0, 10.0, 10.0, 0.0, -10.0];
+    let bytes: Vec<u8> = tri.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let gltf = |ext: &str| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},{ext}"scene":0,"scenes":[{{"nodes":[0]}}],
+            "nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"material":0}}]}}],
+            "materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.2,0.4,0.6,1],"metallicFactor":0}},
+              "emissiveFactor":[0.1,0,0]{}}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+              "min":[-10,0,-10],"max":[10,0,10]}}],
+            "bufferViews":[{{"buffer":0,"byteLength":36}}],
+            "buffers":[{{"byteLength":36,"uri":"data:application/octet-stream;base64,{}"}}]}}"#,
+            if ext.is_empty() { "" } else { r#","extensions":{"KHR_materials_unlit":{}}"# },
+            base64(&bytes)
+        )
+    };
+    let shade = |text: String| {
+        let mut sc = scene::Scene::load_bytes("unlit.gltf", text.as_bytes()).unwrap();
+        sc.environment = Environment::Constant([3.0; 3]);
+        sc.lights.push(Light::Directional {
+            direction: [0.0, -1.0, 0.0],
+            irradiance: [5.0; 3],
+        });
+        sc.options.indirect_samples = 8;
+        sc.radiance([0.0, 1.0, 0.0], [0.0, -1.0, 0.0])
+    };
+    let unlit = shade(gltf(r#""extensionsUsed":["KHR_materials_unlit"],"#));
+    assert_eq!(unlit, [0.3, 0.4, 0.6]);
+    let lit = shade(gltf(""));
+    assert!(lit[1] > 0.5, "{lit:?}");
+}

@@ -302,6 +302,24 @@ pub struct ResampleReport {
     pub lookups: u64,
     /// The most samples any texel took.
     pub max_texel_samples: u32,
+    /// The conversion was the identity (same mapping and preset, same canvas, no turn): the
+    /// texels were copied ([`is_identity`]).
+    pub copied: bool,
+}
+
+/// Whether converting `src` into a `width`×`height` canvas of `dst` with `rotation` is the
+/// identity: the same mapping and preset, the same canvas size and no turn between the views.
+/// Such a conversion copies the texels (no filter or sample count applies), so converting a
+/// map to another file format changes only its encoding.
+pub fn is_identity(
+    src: &EnvMap,
+    dst: Mapping,
+    width: usize,
+    height: usize,
+    rotation: &[[f64; 3]; 3],
+) -> bool {
+    let turned = (0..3).any(|i| (0..3).any(|j| (rotation[i][j] - IDENTITY[i][j]).abs() > 1e-12));
+    src.mapping == dst && src.width == width && src.height == height && !turned
 }
 
 /// Resamples `src` into a `width`×`height` canvas of `dst` (for a cube: the F×6F face stack).
@@ -405,6 +423,9 @@ fn resample_uninit(
     progress: Option<&Progress>,
     out: &mut [MaybeUninit<f32>],
 ) -> Result<ResampleReport> {
+    if is_identity(src, dst, w, h, &opts.rotation) {
+        return Ok(copy_identity(src, dst, opts.outside, progress, out));
+    }
     let report = match (opts.precision, src.channels) {
         (Precision::F32, 1) => run::<f32, 1>(src, dst, w, h, opts, progress, out),
         (Precision::F32, 2) => run::<f32, 2>(src, dst, w, h, opts, progress, out),
@@ -419,6 +440,38 @@ fn resample_uninit(
         return Err(Error::cancelled("the conversion"));
     }
     Ok(report)
+}
+
+/// The identity conversion ([`is_identity`]): every texel copied, except that with
+/// [`Outside::Black`] the texels of a disc mapping that lie wholly off the map are zero.
+fn copy_identity(
+    src: &EnvMap,
+    dst: Mapping,
+    outside: Outside,
+    progress: Option<&Progress>,
+    out: &mut [MaybeUninit<f32>],
+) -> ResampleReport {
+    let (w, c) = (src.width, src.channels);
+    let black = outside == Outside::Black && dst.has_outside();
+    out.par_chunks_mut(w * c)
+        .zip(src.data.par_chunks(w * c))
+        .enumerate()
+        .for_each(|(y, (row, from))| {
+            for (x, (o, i)) in row.chunks_mut(c).zip(from.chunks(c)).enumerate() {
+                let off = black && dst.texel_solid_angle(x, y, w, src.height) == 0.0;
+                for (o, &v) in o.iter_mut().zip(i) {
+                    o.write(if off { 0.0 } else { v });
+                }
+            }
+        });
+    if let Some(p) = progress {
+        p.done.store(src.height, Ordering::Relaxed);
+    }
+    ResampleReport {
+        lookups: 0,
+        max_texel_samples: 0,
+        copied: true,
+    }
 }
 
 pub(crate) fn check_rotation(r: &[[f64; 3]; 3]) -> Result<()> {
@@ -579,6 +632,7 @@ fn run<T: Real, const C: usize>(
         let report = ResampleReport {
             lookups: (w * h) as u64,
             max_texel_samples: 1,
+            copied: false,
         };
         return Ok(report);
     }
@@ -654,6 +708,7 @@ fn run<T: Real, const C: usize>(
         let report = ResampleReport {
             lookups: lookups.into_inner(),
             max_texel_samples: max_n.into_inner() as u32,
+            copied: false,
         };
         return Ok(report);
     }
@@ -687,6 +742,7 @@ fn run<T: Real, const C: usize>(
     let report = ResampleReport {
         lookups: lookups.into_inner(),
         max_texel_samples: max_n.into_inner() as u32,
+        copied: false,
     };
     Ok(report)
 }

@@ -1,14 +1,26 @@
 //! Scene files: OBJ + MTL (tobj) and glTF 2.0 (gltf; .gltf with its buffers, or .glb).
 //!
 //! * OBJ/MTL: `Ke` → emission, `Kd` → diffuse (absent: 0.8 grey, or 0 when the material
-//!   emits), `map_Kd` → diffuse texture (sRGB-decoded, relative to the MTL's folder), `illum`
-//!   3, 5 or 7 (the MTL "reflection on" models) → a perfect mirror of colour `Ks` (1 when
-//!   absent).  Faces without a material get the default (diffuse 0.8 grey).  `vt` v is flipped
+//!   emits or is a mirror), `map_Kd` → diffuse texture (sRGB-decoded, relative to the MTL's
+//!   folder).  The illumination model `illum` (see [`IllumModel`]):
+//!   - `0` (colour on, ambient off): unlit, the constant colour `Kd` (× `map_Kd`) plus `Ke`,
+//!     whatever the lights, the environment and the neighbours;
+//!   - `1` (colour and ambient on) and no `illum`: diffuse only (`Ks` ignored);
+//!   - `2` (highlight on): diffuse plus the lights' highlights, colour `Ks`, exponent `Ns`
+//!     (normalised Blinn–Phong);
+//!   - `3` to `9` (reflection on; glass, refraction and Fresnel variants): as `2`, plus a
+//!     perfect mirror of colour `Ks` (1 when absent).  Refraction and transparency (`4`, `6`,
+//!     `7`, `9`) and the Fresnel weighting (`5`, `7`) are not drawn: such a material is drawn
+//!     as `3`, with a warning naming it;
+//!   - `10` (shadow matte) is drawn as `1`, with a warning.
+//!
+//!   Faces without a material get the default (diffuse 0.8 grey).  `vt` v is flipped
 //!   to the top-row convention.  A missing MTL file is an error (it names the file).
 //! * glTF: the default scene's nodes with their world transforms; `emissiveFactor` ×
 //!   `KHR_materials_emissive_strength` → emission; `baseColorFactor` × `baseColorTexture` →
 //!   diffuse, times (1 − metallic); metallic ≥ 0.99 with roughness ≤ 0.01 → a mirror of the
-//!   base colour.  `KHR_lights_punctual`: point and directional lights (colour × intensity);
+//!   base colour.  `KHR_materials_unlit` → unlit (the base colour × texture plus the
+//!   emission, as MTL `illum 0`).  `KHR_lights_punctual`: point and directional lights (colour × intensity);
 //!   spot lights are treated as point lights (cone ignored).  Triangle primitives only;
 //!   Draco-compressed files are not supported.
 
@@ -149,6 +161,47 @@ fn load_obj(path: &Path) -> Result<SceneBuilder> {
     from_obj(path, models, mtls, path.parent().unwrap_or(Path::new(".")))
 }
 
+/// What the renderer draws for an MTL illumination model (the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IllumModel {
+    /// `illum 0`: the constant colour `Kd` (+ `Ke`), unlit.
+    Constant,
+    /// `illum 1`, `10`, or none: diffuse.
+    Diffuse,
+    /// `illum 2`: diffuse plus the lights' highlights (`Ks`, `Ns`).
+    Highlight,
+    /// `illum 3` to `9`: as `Highlight`, plus a perfect mirror of colour `Ks`.
+    Reflection,
+}
+
+impl IllumModel {
+    /// The model drawn for an MTL `illum` value (`None`: no `illum` line).
+    pub fn of(illum: Option<u8>) -> IllumModel {
+        match illum {
+            Some(0) => IllumModel::Constant,
+            Some(2) => IllumModel::Highlight,
+            Some(3..=9) => IllumModel::Reflection,
+            _ => IllumModel::Diffuse,
+        }
+    }
+}
+
+/// For an `illum` value the renderer draws only approximately, what it draws instead.
+fn illum_approximation(illum: Option<u8>) -> Option<&'static str> {
+    match illum? {
+        4 | 6 | 9 => Some("transparency and refraction are not drawn: drawn as illum 3, a mirror"),
+        5 => Some("Fresnel reflection is not drawn: drawn as illum 3, a mirror of colour Ks"),
+        7 => Some(
+            "refraction and Fresnel reflection are not drawn: drawn as illum 3, a mirror of \
+             colour Ks",
+        ),
+        8 => Some("drawn as illum 3: the mirror is ray traced"),
+        10 => Some("shadow matte is not drawn: drawn as illum 1, diffuse"),
+        v if v > 10 => Some("not an MTL illumination model: drawn as illum 1, diffuse"),
+        _ => None,
+    }
+}
+
 fn from_obj(
     path: &Path,
     models: Vec<tobj::Model>,
@@ -164,7 +217,16 @@ fn from_obj(
     for m in &mtls {
         let emission = m.emissive.unwrap_or([0.0; 3]);
         let emits = emission.iter().any(|&v| v > 0.0);
-        let mirror_model = matches!(m.illumination_model, Some(3 | 5 | 7));
+        let model = IllumModel::of(m.illumination_model);
+        if let Some(note) = illum_approximation(m.illumination_model) {
+            crate::error::warn(&format!(
+                "{}: material {:?} asks for illum {} ({note})",
+                path.display(),
+                m.name,
+                m.illumination_model.unwrap_or(0)
+            ));
+        }
+        let mirror_model = model == IllumModel::Reflection;
         let diffuse = m.diffuse.unwrap_or(if emits || mirror_model {
             [0.0; 3]
         } else {
@@ -187,6 +249,13 @@ fn from_obj(
             } else {
                 [0.0; 3]
             },
+            specular: if matches!(model, IllumModel::Highlight | IllumModel::Reflection) {
+                m.specular.unwrap_or([0.0; 3])
+            } else {
+                [0.0; 3]
+            },
+            shininess: m.shininess.unwrap_or(0.0),
+            unlit: model == IllumModel::Constant,
         }));
     }
     for model in &models {
@@ -267,7 +336,19 @@ fn from_gltf(
             });
         }
         let rgb = [base[0], base[1], base[2]];
-        let mirror = metal >= 0.99 && rough <= 0.01;
+        let unlit = m.unlit();
+        let mirror = metal >= 0.99 && rough <= 0.01 && !unlit;
+        if unlit {
+            ids.push(b.add_material(Material {
+                name: m.name().unwrap_or("").to_string(),
+                emission,
+                diffuse: rgb,
+                diffuse_texture: tex,
+                unlit: true,
+                ..Material::default()
+            }));
+            continue;
+        }
         ids.push(b.add_material(Material {
             name: m.name().unwrap_or("").to_string(),
             emission,
@@ -278,6 +359,7 @@ fn from_gltf(
             },
             diffuse_texture: if mirror { None } else { tex },
             mirror: if mirror { rgb } else { [0.0; 3] },
+            ..Material::default()
         }));
     }
     for (node, world) in crate::mesh::gltf_world_nodes(&doc) {

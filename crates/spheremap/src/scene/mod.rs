@@ -13,12 +13,20 @@
 //!                                               point light: I = intensity / d², l toward it;
 //!                                               directional: I = irradiance, l = −direction;
 //!                                               V = 1 if the shadow ray reaches the light
+//!     + S·(s+8)/(8π) · Σ_lights V · I · max(0, n·h)^s · max(0, n·l)
+//!                                             highlights of the lights (normalised
+//!                                               Blinn–Phong; S = specular colour, s = its
+//!                                               exponent, h = normalize(l + v); lights only,
+//!                                               not the environment)
 //!     + ρ · (1/K) Σ_k L_e(ω_k)                environment and emitters seen by K cosine-
 //!                                               distributed rays (K = indirect_samples): the
 //!                                               emission of what they hit, else the environment
 //!     + M · L(reflected ray)                  perfect mirror, M = mirror colour, up to
 //!                                               max_depth bounces (then 0)
 //! ```
+//!
+//! An **unlit** material (MTL `illum 0`, glTF `KHR_materials_unlit`) returns `L = E + ρ`
+//! whatever the lights, the environment and its neighbours.
 //!
 //! There is no multiple diffuse inter-reflection (light bounces once off a diffuse surface).
 //! The cosine rays are deterministic: their random numbers are a hash of the incoming ray's
@@ -62,6 +70,13 @@ pub struct Material {
     pub diffuse_texture: Option<usize>,
     /// Perfect mirror reflectance (0 = none).
     pub mirror: [f32; 3],
+    /// Colour of the lights' highlights (normalised Blinn–Phong; 0 = none).
+    pub specular: [f32; 3],
+    /// The highlights' exponent (MTL `Ns`).
+    pub shininess: f32,
+    /// Lit by nothing: the surface shows `emission + diffuse × texture` whatever the lights,
+    /// environment and neighbours (MTL `illum 0`, glTF `KHR_materials_unlit`).
+    pub unlit: bool,
 }
 
 impl Default for Material {
@@ -72,6 +87,9 @@ impl Default for Material {
             diffuse: [0.8; 3],
             diffuse_texture: None,
             mirror: [0.0; 3],
+            specular: [0.0; 3],
+            shininess: 0.0,
+            unlit: false,
         }
     }
 }
@@ -647,6 +665,38 @@ impl Scene {
         self.trace_ray(Vec3A::from(o), d, 0).to_array()
     }
 
+    /// Each light that reaches the surface at `hit_point` (normal `n`; shadow rays start at `p`)
+    /// from above it: its direction from the surface and the irradiance it brings, I·max(0, n·l).
+    fn lights_at(
+        &self,
+        hit_point: Vec3A,
+        p: Vec3A,
+        n: Vec3A,
+    ) -> impl Iterator<Item = (Vec3A, Vec3)> + '_ {
+        self.lights.iter().filter_map(move |light| match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                // Geometry from the hit point itself; the offset only starts the shadow ray.
+                let to = Vec3A::from(position) - hit_point;
+                let dist = to.length();
+                let cos = n.dot(to) / dist;
+                (cos > 0.0 && self.unoccluded(p, to / dist, dist * (1.0 - 1e-4)))
+                    .then(|| (to / dist, Vec3::from(intensity) * (cos / (dist * dist))))
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                let l_dir = -Vec3A::from(direction).normalize_or_zero();
+                let cos = n.dot(l_dir);
+                (cos > 0.0 && self.unoccluded(p, l_dir, f32::INFINITY))
+                    .then(|| (l_dir, Vec3::from(irradiance) * cos))
+            }
+        })
+    }
+
     fn trace_ray(&self, o: Vec3A, d: Vec3A, depth: u32) -> Vec3 {
         let Some(hit) = self.closest(o, d, f32::INFINITY) else {
             return Vec3::from(self.environment_radiance(d));
@@ -673,34 +723,25 @@ impl Scene {
         if let Some(k) = m.diffuse_texture {
             albedo *= Vec3::from(sample_texture(&self.textures[k], uv));
         }
+        if m.unlit {
+            return l + albedo;
+        }
+        let specular = Vec3::from(m.specular);
+        if specular.max_element() > 0.0 {
+            // Normalised Blinn–Phong: S (s + 8)/(8π) (n·h)^s, times the light's irradiance.
+            let s = m.shininess.max(0.0);
+            let norm = (s + 8.0) / (8.0 * std::f32::consts::PI);
+            let mut e = Vec3::ZERO;
+            for (l_dir, irradiance) in self.lights_at(hit_point, p, n) {
+                let h = (l_dir - d).normalize_or_zero();
+                e += irradiance * n.dot(h).max(0.0).powf(s);
+            }
+            l += specular * e * norm;
+        }
         if albedo.max_element() > 0.0 {
             let mut e = Vec3::ZERO;
-            for light in &self.lights {
-                match *light {
-                    Light::Point {
-                        position,
-                        intensity,
-                    } => {
-                        // Geometry from the hit point itself; the offset only starts the
-                        // shadow ray.
-                        let to = Vec3A::from(position) - hit_point;
-                        let dist = to.length();
-                        let cos = n.dot(to) / dist;
-                        if cos > 0.0 && self.unoccluded(p, to / dist, dist * (1.0 - 1e-4)) {
-                            e += Vec3::from(intensity) * (cos / (dist * dist));
-                        }
-                    }
-                    Light::Directional {
-                        direction,
-                        irradiance,
-                    } => {
-                        let l_dir = -Vec3A::from(direction).normalize_or_zero();
-                        let cos = n.dot(l_dir);
-                        if cos > 0.0 && self.unoccluded(p, l_dir, f32::INFINITY) {
-                            e += Vec3::from(irradiance) * cos;
-                        }
-                    }
-                }
+            for (_, irradiance) in self.lights_at(hit_point, p, n) {
+                e += irradiance;
             }
             l += albedo * e * std::f32::consts::FRAC_1_PI;
             let k = self.options.indirect_samples;
