@@ -13,8 +13,10 @@ JPEG compression (8-bit sRGB, clipped highlights). Each photo's exact outline is
 its centre; its "circle" is the one through the cone's points nearest to and farthest from the
 image centre (as `from-photo` reports it).
 
-`eval` runs `spheremap from-photo --fov F --json` on every photo and reports the errors of the
-centre and radius, in pixels, and the confidence the detector gives.
+`eval` finds every photo's ball and reports the errors of the centre and radius, in pixels, and
+the confidence the detector gives: `--method edge` (default) runs `spheremap from-photo --fov F
+--json` (the edge fit), `--method rim` calls `spheremap.find_ball(photo, fov=F)` (the
+perspective rim model).
 """
 
 import argparse
@@ -133,21 +135,40 @@ def make(out: Path, cases: int, seed: int):
     (out / "truth.json").write_text(json.dumps(truth, indent=1))
 
 
-def evaluate(corpus: Path, binary: str):
+def find_rim(path: Path, fov: float):
+    """The rim model's circle and confidence, or its error."""
+    import spheremap as sm
+
+    try:
+        f = sm.find_ball(sm.read_image(path), fov=fov)
+    except sm.Error as e:
+        return None, str(e)
+    return f["circle"], f["confidence"]
+
+
+def evaluate(corpus: Path, binary: str, method: str = "edge"):
     import tempfile
 
     truth = json.loads((corpus / "truth.json").read_text())
     rows = []
     scratch = Path(tempfile.mkdtemp()) / "map.exr"
     for t in truth:
-        cmd = [*binary.split(), "from-photo", str(corpus / t["file"]), "--fov", repr(t["fov"]), "--size", "16",
-               "--json", "-q", "-o", str(scratch), "--force"]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            rows.append((t, None, r.stderr.strip()))
-            print(f"{t['file']}: {r.stderr.strip()}")
-            continue
-        shot = json.loads(r.stdout)["shots"][0]
+        if method == "rim":
+            circle, conf = find_rim(corpus / t["file"], t["fov"])
+            if circle is None:
+                rows.append((t, None, conf))
+                print(f"{t['file']}: {conf}")
+                continue
+            shot = {"circle": circle, "confidence": conf}
+        else:
+            cmd = [*binary.split(), "from-photo", str(corpus / t["file"]), "--fov", repr(t["fov"]), "--size", "16",
+                   "--json", "-q", "-o", str(scratch), "--force"]
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            if r.returncode != 0:
+                rows.append((t, None, r.stderr.strip()))
+                print(f"{t['file']}: {r.stderr.strip()}")
+                continue
+            shot = json.loads(r.stdout)["shots"][0]
         cx, cy, rad = shot["circle"]
         e = (cx - t["circle"][0], cy - t["circle"][1], rad - t["circle"][2])
         rows.append((t, e, shot.get("confidence")))
@@ -176,11 +197,12 @@ def main():
     e = sub.add_parser("eval")
     e.add_argument("dir", type=Path)
     e.add_argument("--spheremap", default=f"{sys.executable} -m spheremap")
+    e.add_argument("--method", choices=["edge", "rim"], default="edge")
     a = p.parse_args()
     if a.cmd == "make":
         make(a.dir, a.cases, a.seed)
     else:
-        evaluate(a.dir, a.spheremap)
+        evaluate(a.dir, a.spheremap, a.method)
 
 
 if __name__ == "__main__":

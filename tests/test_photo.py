@@ -61,6 +61,25 @@ def test_find_ball_is_sub_pixel(photo):
     assert fit["fit_points"] > 100 and fit["fit_rms_px"] < 1
 
 
+def test_find_ball_rim_model_is_exact(env, photo):
+    # The perspective rim model fits what the pixels around the silhouette show (the background,
+    # and inside it its compressed reflection) and finds the outline to a few hundredths of a
+    # pixel where the edge fit above is off by tenths; it sees the ball's reflectance too.
+    f = 200 / math.tan(math.radians(FOV / 2))
+    want_r = f * math.tan(math.asin(0.2))
+    fit = sm.find_ball(photo, fov=FOV)
+    cx, cy, r = fit["circle"]
+    assert max(abs(cx - 200), abs(cy - 200), abs(r - want_r)) < 0.1, (fit, want_r)
+    assert fit["confidence"] >= 0.3 and abs(fit["reflectance"] - 0.75) < 0.05, fit
+    # No ball: refused, naming what to do, never a circle made up.
+    empty = sm.Scene.builtin("mirror-ball", environment=env).preview((0, 0, 5), (0, 0, 10), fov=FOV,
+                                                                       size=(400, 400), samples=4)
+    with pytest.raises(sm.DataError, match="no mirror ball found.*--circle CX CY R"):
+        sm.find_ball(empty, fov=FOV)
+    with pytest.raises(ValueError, match="^fov"):
+        sm.find_ball(photo, fov=200)
+
+
 def test_perspective_unwarp_matches_the_truth_and_orthographic_does_not(photo, truth):
     m, mask, info = sm.from_mirror_ball(photo, fov=FOV, reflectance=0.75, size=128)
     assert m.shape == (128, 128, 3) and mask.shape == (128, 128, 1)

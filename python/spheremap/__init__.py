@@ -795,14 +795,30 @@ def _cube_out(to: str, a: np.ndarray) -> np.ndarray:
     return a
 
 
-def find_ball(image, *, linear: bool = False) -> dict:
+def find_ball(image, *, fov: float | None = None, linear: bool = False) -> dict:
     """Finds a mirror ball in a photo (array or path): its outline to sub-pixel precision.
-    Returns {"circle": (cx, cy, r), "fit_rms_px", "fit_points"} in continuous pixel coordinates
-    ((0, 0) the top-left corner, pixel centres at i + 1/2). Raises spheremap.DataError when no
-    ball is found."""
+
+    fov: the photo's horizontal field of view in degrees. With it, the ball's silhouette cone is
+    fitted by the model of the rim (what the pixels around it show: the background, and inside
+    it the background's compressed reflection; see the README), and "circle" is the circle
+    through the outline's points nearest to and farthest from the image centre (the outline of
+    an off-centre ball is an ellipse). Without it, a circle is fitted to edge points.
+
+    Returns {"circle": (cx, cy, r), "fit_rms" (the edge fit's RMS distance in pixels, also as
+    "fit_rms_px"; for the rim model the RMS residual of the rim's pixels relative to their
+    mean), "fit_points", "confidence" (0 to 1: the
+    fraction of the rim that confirms the fit), "reflectance" (the ball's, as the rim model
+    sees it; None without fov)} in continuous pixel coordinates ((0, 0) the top-left corner,
+    pixel centres at i + 1/2). Raises spheremap.DataError when no ball is found with confidence.
+    """
     a, _ = _photo(image, "image", linear, "error")
-    cx, cy, r, rms, n = _ext.find_ball(a)
-    return {"circle": (cx, cy, r), "fit_rms_px": rms, "fit_points": n}
+    if fov is not None:
+        fov = _finite(fov, "fov")
+        if not 0 < fov < 180:
+            raise ValueError(f"fov: expected degrees in (0, 180), got {fov!r}")
+    cx, cy, r, rms, n, confidence, reflectance = _ext.find_ball(a, fov=fov)
+    return {"circle": (cx, cy, r), "fit_rms": rms, "fit_rms_px": rms if fov is None else None, "fit_points": n,
+            "confidence": confidence, "reflectance": reflectance}
 
 
 def from_mirror_ball(image, *, second=None, angle: float = 90.0, align: bool = True,

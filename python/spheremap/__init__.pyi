@@ -112,7 +112,7 @@ LENS_MODELS: tuple[str, ...]
 PHOTO_FILLS: tuple[str, ...]
 _Photo = npt.ArrayLike | str | os.PathLike[str]
 _PhotoResult = tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], dict[str, Any]]
-def find_ball(image: _Photo, *, linear: bool = False) -> dict[str, Any]: ...
+def find_ball(image: _Photo, *, fov: float | None = None, linear: bool = False) -> dict[str, Any]: ...
 def from_mirror_ball(image: _Photo, *, second: _Photo | None = None, angle: float = 90.0,
                      align: bool = True, fov: float | None = None, focal: float | None = None,
                      sensor: float | None = None, orthographic: bool = False,

@@ -249,7 +249,9 @@ pub fn run_photo(a: PhotoArgs) -> anyhow::Result<()> {
     let seconds = t0.elapsed().as_secs_f64();
     let written = a.out.write(dst, &map, &mask)?;
     let models: Vec<String> = std::iter::once(d1).chain(m2.map(|m| m.1)).collect();
-    summary(&a.out, dst, &map, &report, &models, seconds, &written, &inputs);
+    summary(
+        &a.out, dst, &map, &report, &models, seconds, &written, &inputs,
+    );
     Ok(())
 }
 
@@ -350,7 +352,10 @@ fn summary(
             .map(|s| {
                 serde_json::json!({
                     "circle": [s.circle.cx, s.circle.cy, s.circle.r],
-                    "fit_rms_px": s.fit_rms, "fit_points": s.fit_points,
+                    "fit_rms": s.fit_rms,
+                    "fit_rms_px": s.fit_rms.filter(|_| s.reflectance.is_none()),
+                    "fit_points": s.fit_points,
+                    "confidence": s.confidence, "reflectance": s.reflectance,
                     "distance_radii": s.distance.is_finite().then_some(s.distance),
                     "blind_cone_deg": s.blind_deg,
                 })

@@ -250,15 +250,22 @@ pub fn from_fisheye<'py>(
     finish(py, result)
 }
 
-/// The ball's outline in a photo: (cx, cy, r, rms, points).
+/// The ball's outline in a photo: (cx, cy, r, rms, points, confidence, reflectance); with a
+/// horizontal field of view, by the perspective rim model.
 #[pyfunction]
+#[pyo3(signature = (image, fov))]
+#[allow(clippy::type_complexity)]
 pub fn find_ball(
     py: Python<'_>,
     image: PyReadonlyArrayDyn<'_, f32>,
-) -> PyResult<(f64, f64, f64, f64, usize)> {
+    fov: Option<f64>,
+) -> PyResult<(f64, f64, f64, f64, usize, f64, Option<f64>)> {
     let img = image_of(&image, "image")?;
     let fit = py
-        .detach(|| photo::find_circle(&img, None))
+        .detach(|| match fov {
+            Some(f) => photo::find_ball_perspective(&img, f),
+            None => photo::find_circle(&img, None),
+        })
         .map_err(to_py)?;
     Ok((
         fit.circle.cx,
@@ -266,6 +273,8 @@ pub fn find_ball(
         fit.circle.r,
         fit.rms,
         fit.points.len(),
+        fit.confidence,
+        fit.reflectance,
     ))
 }
 

@@ -209,14 +209,21 @@ impl Losses {
         match format {
             Format::Exr if opts.half => {
                 for &v in &img.data {
-                    if v.is_finite() && v.abs() > HALF_MAX && exr::prelude::f16::from_f32(v).is_infinite() {
+                    if v.is_finite()
+                        && v.abs() > HALF_MAX
+                        && exr::prelude::f16::from_f32(v).is_infinite()
+                    {
                         l.beyond_half += 1;
                         l.largest = l.largest.max(v.abs());
                     }
                 }
             }
             Format::Png | Format::Jpeg => {
-                let step = if format == Format::Png && opts.png16 { 65535.0 } else { 255.0 };
+                let step = if format == Format::Png && opts.png16 {
+                    65535.0
+                } else {
+                    255.0
+                };
                 let half_step = 0.5 / step;
                 for (i, &v) in img.data.iter().enumerate() {
                     let alpha = (c == 2 || c == 4) && i % c == c - 1;
@@ -236,7 +243,11 @@ impl Losses {
                 }
             }
             Format::Hdr => {
-                l.clipped = img.data.iter().filter(|v| !(**v >= 0.0) || v.is_infinite()).count() as u64;
+                l.clipped = img
+                    .data
+                    .iter()
+                    .filter(|v| !(**v >= 0.0) || v.is_infinite())
+                    .count() as u64;
             }
             _ => {}
         }
@@ -707,7 +718,13 @@ fn encode_exr(
         if half {
             // Finite values beyond the half range are clamped to it (refused before this unless
             // the caller asked for clamping); NaN and Inf stay what they are.
-            let clamp = |x: f32| if x.is_finite() { x.clamp(-HALF_MAX, HALF_MAX) } else { x };
+            let clamp = |x: f32| {
+                if x.is_finite() {
+                    x.clamp(-HALF_MAX, HALF_MAX)
+                } else {
+                    x
+                }
+            };
             FlatSamples::F16(v.map(|x| f16::from_f32(clamp(x))).collect())
         } else {
             FlatSamples::F32(v.collect())

@@ -221,7 +221,9 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
             &WriteOptions::default(),
         )
         .unwrap();
-        let got = tag::read_file(std::path::Path::new(&p)).unwrap().and_then(|t| MapTag::parse(&t));
+        let got = tag::read_file(std::path::Path::new(&p))
+            .unwrap()
+            .and_then(|t| MapTag::parse(&t));
         if ext == "pfm" {
             assert_eq!(got, None);
         } else {
@@ -293,7 +295,10 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
         let t = spheremap::envio::recorded(f).unwrap().unwrap();
         assert_eq!((t.mapping.name(), t.face), ("cube", Some(i)), "{f}");
     }
-    assert_eq!(spheremap::envio::recorded(&pattern).unwrap().unwrap().face, Some(0));
+    assert_eq!(
+        spheremap::envio::recorded(&pattern).unwrap().unwrap().face,
+        Some(0)
+    );
 }
 
 #[test]

@@ -535,7 +535,10 @@ fn mtl_illumination_models() {
     let l2 = radiance(2);
     for (k, ks) in [0.5f32, 0.25, 0.0].into_iter().enumerate() {
         let want = diffuse + ks * 28.0 / (8.0 * pi) * 3.0;
-        assert!((l2[k] - want).abs() < 1e-5 * want.max(1.0), "{l2:?} {k} {want}");
+        assert!(
+            (l2[k] - want).abs() < 1e-5 * want.max(1.0),
+            "{l2:?} {k} {want}"
+        );
     }
     // Away from the mirror direction the highlight falls as (n·h)^s.
     let mut sc = floor_scene("newmtl M\nillum 2\nKd 0 0 0\nKs 1 1 1\nNs 20\n", "");
@@ -619,7 +622,11 @@ fn gltf_unlit_material_is_its_base_colour() {
               "min":[-10,0,-10],"max":[10,0,10]}}],
             "bufferViews":[{{"buffer":0,"byteLength":36}}],
             "buffers":[{{"byteLength":36,"uri":"data:application/octet-stream;base64,{}"}}]}}"#,
-            if ext.is_empty() { "" } else { r#","extensions":{"KHR_materials_unlit":{}}"# },
+            if ext.is_empty() {
+                ""
+            } else {
+                r#","extensions":{"KHR_materials_unlit":{}}"#
+            },
             base64(&bytes)
         )
     };

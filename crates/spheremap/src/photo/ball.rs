@@ -149,29 +149,51 @@ impl BallGeometry {
         }
         let sin_beta = (1.0 - cos_beta * cos_beta).sqrt();
         let view_to_camera = view::look_up(axis, [0.0, 1.0, 0.0])?;
-        // For the report: the projected axis and the mean distance of the silhouette from it.
-        let c = camera
-            .camera_dir_to_pixel(axis)
-            .expect("the axis is in front of the camera");
+        // For the report: the circle through the silhouette's points nearest to and farthest
+        // from the image centre (the ends of the outline ellipse's major axis: its centre and
+        // semi-major axis; on the optical axis, the outline circle itself).
         let (b1, b2) = (
             [0, 1, 2].map(|i| view_to_camera[i][0]),
             [0, 1, 2].map(|i| view_to_camera[i][1]),
         );
-        let mut r = 0.0;
-        for k in 0..32 {
-            let t = k as f64 * std::f64::consts::TAU / 32.0;
+        // The azimuth (in the cone's frame) of the optical axis's part across the cone's axis:
+        // the silhouette's point there is the one nearest the image centre.
+        let toward_centre = {
+            let o = [0.0, 0.0, -1.0];
+            let k = dot(o, axis);
+            let w = [0, 1, 2].map(|i| o[i] - k * axis[i]);
+            dot(w, b2).atan2(dot(w, b1))
+        };
+        let rim = |t: f64| {
             let d = [0, 1, 2]
                 .map(|i| axis[i] * cos_beta + sin_beta * (t.cos() * b1[i] + t.sin() * b2[i]));
-            let p = camera.camera_dir_to_pixel(d).unwrap_or(c);
-            r += (p[0] - c[0]).hypot(p[1] - c[1]) / 32.0;
-        }
+            camera.camera_dir_to_pixel(d)
+        };
+        let (near, far) = (
+            rim(toward_centre),
+            rim(toward_centre + std::f64::consts::PI),
+        );
+        let circle = match (near, far) {
+            (Some(p), Some(q)) => Circle {
+                cx: 0.5 * (p[0] + q[0]),
+                cy: 0.5 * (p[1] + q[1]),
+                r: 0.5 * (p[0] - q[0]).hypot(p[1] - q[1]),
+            },
+            _ => {
+                let c = camera
+                    .camera_dir_to_pixel(axis)
+                    .expect("the axis is in front of the camera");
+                let p = rim(0.0).unwrap_or(c);
+                Circle {
+                    cx: c[0],
+                    cy: c[1],
+                    r: (p[0] - c[0]).hypot(p[1] - c[1]),
+                }
+            }
+        };
         Ok(BallGeometry {
             model: BallModel::Perspective { hfov_deg },
-            circle: Circle {
-                cx: c[0],
-                cy: c[1],
-                r,
-            },
+            circle,
             camera: Some(camera),
             axis,
             distance: 1.0 / sin_beta,

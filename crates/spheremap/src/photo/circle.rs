@@ -34,14 +34,23 @@ pub struct Circle {
 #[derive(Clone, Debug)]
 pub struct CircleFit {
     pub circle: Circle,
-    /// RMS distance of the kept edge points from the circle, pixels.
+    /// The fit's residual: for the edge fit, the RMS distance of the kept edge points from the
+    /// circle in pixels; for the perspective rim model, the RMS of the band's pixels relative
+    /// to their mean value.
     pub rms: f64,
-    /// Edge points kept (of the 720 profiles).
+    /// Points on the outline: the edge points kept (of the 720 profiles), or the fitted
+    /// silhouette's.
     pub points: Vec<[f64; 2]>,
+    /// How sure the fit is, 0 to 1: for the edge fit, the fraction of the 720 profiles whose
+    /// edge point it kept; for the perspective rim model, the fraction of the rim's 32 sectors
+    /// that confirm it ([`super::rim`]).
+    pub confidence: f64,
+    /// The ball's reflectance as the perspective rim model sees it.
+    pub reflectance: Option<f64>,
 }
 
 /// Linear luminance of every pixel (non-finite and negative values as 0).
-fn luminance(img: &Image) -> Vec<f32> {
+pub(super) fn luminance(img: &Image) -> Vec<f32> {
     let c = img.channels;
     img.data
         .chunks_exact(c)
@@ -61,18 +70,18 @@ fn log_of(lum: &[f32]) -> Vec<f32> {
 }
 
 /// A single-channel image.
-struct Plane {
-    w: usize,
-    h: usize,
-    v: Vec<f32>,
+pub(super) struct Plane {
+    pub(super) w: usize,
+    pub(super) h: usize,
+    pub(super) v: Vec<f32>,
 }
 
 impl Plane {
-    fn at(&self, x: usize, y: usize) -> f32 {
+    pub(super) fn at(&self, x: usize, y: usize) -> f32 {
         self.v[y * self.w + x]
     }
     /// Bilinear at a continuous position (clamped at the borders).
-    fn sample(&self, x: f64, y: f64) -> f32 {
+    pub(super) fn sample(&self, x: f64, y: f64) -> f32 {
         let fx = (x - 0.5).clamp(0.0, (self.w - 1) as f64);
         let fy = (y - 0.5).clamp(0.0, (self.h - 1) as f64);
         let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
@@ -123,13 +132,126 @@ pub fn find_circle(img: &Image, hint: Option<Circle>) -> Result<CircleFit> {
     };
     let start = match hint {
         Some(c) => c,
-        None => coarse(&log)?,
+        None => coarse(&log)?[0],
     };
-    refine(&log, &lin, start)
+    let mut f = refine(&log, &lin, start)?;
+    f.confidence = f.points.len() as f64 / RAYS as f64;
+    Ok(f)
 }
 
-/// Hough vote on a copy at most 512 px on its longer side.
-fn coarse(full: &Plane) -> Result<Circle> {
+/// Below this confidence (the fraction of the rim that confirms the fit) a perspective photo's
+/// ball is not taken as found.
+pub const MIN_CONFIDENCE: f64 = 0.3;
+
+/// Finds the ball in a perspective photo of horizontal field of view `hfov_deg`: candidate
+/// circles from the Hough vote and the edge fit, each fitted by the model of the rim
+/// ([`super::rim`]) and scored by the fraction of the rim that confirms it; the most confident
+/// wins.  An error when none reaches [`MIN_CONFIDENCE`].
+pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
+    use super::ball::BallGeometry;
+    use crate::camera::{Camera, Projection};
+    if img.width < 16 || img.height < 16 {
+        return Err(Error::param(
+            "image",
+            format!(
+                "{}x{} is too small to find a ball in",
+                img.width, img.height
+            ),
+        ));
+    }
+    let lin = Plane {
+        w: img.width,
+        h: img.height,
+        v: luminance(img),
+    };
+    let log = Plane {
+        w: img.width,
+        h: img.height,
+        v: log_of(&lin.v),
+    };
+    let camera = Camera::new(
+        Projection::Perspective { hfov_deg },
+        [0.0; 3],
+        crate::view::IDENTITY,
+        img.width,
+        img.height,
+    )?;
+    // Clipped highlights: the largest value, when a noticeable number of pixels share it.
+    let max = lin.v.iter().copied().fold(0f32, f32::max);
+    let at_max = lin.v.iter().filter(|&&v| v >= 0.999 * max).count();
+    let clip = (max > 0.0 && at_max * 2000 > lin.v.len()).then_some(0.999 * max);
+    let photo = super::rim::Photo {
+        lum: &lin,
+        camera: &camera,
+        clip,
+    };
+    let mut best: Option<(super::rim::RimFit, Option<f64>)> = None;
+    let mut tried = 0;
+    let mut starts: Vec<Circle> = Vec::new();
+    for cand in coarse(&log)? {
+        if best.as_ref().is_some_and(|b| b.0.confidence >= SURE) {
+            break;
+        }
+        // The edge fit first (it pulls a coarse circle to within a pixel or two), else the
+        // candidate as it is.
+        let (start, edge_rms) = match refine(&log, &lin, cand).ok() {
+            Some(f) if (f.circle.r - cand.r).abs() < 0.2 * cand.r => (f.circle, Some(f.rms)),
+            _ => (cand, None),
+        };
+        // Candidates that the edge fit took to the same circle are fitted once.
+        if starts
+            .iter()
+            .any(|s| (s.cx - start.cx).hypot(s.cy - start.cy) + (s.r - start.r).abs() < 1.0)
+        {
+            continue;
+        }
+        starts.push(start);
+        let outline: Vec<[f64; 2]> = (0..64)
+            .map(|k| {
+                let t = k as f64 * std::f64::consts::TAU / 64.0;
+                [start.cx + start.r * t.cos(), start.cy + start.r * t.sin()]
+            })
+            .collect();
+        let Ok(g) = BallGeometry::perspective(&outline, hfov_deg, img.width, img.height) else {
+            continue;
+        };
+        tried += 1;
+        if let Some(f) = super::rim::fit(&photo, g.axis, (1.0 / g.distance).asin()) {
+            if best.as_ref().is_none_or(|b| f.confidence > b.0.confidence) {
+                best = Some((f, edge_rms));
+            }
+        }
+    }
+    let found = best.filter(|b| b.0.confidence >= MIN_CONFIDENCE);
+    let Some((f, _)) = found else {
+        return Err(Error::data(
+            "image",
+            format!(
+                "no mirror ball found (the best of {tried} candidate circles had {:.0} % of its \
+                 rim confirmed, under the {:.0} % needed); pass --circle CX CY R",
+                100.0 * best.map_or(0.0, |b| b.0.confidence),
+                100.0 * MIN_CONFIDENCE
+            ),
+        ));
+    };
+    let points = super::rim::outline(&camera, &f, RAYS);
+    let g = BallGeometry::perspective(&points, hfov_deg, img.width, img.height)?;
+    Ok(CircleFit {
+        circle: g.circle,
+        rms: f.rms,
+        points,
+        confidence: f.confidence,
+        reflectance: Some(f.reflectance),
+    })
+}
+
+const RAYS: usize = 720;
+/// A candidate this confident ends the search.
+const SURE: f64 = 0.8;
+
+/// Hough vote on a copy at most 512 px on its longer side: the candidate circles, the most
+/// likely first.
+fn coarse(full: &Plane) -> Result<Vec<Circle>> {
     let mut p = Plane {
         w: full.w,
         h: full.h,
@@ -229,7 +351,7 @@ fn coarse(full: &Plane) -> Result<Circle> {
     // rim is darker than the background just outside it all the way round (its reflectance
     // is below 1), while reflected shapes inside it (a window) match a circle only in parts.
     let bins = (rmax.ceil() as usize) + 2;
-    let mut best: Option<(Circle, f32)> = None;
+    let mut found: Vec<(Circle, f32)> = Vec::new();
     for &(px, py, _) in &peaks {
         let (cx, cy) = (px as f32 + 0.5, py as f32 + 0.5);
         let mut hist = vec![0f32; bins];
@@ -265,27 +387,43 @@ fn coarse(full: &Plane) -> Result<Circle> {
             // The length of edge along it: inside the ball the reflections make edges everywhere,
             // so small circles there are fully supported too, but only the rim is long.
             let score = rim_support(&p, &c) * c.r as f32;
-            if best.is_none_or(|b| score > b.1) {
-                best = Some((c, score));
-            }
+            found.push((c, score));
             // The second radius peak at the same centre, away from the first.
             for j in i.saturating_sub(3)..(i + 4).min(bins) {
                 hist[j] = 0.0;
             }
         }
     }
-    let Some((c, _)) = best else {
+    if found.is_empty() {
         return Err(Error::data(
             "image",
             "found no circular edge: is there a ball in the photo? (or give --circle)",
         ));
-    };
-    Ok(Circle {
-        cx: c.cx * scale,
-        cy: c.cy * scale,
-        r: c.r * scale,
-    })
+    }
+    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    // The best few, without near-duplicates.
+    let mut out: Vec<Circle> = Vec::new();
+    for (c, _) in found {
+        let c = Circle {
+            cx: c.cx * scale,
+            cy: c.cy * scale,
+            r: c.r * scale,
+        };
+        let near = |o: &Circle| {
+            (o.cx - c.cx).hypot(o.cy - c.cy) < 0.05 * c.r && (o.r - c.r).abs() < 0.05 * c.r
+        };
+        if !out.iter().any(near) {
+            out.push(c);
+        }
+        if out.len() == CANDIDATES {
+            break;
+        }
+    }
+    Ok(out)
 }
+
+/// Candidate circles the perspective search fits.
+const CANDIDATES: usize = 6;
 
 /// How much of a circle is edge: the fraction of 180 directions where the log luminance
 /// changes by more than 0.1 across 1 px somewhere within ±2 px of the circle.  A mirror ball's
@@ -403,7 +541,6 @@ fn linear_crossing(lin: &Plane, c: &Circle, angle: f64, r: f64) -> Option<f64> {
 }
 
 fn refine(p: &Plane, lin: &Plane, start: Circle) -> Result<CircleFit> {
-    const RAYS: usize = 720;
     let mut c = start;
     let mut fit = None;
     // Windows: wide first (the coarse radius is good to a few coarse pixels), then narrow.
@@ -459,6 +596,8 @@ pub fn robust_circle(pts: &[[f64; 2]]) -> Option<CircleFit> {
         circle: c,
         rms,
         points: kept,
+        confidence: 1.0,
+        reflectance: None,
     })
 }
 

@@ -38,10 +38,15 @@
 mod ball;
 mod circle;
 mod exif;
+mod rim;
 
 pub use ball::{BallGeometry, BallModel, Located};
-pub use circle::{find_circle, fit_circle, robust_circle, Circle, CircleFit};
+pub use circle::{
+    find_ball_perspective, find_circle, fit_circle, robust_circle, Circle, CircleFit,
+    MIN_CONFIDENCE,
+};
 pub use exif::{exif_hfov, FovSource};
+pub use rim::RimFit;
 
 use crate::error::{Error, Result};
 use crate::fisheye::Lens;
@@ -133,6 +138,11 @@ pub struct ShotReport {
     pub fit_rms: Option<f64>,
     /// Edge points the fit kept.
     pub fit_points: usize,
+    /// How sure the fit is, 0 to 1 ([`CircleFit::confidence`]; `None` when the circle was
+    /// given).
+    pub confidence: Option<f64>,
+    /// The reflectance the perspective rim model saw.
+    pub reflectance: Option<f64>,
     /// Ball distance in radii (infinite for the orthographic model).
     pub distance: f64,
     /// Half-angle (degrees) of the unseen cone behind the ball.
@@ -325,6 +335,8 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
         circle: geom.circle,
         fit_rms: fit.as_ref().map(|f| f.rms),
         fit_points: fit.as_ref().map_or(0, |f| f.points.len()),
+        confidence: fit.as_ref().map(|f| f.confidence),
+        reflectance: fit.as_ref().and_then(|f| f.reflectance),
         distance: geom.distance,
         blind_deg: geom.blind_half_angle().to_degrees(),
     };
