@@ -42,7 +42,7 @@ pub struct CircleFit {
     /// silhouette's.
     pub points: Vec<[f64; 2]>,
     /// How sure the fit is, 0 to 1: for the edge fit, the fraction of the 720 profiles whose
-    /// edge point it kept; for the perspective rim model, the fraction of the rim's 32 sectors
+    /// edge point it kept; for the perspective rim model, the fraction of the rim's 64 sectors
     /// that confirm it ([`super::rim`]).
     pub confidence: f64,
     /// The ball's reflectance as the perspective rim model sees it.

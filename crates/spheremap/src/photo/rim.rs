@@ -32,11 +32,12 @@
 //!
 //! ## Confidence
 //!
-//! In each of 32 sectors round the rim the fit is compared with the same model shifted by a
-//! pixel in and out: a sector confirms the rim when both shifts fit clearly worse (by more than
-//! the noise explains).  The confidence is the fraction of sectors that confirm it.  A flat sky
-//! seen by a perfect mirror confirms nothing (there is nothing to see there); a circle that is
-//! not a ball's rim is confirmed by few sectors.
+//! The cone is moved by scans: the silhouette is shifted in and out in small steps and, in each
+//! of 64 sectors round it, the model's residual is taken at every shift; a sector's rim lies at
+//! its clear minimum, and the cone's change is fitted to the sectors' minima.  The confidence is
+//! the fraction of the 64 sectors whose own minimum lies within ½ px of the fitted cone.  A
+//! flat sky seen by a perfect mirror confirms little (there is nothing to see there); a circle
+//! that is not a ball's rim is confirmed by few sectors.
 
 use super::circle::Plane;
 use crate::camera::Camera;
@@ -53,7 +54,7 @@ pub struct RimFit {
     pub reflectance: f64,
     /// RMS of the band pixels' residuals, relative to the band's mean value.
     pub rms: f64,
-    /// Fraction of the 32 sectors round the rim that confirm it (module docs), 0 to 1.
+    /// Fraction of the 64 sectors round the rim that confirm it (module docs), 0 to 1.
     pub confidence: f64,
     /// Pixels in the band that were fitted.
     pub pixels: usize,
@@ -499,11 +500,10 @@ const SCAN_SECTORS: usize = 64;
 /// Where the rim lies, sector by sector: the silhouette is shifted outward by each of `range`/
 /// `step` steps and, in each of 64 sectors round it, the model's residual (with the sector's own
 /// reflectance) is taken at every shift; a sector's rim is at its clear minimum.  The cone's
-/// change (the axis by two, β by one) is then fitted to the sectors' shifts, s(ψ) = δβ + δ₁ cos ψ
-/// + δ₂ sin ψ, with Huber weights.  The model's residual has a basin only about a pixel wide
-/// where the background is textured (with R near 1 a misplaced rim looks like noise), so a fit
-/// from a start a few pixels off needs this search; the 1-D scans cannot be fooled by a far
-/// minimum of the three-parameter cost.
+/// change (the axis by two, β by one) is then fitted to the sectors' shifts,
+/// s(ψ) = δβ + δ₁ cos ψ + δ₂ sin ψ, with Huber weights.  The model's residual has a basin only
+/// about a pixel wide where the background is textured (with R near 1 a misplaced rim looks like
+/// noise), so a fit from a start a few pixels off needs this search.
 fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<(Cone, usize)> {
     let half = 3.0;
     let band = band_pixels(photo, c, half + range);
@@ -815,7 +815,7 @@ mod tests {
 
     #[test]
     fn slices_integrate_the_pixel_square() {
-        for phi in [0.0f64, 0.3, 0.785, 1.2, 1.5707] {
+        for phi in [0.0f64, 0.3, 0.785, 1.2, 1.57] {
             let (w, h) = slices(phi.cos(), phi.sin());
             assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
             // The fraction of the square on one side of a line through its centre is ½.
