@@ -4,7 +4,7 @@ skylibs, py360convert, a vectorised numpy bilinear remap and OpenCV ``remap`` (w
 
     python bench/bench_convert.py [--repeat 7] [--jobs J1,J2,J3,J4,RT]
 
-Goals (issue #3, 2 cores): J1 latlong 2048x1024 -> sphere 1024^2, 1 sample <= 6 ms;
+Goals (2 cores): J1 latlong 2048x1024 -> sphere 1024^2, 1 sample <= 6 ms;
 J2 cube 6x512^2 -> sphere 1024^2 <= 5 ms; J3 sphere 1024^2 -> latlong 2048x1024 <= 8 ms;
 J4 = J1 with 16 samples <= 50 ms; RT cube 6x256^2 -> sphere 512^2 <= 2 ms.
 """

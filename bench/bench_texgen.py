@@ -3,7 +3,7 @@ implementation of the same GL maths, interleaved in one run, median of repeats.
 
     python bench/bench_texgen.py [--n 1000000] [--repeat 30]
 
-Goal (issue #2, 2 cores): <= 4 ms through the Python call (<= 1.5 ms for the Rust kernel:
+Goal (2 cores): <= 4 ms through the Python call (<= 1.5 ms for the Rust kernel:
 `cargo bench -p spheremap --bench texgen`).
 """
 

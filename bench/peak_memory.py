@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Peak memory of a conversion (issue #3's goal: 8192x4096 -> 4096^2 within 1.2 x (input +
+"""Peak memory of a conversion (goal: 8192x4096 -> 4096^2 within 1.2 x (input +
 output)). Run in a fresh process: ru_maxrss is the process's high-water mark, so it includes
 the interpreter, numpy and the module (~35 MiB) as well.
 

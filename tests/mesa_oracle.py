@@ -1,7 +1,7 @@
 """Mesa (OSMesa, llvmpipe/softpipe) as an oracle for GL_SPHERE_MAP texgen.
 
-Renders points in GL_FEEDBACK mode and reads back the texture coordinates Mesa generated
-(DESIGN §1.2): a texture enabled on unit 0 (or Mesa skips texgen), texture matrix identity,
+Renders points in GL_FEEDBACK mode and reads back the texture coordinates Mesa generated,
+with a texture enabled on unit 0 (or Mesa skips texgen), texture matrix identity,
 projection diag(0,0,0,±1) so that no vertex is clipped (the sign follows each vertex's eye w),
 glFeedbackBuffer(GL_4D_COLOR_TEXTURE). PyOpenGL's glRenderMode wrapper crashes, so the raw
 function is used.

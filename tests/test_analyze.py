@@ -1,4 +1,4 @@
-"""Sampling analytics and the per-vertex error advice (#6)."""
+"""Sampling analytics and the per-vertex error advice."""
 
 import json
 import math

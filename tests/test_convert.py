@@ -1,7 +1,7 @@
 """convert(): Python API, cube layouts, and agreement with peer tools (skylibs, py360convert)
 on real HDRIs, stated in dB.
 
-The convention mappings used here (DESIGN §2, checked below numerically):
+The convention mappings used here (checked below numerically):
 * skylibs 'latlong' = our latlong preset 'skylibs'; skylibs 'sphere' = our sphere preset
   'skylibs'.
 * py360convert's world is ours with z negated: its equirect = our latlong preset 'skylibs', its

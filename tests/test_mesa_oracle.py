@@ -1,6 +1,6 @@
 """spheremap.sphere_texgen against a real OpenGL (Mesa via OSMesa), in all three normal modes.
 
-Goal (issue #2): max |difference| <= 2e-5 on well-conditioned cases, and the identical NaN
+Goal: max |difference| <= 2e-5 on well-conditioned cases, and the identical NaN
 pattern with singular="nan". "Well-conditioned" is defined in `_well_conditioned` below.
 """
 

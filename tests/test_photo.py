@@ -1,4 +1,4 @@
-"""Sphere maps from photographs (#5), end to end through Python and the CLI: the ray tracer
+"""Sphere maps from photographs, end to end through Python and the CLI: the ray tracer
 photographs a chrome ball (builtin:mirror-ball, reflectance 0.75) inside the bundled HDRI, the
 photo is unwarped, and the result is compared with the sphere map converted directly from the
 HDRI for the same view (the truth: the environment is at infinity, so the ball's position does

@@ -1,4 +1,4 @@
-"""The rasterizer (#6): per-vertex against Mesa's fixed-function pipeline, the CLI and Python."""
+"""The rasterizer: per-vertex against Mesa's fixed-function pipeline, the CLI and Python."""
 
 import json
 import math

@@ -1,4 +1,4 @@
-"""Shader snippets (#6): compiled by glslang (GLSL and HLSL; naga compiles GLSL and WGSL in
+"""Shader snippets: compiled by glslang (GLSL and HLSL; naga compiles GLSL and WGSL in
 crates/spheremap/tests/shader.rs) and the GLSL executed in Mesa against the core."""
 
 import os

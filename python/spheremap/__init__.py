@@ -689,7 +689,7 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
              max_samples: int = 1024, filter: str = "box", outside: str = "gutter", seed: int = 0,
              precision: str = "f32", mapping: str = "sphere", preset: str | None = None,
              max_memory: int | None = None) -> np.ndarray:
-    """A sphere map (or any mapping) made by firing rays from `pos` (the seed's gen_sphere_map).
+    """A sphere map (or any mapping) made by firing rays from `pos` (the classic gen_sphere_map).
 
     fire_ray: a `Scene` (traced natively, in parallel), or a callable
         ``fire_ray(origins, directions) -> colours`` that receives float32 (K, 3) arrays (one

@@ -93,7 +93,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let seconds = t0.elapsed().as_secs_f64();
     let mut written = write_env(&a.output, dst, &out, layout, &rotation, &wopts)?;
     if let Some(dir) = &a.faces_out {
-        // The cube faces are made in the world frame (no view), as the seed's six cameras.
+        // The cube faces are made in the world frame (no view), as six cameras at `pos` would take them.
         let cube = Mapping::parse("cube", None)?;
         let f = a.faces_size.unwrap_or(a.size);
         if f == 0 || f > 1 << 15 {

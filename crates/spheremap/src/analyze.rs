@@ -362,7 +362,7 @@ mod tests {
         let m = Mapping::parse("sphere", None).unwrap();
         let n = 64;
         let a = mapping_maps(m, n, n).unwrap();
-        // Interior: 16/N² sr; anisotropy 1/cos²(θ/2) = 1/(1 − r²) at radius r (DESIGN §1.3):
+        // Interior: 16/N² sr; anisotropy 1/cos²(θ/2) = 1/(1 − r²) at radius r:
         // at the centre 1, growing to the rim.
         let c = n / 2 * n + n / 2;
         assert!((a.solid_angle[c] - 16.0 / (n * n) as f64).abs() < 1e-12);

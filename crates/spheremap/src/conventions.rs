@@ -40,7 +40,7 @@
 //!
 //! ## Image rows versus t
 //!
-//! * **GL texture memory** (what `glTexImage2D` consumes, and what the seed's `gen_sphere_map`
+//! * **GL texture memory** (what `glTexImage2D` consumes, and what a classic `gen_sphere_map`
 //!   loop produces): the first row uploaded is t = 0, the bottom of the picture above.
 //! * **Image files and arrays in spheremap** (PNG, EXR, numpy `(H, W, C)`): row 0 is the *top*
 //!   of the picture, i.e. t = 1.  A sphere-map file therefore looks like a photo of a chrome
@@ -171,7 +171,7 @@ pub const PRESETS: &[SpherePreset] = &[
         rows: RowOrder::TopIsT0,
         v_down: false,
         doc: "The same map in GL texture memory order: row 0 = t = 0, as glTexImage2D consumes \
-              it and as the seed's gen_sphere_map loop writes it (a vertical flip of the file).",
+              it and as a classic gen_sphere_map loop writes it (a vertical flip of the file).",
     },
     SpherePreset {
         name: "d3d",

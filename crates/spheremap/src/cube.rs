@@ -46,7 +46,7 @@
 //! sees it, side faces with +Y up, +Y with +Z at its top, −Y with −Z at its top), arranged so the
 //! cross is one continuous picture around the forward face −Z.  These are py360convert's `dice`
 //! and `horizon` layouts (faces F R B L U D), with py360convert's forward +Z being our −Z: its
-//! world is ours with z negated (DESIGN §2), checked numerically in `tests/test_peers.py`.
+//! world is ours with z negated, checked numerically in `tests/test_convert.py`.
 
 use crate::error::{Error, Result};
 use crate::image_io::Image;

@@ -1,7 +1,7 @@
-//! Environment maps by firing rays: the seed's `gen_sphere_map(width, height, pos, tex)` done
+//! Environment maps by firing rays: the classic `gen_sphere_map(width, height, pos, tex)` done
 //! properly.
 //!
-//! For every output texel the generator asks a [`RaySource`] — the seed's `fire_ray(pos, ray)` —
+//! For every output texel the generator asks a [`RaySource`] — the classic `fire_ray(pos, ray)` —
 //! what the world shows from `pos` in a set of directions spread over the texel's footprint, and
 //! averages.  The source may be a closure, an environment map (six cube faces taken around
 //! `pos`, or any mapping the conversion engine reads), a ray-traced [`crate::scene::Scene`], or
@@ -18,7 +18,7 @@
 //!   midpoints become directions, the angles across the texel in x and in y are compared with
 //!   the side a₀ = √|Δ_x × Δ_y| of the isotropic texel of the same solid angle, and each axis
 //!   gets ⌈√S · span/a₀⌉ strata (the sphere map's rim, where a texel is stretched radially by
-//!   1/(1 − ρ²), DESIGN §1.3, gets more rays; its centre gets S), at most `max_samples`.
+//!   1/(1 − ρ²), gets more rays; its centre gets S), at most `max_samples`.
 //! * Weights: filter weight × the mapping's solid-angle density (uniform for the equal-area
 //!   sphere map, so every ray of a box texel counts the same).
 //!
@@ -85,7 +85,7 @@ impl<F: Fn([f32; 3], [f32; 3], &mut [f32]) + Sync> RaySource for FnSource<F> {
     }
 }
 
-/// An environment map as a [`RaySource`] (the seed's second method: six cube-face images taken
+/// An environment map as a [`RaySource`] (the two-step method: six cube-face images taken
 /// around `pos`, or any mapping): the map is at infinity, so origins are ignored and each ray
 /// is one bilinear lookup with the map's wrap rules.  `rotation` takes world directions to the
 /// map's frame.

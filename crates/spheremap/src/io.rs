@@ -9,9 +9,10 @@ use crate::mesh::Mesh;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Reads a whole input file.  Only regular files: a device or FIFO (`/dev/zero` named by a
-/// careless MTL or a script) would be read forever.
-pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+/// Checks that an input can be read: it exists, is a regular file (a device or FIFO —
+/// `/dev/zero` named by a careless MTL or a script — would be read forever) and is not empty.
+/// The error names the file and the cause.
+pub fn check_input(path: &Path) -> Result<()> {
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if !meta.is_file() {
         return Err(Error::data(
@@ -23,6 +24,15 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
             },
         ));
     }
+    if meta.len() == 0 {
+        return Err(Error::data(path, "the file is empty"));
+    }
+    Ok(())
+}
+
+/// Reads a whole input file ([`check_input`] first).
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    check_input(path)?;
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if bytes.is_empty() {
         return Err(Error::data(path, "the file is empty"));

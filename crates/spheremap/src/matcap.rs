@@ -1,5 +1,5 @@
 //! MatCap ("lit sphere") lookups.  A MatCap is indexed by the eye-space *normal*, not by the
-//! reflection vector, so it is not a sphere map (DESIGN §2); it shares the disc and the image
+//! reflection vector, so it is not a sphere map; it shares the disc and the image
 //! orientation of [`crate::conventions`] (row 0 = v = 1, +Y up).
 //!
 //! Three variants, all taking eye-space normals `n` (normalized here; zero → NaN) and, where

@@ -25,7 +25,7 @@
 //! u = u'/2, the back u = ½ + u'/2.
 //!
 //! Solid angle: dω = 4/(1 + r²)² da db; a texel at the centre subtends 4× one at the rim (the
-//! ratio that makes the map attractive; DESIGN §1.3).  Texel solid angles are integrated exactly
+//! ratio that makes the map attractive).  Texel solid angles are integrated exactly
 //! up to quadrature error ([`crate::quad`]); both halves sum to 4π.
 
 use crate::real::Real;

@@ -175,21 +175,7 @@ pub fn read(bytes: &[u8]) -> Option<String> {
 pub fn read_file(path: &std::path::Path) -> crate::error::Result<Option<String>> {
     use crate::error::Error;
     use std::io::Read;
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    if !meta.is_file() {
-        // A FIFO or device would block or never end.
-        return Err(Error::data(
-            path,
-            if meta.is_dir() {
-                "is a directory, not a file"
-            } else {
-                "not a regular file"
-            },
-        ));
-    }
-    if meta.len() == 0 {
-        return Err(Error::data(path, "the file is empty"));
-    }
+    crate::io::check_input(path)?;
     let mut head = Vec::new();
     std::fs::File::open(path)
         .and_then(|f| f.take(4 << 20).read_to_end(&mut head))

@@ -1,7 +1,7 @@
 //! `GL_SPHERE_MAP` texture-coordinate generation for meshes, exactly as OpenGL computes it.
 //!
 //! What a real OpenGL does (Mesa's fixed-function vertex program, `ffvertex_prog.c`, checked
-//! against Mesa 22.3 llvmpipe; DESIGN §1.2), per vertex with object position `p` and normal `n`:
+//! against Mesa 22.3 llvmpipe), per vertex with object position `p` and normal `n`:
 //!
 //! ```text
 //! e  = M p                                  (p = (x,y,z,1) or (x,y,z,w); M the modelview)

@@ -594,7 +594,7 @@ fn partial_levels_give_the_whole_pyramids_result() {
 /// Texels whose samples are a texel apart up to the strata count's slack (a footprint of
 /// 2.0005 texels across two strata) read level 0 only: with the default adaptive sampling,
 /// a lat-long → sphere-map conversion builds only the level-1 rows the sphere map's rim reads,
-/// not the whole level (it did in session 8: 1.24× input + output at 8192×4096 → 4096²).
+/// not the whole level (a whole level there costs 1.24× input + output at 8192×4096 → 4096²).
 #[test]
 fn footprints_a_hair_over_an_integer_build_no_levels() {
     let ll = Mapping::parse("latlong", None).unwrap();

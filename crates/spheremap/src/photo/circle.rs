@@ -109,8 +109,8 @@ impl Plane {
     }
 }
 
-/// Finds the ball: coarse detection (or `hint`), then the sub-pixel fit.
-pub fn find_circle(img: &Image, hint: Option<Circle>) -> Result<CircleFit> {
+/// The photo's linear and log luminance, once it is large enough to hold a ball.
+fn planes(img: &Image) -> Result<(Plane, Plane)> {
     if img.width < 16 || img.height < 16 {
         return Err(Error::param(
             "image",
@@ -130,6 +130,12 @@ pub fn find_circle(img: &Image, hint: Option<Circle>) -> Result<CircleFit> {
         h: img.height,
         v: log_of(&lin.v),
     };
+    Ok((lin, log))
+}
+
+/// Finds the ball: coarse detection (or `hint`), then the sub-pixel fit.
+pub fn find_circle(img: &Image, hint: Option<Circle>) -> Result<CircleFit> {
+    let (lin, log) = planes(img)?;
     let start = match hint {
         Some(c) => c,
         None => coarse(&log)?[0],
@@ -150,25 +156,7 @@ pub const MIN_CONFIDENCE: f64 = 0.3;
 pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
     use super::ball::BallGeometry;
     use crate::camera::{Camera, Projection};
-    if img.width < 16 || img.height < 16 {
-        return Err(Error::param(
-            "image",
-            format!(
-                "{}x{} is too small to find a ball in",
-                img.width, img.height
-            ),
-        ));
-    }
-    let lin = Plane {
-        w: img.width,
-        h: img.height,
-        v: luminance(img),
-    };
-    let log = Plane {
-        w: img.width,
-        h: img.height,
-        v: log_of(&lin.v),
-    };
+    let (lin, log) = planes(img)?;
     let camera = Camera::new(
         Projection::Perspective { hfov_deg },
         [0.0; 3],

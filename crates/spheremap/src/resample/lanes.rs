@@ -8,7 +8,7 @@
 //! ("4K aliasing"), and waits.  A `Lanes` starts on a cache line, and consecutive ones
 //! are staggered by 5 lines modulo 4 KiB (12 arrays before the pattern repeats).
 //!
-//! Measured (J4, one core, session 10): 109 → 103 ms.  That is the alignment: page-aligned
+//! Measured (J4, one core): 109 → 103 ms.  That is the alignment: page-aligned
 //! arrays, all at the same offset, ran as fast; the stagger is a precaution that costs
 //! nothing.
 //!
