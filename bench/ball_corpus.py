@@ -14,9 +14,11 @@ its centre; its "circle" is the one through the cone's points nearest to and far
 image centre (as `from-photo` reports it).
 
 `eval` finds every photo's ball and reports the errors of the centre and radius, in pixels, and
-the confidence the detector gives: `--method edge` (default) runs `spheremap from-photo --fov F
---json` (the edge fit), `--method rim` calls `spheremap.find_ball(photo, fov=F)` (the
-perspective rim model).
+the confidence the detector gives: `--method rim` (default) calls `spheremap.find_ball(photo,
+fov=F)` (the perspective rim model), `--method cli` runs `spheremap from-photo --fov F --json`
+(the same model through the CLI), `--method edge` calls `spheremap.find_ball(photo)` (the edge
+fit, which assumes nothing about the camera). A refused photo is listed with the error, and with
+how far off the best candidate circle it names was.
 """
 
 import argparse
@@ -135,8 +137,8 @@ def make(out: Path, cases: int, seed: int):
     (out / "truth.json").write_text(json.dumps(truth, indent=1))
 
 
-def find_rim(path: Path, fov: float):
-    """The rim model's circle and confidence, or its error."""
+def find_in_python(path: Path, fov):
+    """find_ball's circle and confidence (fov None: the edge fit), or its error."""
     import spheremap as sm
 
     try:
@@ -146,18 +148,29 @@ def find_rim(path: Path, fov: float):
     return f["circle"], f["confidence"]
 
 
-def evaluate(corpus: Path, binary: str, method: str = "edge"):
+def named_candidate(error: str):
+    """The best candidate circle a refusal names, if any."""
+    import re
+
+    m = re.search(r"candidate circles, \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\)", error)
+    return [float(m.group(i)) for i in (1, 2, 3)] if m else None
+
+
+def evaluate(corpus: Path, binary: str, method: str = "rim"):
     import tempfile
 
     truth = json.loads((corpus / "truth.json").read_text())
     rows = []
     scratch = Path(tempfile.mkdtemp()) / "map.exr"
     for t in truth:
-        if method == "rim":
-            circle, conf = find_rim(corpus / t["file"], t["fov"])
+        if method in ("rim", "edge"):
+            circle, conf = find_in_python(corpus / t["file"], t["fov"] if method == "rim" else None)
             if circle is None:
                 rows.append((t, None, conf))
-                print(f"{t['file']}: {conf}")
+                named = named_candidate(conf)
+                off = "" if named is None else (
+                    f" [named candidate off by {max(abs(a - b) for a, b in zip(named, t['circle'])):.3f} px]")
+                print(f"{t['file']}: {conf}{off}")
                 continue
             shot = {"circle": circle, "confidence": conf}
         else:
@@ -197,7 +210,7 @@ def main():
     e = sub.add_parser("eval")
     e.add_argument("dir", type=Path)
     e.add_argument("--spheremap", default=f"{sys.executable} -m spheremap")
-    e.add_argument("--method", choices=["edge", "rim"], default="edge")
+    e.add_argument("--method", choices=["rim", "cli", "edge"], default="rim")
     a = p.parse_args()
     if a.cmd == "make":
         make(a.dir, a.cases, a.seed)

@@ -806,19 +806,21 @@ def find_ball(image, *, fov: float | None = None, linear: bool = False) -> dict:
 
     Returns {"circle": (cx, cy, r), "fit_rms" (the edge fit's RMS distance in pixels, also as
     "fit_rms_px"; for the rim model the RMS residual of the rim's pixels relative to their
-    mean), "fit_points", "confidence" (0 to 1: the
-    fraction of the rim that confirms the fit), "reflectance" (the ball's, as the rim model
-    sees it; None without fov)} in continuous pixel coordinates ((0, 0) the top-left corner,
-    pixel centres at i + 1/2). Raises spheremap.DataError when no ball is found with confidence.
+    mean), "fit_points", "confidence" (0 to 1: how much of the rim confirms the fit; with fov a
+    ball is found only at 0.5 or more), "reflectance" (the ball's, as the rim model sees it;
+    None without fov), "uncertainty_px" (the rim model's estimate of its scatter from the
+    photo's noise; None without fov)} in continuous pixel coordinates ((0, 0) the top-left
+    corner, pixel centres at i + 1/2). Raises spheremap.DataError when no ball is found with
+    confidence ("no mirror ball found ...; pass --circle CX CY R").
     """
     a, _ = _photo(image, "image", linear, "error")
     if fov is not None:
         fov = _finite(fov, "fov")
         if not 0 < fov < 180:
             raise ValueError(f"fov: expected degrees in (0, 180), got {fov!r}")
-    cx, cy, r, rms, n, confidence, reflectance = _ext.find_ball(a, fov=fov)
+    cx, cy, r, rms, n, confidence, reflectance, uncertainty = _ext.find_ball(a, fov=fov)
     return {"circle": (cx, cy, r), "fit_rms": rms, "fit_rms_px": rms if fov is None else None, "fit_points": n,
-            "confidence": confidence, "reflectance": reflectance}
+            "confidence": confidence, "reflectance": reflectance, "uncertainty_px": uncertainty}
 
 
 def from_mirror_ball(image, *, second=None, angle: float = 90.0, align: bool = True,

@@ -356,6 +356,7 @@ fn summary(
                     "fit_rms_px": s.fit_rms.filter(|_| s.reflectance.is_none()),
                     "fit_points": s.fit_points,
                     "confidence": s.confidence, "reflectance": s.reflectance,
+                    "uncertainty_px": s.uncertainty,
                     "distance_radii": s.distance.is_finite().then_some(s.distance),
                     "blind_cone_deg": s.blind_deg,
                 })

@@ -103,6 +103,9 @@ fn report_dict<'py>(py: Python<'py>, r: &PhotoReport) -> PyResult<Bound<'py, PyD
         sd.set_item("circle", (s.circle.cx, s.circle.cy, s.circle.r))?;
         sd.set_item("fit_rms_px", s.fit_rms)?;
         sd.set_item("fit_points", s.fit_points)?;
+        sd.set_item("confidence", s.confidence)?;
+        sd.set_item("reflectance", s.reflectance)?;
+        sd.set_item("uncertainty_px", s.uncertainty)?;
         sd.set_item(
             "distance_radii",
             s.distance.is_finite().then_some(s.distance),
@@ -250,8 +253,8 @@ pub fn from_fisheye<'py>(
     finish(py, result)
 }
 
-/// The ball's outline in a photo: (cx, cy, r, rms, points, confidence, reflectance); with a
-/// horizontal field of view, by the perspective rim model.
+/// The ball's outline in a photo: (cx, cy, r, rms, points, confidence, reflectance,
+/// uncertainty); with a horizontal field of view, by the perspective rim model.
 #[pyfunction]
 #[pyo3(signature = (image, fov))]
 #[allow(clippy::type_complexity)]
@@ -259,7 +262,7 @@ pub fn find_ball(
     py: Python<'_>,
     image: PyReadonlyArrayDyn<'_, f32>,
     fov: Option<f64>,
-) -> PyResult<(f64, f64, f64, f64, usize, f64, Option<f64>)> {
+) -> PyResult<(f64, f64, f64, f64, usize, f64, Option<f64>, Option<f64>)> {
     let img = image_of(&image, "image")?;
     let fit = py
         .detach(|| match fov {
@@ -275,6 +278,7 @@ pub fn find_ball(
         fit.points.len(),
         fit.confidence,
         fit.reflectance,
+        fit.uncertainty,
     ))
 }
 

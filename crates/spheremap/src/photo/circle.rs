@@ -42,11 +42,14 @@ pub struct CircleFit {
     /// silhouette's.
     pub points: Vec<[f64; 2]>,
     /// How sure the fit is, 0 to 1: for the edge fit, the fraction of the 720 profiles whose
-    /// edge point it kept; for the perspective rim model, the fraction of the rim's 64 sectors
-    /// that confirm it ([`super::rim`]).
+    /// edge point it kept; for the perspective rim model, how much of the rim confirms it
+    /// ([`super::rim`]).
     pub confidence: f64,
     /// The ball's reflectance as the perspective rim model sees it.
     pub reflectance: Option<f64>,
+    /// The perspective rim model's estimate of its own scatter in pixels, from its residuals
+    /// (the noise of the photo; it does not see a biased fit).
+    pub uncertainty: Option<f64>,
 }
 
 /// Linear luminance of every pixel (non-finite and negative values as 0).
@@ -92,7 +95,7 @@ impl Plane {
         top * (1.0 - ay) + bot * ay
     }
     /// Half size by 2×2 averaging (continuous coordinates scale by exactly ½).
-    fn half(&self) -> Plane {
+    pub(super) fn half(&self) -> Plane {
         let (w, h) = (self.w / 2, self.h / 2);
         let mut v = Vec::with_capacity(w * h);
         for y in 0..h {
@@ -145,14 +148,16 @@ pub fn find_circle(img: &Image, hint: Option<Circle>) -> Result<CircleFit> {
     Ok(f)
 }
 
-/// Below this confidence (the fraction of the rim that confirms the fit) a perspective photo's
-/// ball is not taken as found.
-pub const MIN_CONFIDENCE: f64 = 0.3;
+/// Below this confidence (how much of the rim confirms the fit) a perspective photo's ball is
+/// not taken as found.
+pub const MIN_CONFIDENCE: f64 = 0.5;
 
 /// Finds the ball in a perspective photo of horizontal field of view `hfov_deg`: candidate
-/// circles from the Hough vote and the edge fit, each fitted by the model of the rim
-/// ([`super::rim`]) and scored by the fraction of the rim that confirms it; the most confident
-/// wins.  An error when none reaches [`MIN_CONFIDENCE`].
+/// circles from Hough votes over centre and radius and over the centre alone, each pulled in by
+/// the edge fit and then fitted by the model of the rim ([`super::rim`]), and scored by how much
+/// of the rim confirms it (0 when the fitted reflectance is none a mirror ball has); the best
+/// wins, and the search ends early at a confidence of 0.8.  An error naming the best candidate's
+/// circle, confidence and reflectance when none reaches [`MIN_CONFIDENCE`].
 pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
     use super::ball::BallGeometry;
     use crate::camera::{Camera, Projection};
@@ -172,19 +177,49 @@ pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
         lum: &lin,
         camera: &camera,
         clip,
+        scale: 1.0,
     };
-    let mut best: Option<(super::rim::RimFit, Option<f64>)> = None;
+    // The half-size copy the rim model's scans start on: the same camera at half the focal
+    // length (the principal point of an odd-sized photo moves by ¼ px there, which the scans
+    // at full resolution take up).
+    let half = lin.half();
+    let f_half = 0.25 * img.width as f64 / (0.5 * hfov_deg.to_radians()).tan();
+    let camera_half = Camera::new(
+        Projection::Perspective {
+            hfov_deg: 2.0 * (0.5 * half.w as f64 / f_half).atan().to_degrees(),
+        },
+        [0.0; 3],
+        crate::view::IDENTITY,
+        half.w,
+        half.h,
+    )?;
+    let coarse_photo = super::rim::Photo {
+        lum: &half,
+        camera: &camera_half,
+        clip: clip.map(|c| c * 0.999),
+        scale: 2.0,
+    };
+    // The best fit so far, with its score: its confidence, or 0 where its reflectance is none a
+    // mirror has.
+    let mut best: Option<(super::rim::RimFit, f64)> = None;
     let mut tried = 0;
     let mut starts: Vec<Circle> = Vec::new();
-    for cand in coarse(&log)? {
-        if best.as_ref().is_some_and(|b| b.0.confidence >= SURE) {
+    let mut cands = coarse_circles(&log);
+    for c in coarse(&log).unwrap_or_default() {
+        if cands.len() >= 2 * CANDIDATES {
             break;
         }
-        // The edge fit first (it pulls a coarse circle to within a pixel or two), else the
+        cands.push(c);
+    }
+    for cand in cands {
+        if best.as_ref().is_some_and(|b| b.1 >= SURE) {
+            break;
+        }
+        // The edge fit first (it pulls a coarse circle to within a few pixels), else the
         // candidate as it is.
-        let (start, edge_rms) = match refine(&log, &lin, cand).ok() {
-            Some(f) if (f.circle.r - cand.r).abs() < 0.2 * cand.r => (f.circle, Some(f.rms)),
-            _ => (cand, None),
+        let start = match refine(&log, &lin, cand).ok() {
+            Some(f) if (f.circle.r - cand.r).abs() < 0.2 * cand.r => f.circle,
+            _ => cand,
         };
         // Candidates that the edge fit took to the same circle are fitted once.
         if starts
@@ -204,25 +239,46 @@ pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
             continue;
         };
         tried += 1;
-        if let Some(f) = super::rim::fit(&photo, g.axis, (1.0 / g.distance).asin()) {
-            if best.as_ref().is_none_or(|b| f.confidence > b.0.confidence) {
-                best = Some((f, edge_rms));
+        if let Some(f) = super::rim::fit(&photo, &coarse_photo, g.axis, (1.0 / g.distance).asin()) {
+            let plausible = (REFLECTANCE.0..=REFLECTANCE.1).contains(&f.reflectance);
+            let score = if plausible { f.confidence } else { 0.0 };
+            if best
+                .as_ref()
+                .is_none_or(|b| score > b.1 || (b.1 == 0.0 && f.confidence > b.0.confidence))
+            {
+                best = Some((f, score));
             }
         }
     }
-    let found = best.filter(|b| b.0.confidence >= MIN_CONFIDENCE);
-    let Some((f, _)) = found else {
+    let Some((f, _)) = best.as_ref().filter(|b| b.1 >= MIN_CONFIDENCE) else {
+        let why = match &best {
+            Some((f, _)) => format!(
+                "the best of {tried} candidate circles, {}, had {:.0} % of its rim confirmed and \
+                 a reflectance of {:.2}; a ball needs {:.0} % and {}–{}",
+                BallGeometry::perspective(
+                    &super::rim::outline(&camera, f, RAYS),
+                    hfov_deg,
+                    img.width,
+                    img.height
+                )
+                .map_or("unknown".into(), |g| format!(
+                    "({:.1}, {:.1}, {:.1})",
+                    g.circle.cx, g.circle.cy, g.circle.r
+                )),
+                100.0 * f.confidence,
+                f.reflectance,
+                100.0 * MIN_CONFIDENCE,
+                REFLECTANCE.0,
+                REFLECTANCE.1
+            ),
+            None => format!("none of {tried} candidate circles could be fitted"),
+        };
         return Err(Error::data(
             "image",
-            format!(
-                "no mirror ball found (the best of {tried} candidate circles had {:.0} % of its \
-                 rim confirmed, under the {:.0} % needed); pass --circle CX CY R",
-                100.0 * best.map_or(0.0, |b| b.0.confidence),
-                100.0 * MIN_CONFIDENCE
-            ),
+            format!("no mirror ball found ({why}); pass --circle CX CY R"),
         ));
     };
-    let points = super::rim::outline(&camera, &f, RAYS);
+    let points = super::rim::outline(&camera, f, RAYS);
     let g = BallGeometry::perspective(&points, hfov_deg, img.width, img.height)?;
     Ok(CircleFit {
         circle: g.circle,
@@ -230,10 +286,16 @@ pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
         points,
         confidence: f.confidence,
         reflectance: Some(f.reflectance),
+        uncertainty: Some(f.uncertainty),
     })
 }
 
 const RAYS: usize = 720;
+/// The reflectances a fitted rim may show.  A mirror ball's is 0.5–0.95 (rising towards 1 at
+/// grazing angles) and the fit's estimate scatters by some 0.2; an estimate outside this range
+/// means the fit has split the rim's pixels between the ball's reflection and the free shape of
+/// what lies beyond the photo (see [`super::rim`]) wrongly, or that the circle is no ball's rim.
+const REFLECTANCE: (f64, f64) = (0.3, 1.25);
 /// A candidate this confident ends the search.
 const SURE: f64 = 0.8;
 
@@ -408,6 +470,134 @@ fn coarse(full: &Plane) -> Result<Vec<Circle>> {
         }
     }
     Ok(out)
+}
+
+/// Circle candidates from a vote over centre *and* radius (on a copy at most 512 px on its
+/// longer side): every strong edge votes, along its gradient line on both sides, for the
+/// circles through it; the cells with the most votes are the circles with the most edge along
+/// them.  A mirror ball's rim is a whole circle of edges (the background against the ball's
+/// dimmer, compressed reflection, and the reflection's own detail drawn out along the rim),
+/// while a reflected horizon or a window inside the ball is only an arc, and straight edges
+/// spread their votes over many circles.
+fn coarse_circles(full: &Plane) -> Vec<Circle> {
+    let mut p = Plane {
+        w: full.w,
+        h: full.h,
+        v: full.v.clone(),
+    };
+    let mut scale = 1.0;
+    while p.w.max(p.h) > 512 && p.w >= 32 && p.h >= 32 {
+        p = p.half();
+        scale *= 2.0;
+    }
+    let (w, h) = (p.w, p.h);
+    if w < 8 || h < 8 {
+        return vec![];
+    }
+    let mut grad = vec![(0f32, 0f32, 0f32); w * h];
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let gx = (p.at(x + 1, y - 1) + 2.0 * p.at(x + 1, y) + p.at(x + 1, y + 1))
+                - (p.at(x - 1, y - 1) + 2.0 * p.at(x - 1, y) + p.at(x - 1, y + 1));
+            let gy = (p.at(x - 1, y + 1) + 2.0 * p.at(x, y + 1) + p.at(x + 1, y + 1))
+                - (p.at(x - 1, y - 1) + 2.0 * p.at(x, y - 1) + p.at(x + 1, y - 1));
+            grad[y * w + x] = (gx, gy, gx.hypot(gy));
+        }
+    }
+    let mut mags: Vec<f32> = grad.iter().map(|g| g.2).filter(|&m| m > 0.0).collect();
+    if mags.len() < 16 {
+        return vec![];
+    }
+    // The strongest 30 % of edges vote (a dim rim is still among them on a smooth background).
+    let k = mags.len() * 70 / 100;
+    let (_, thr, _) = mags.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    let thr = (*thr).max(1e-3);
+    // Cells of 2 px in centre and radius.
+    const CELL: f32 = 2.0;
+    let (rmin, rmax) = (0.04 * w.min(h) as f32, 0.5 * w.max(h) as f32);
+    let (nx, ny) = (
+        (w as f32 / CELL) as usize + 1,
+        (h as f32 / CELL) as usize + 1,
+    );
+    let nr = ((rmax - rmin) / CELL) as usize + 1;
+    let mut acc = vec![0u16; nx * ny * nr];
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let (gx, gy, m) = grad[y * w + x];
+            if m < thr {
+                continue;
+            }
+            let (ux, uy) = (gx / m, gy / m);
+            for sign in [-1.0f32, 1.0] {
+                let mut ri = 0;
+                while ri < nr {
+                    let r = rmin + (ri as f32 + 0.5) * CELL;
+                    let cx = x as f32 + 0.5 + sign * ux * r;
+                    let cy = y as f32 + 0.5 + sign * uy * r;
+                    if cx < 0.0 || cy < 0.0 || cx >= w as f32 || cy >= h as f32 {
+                        break;
+                    }
+                    let i = ((ri * ny) + (cy / CELL) as usize) * nx + (cx / CELL) as usize;
+                    acc[i] = acc[i].saturating_add(1);
+                    ri += 1;
+                }
+            }
+        }
+    }
+    // Votes per cell, smoothed over the 3×3×3 neighbourhood; a circle's share is its votes over
+    // its circumference (in edge pixels), so a small circle is not drowned by a large one.
+    let at = |xi: usize, yi: usize, ri: usize| acc[(ri * ny + yi) * nx + xi] as f32;
+    let mut cells: Vec<(usize, usize, usize, f32, f32)> = Vec::new();
+    for ri in 1..nr.saturating_sub(1) {
+        for yi in 1..ny - 1 {
+            for xi in 1..nx - 1 {
+                let v = at(xi, yi, ri);
+                if v < 8.0 {
+                    continue;
+                }
+                let mut sum = 0.0;
+                for dr in 0..3 {
+                    for dy in 0..3 {
+                        for dx in 0..3 {
+                            sum += at(xi + dx - 1, yi + dy - 1, ri + dr - 1);
+                        }
+                    }
+                }
+                let r = rmin + (ri as f32 + 0.5) * CELL;
+                cells.push((xi, yi, ri, sum, sum / (std::f32::consts::TAU * r)));
+            }
+        }
+    }
+    // The best by votes, then by share; near-duplicates dropped.
+    let mut out: Vec<Circle> = Vec::new();
+    for key in [3usize, 4] {
+        let mut sorted = cells.clone();
+        sorted.sort_by(|a, b| {
+            let (ka, kb) = if key == 3 { (a.3, b.3) } else { (a.4, b.4) };
+            kb.total_cmp(&ka)
+        });
+        let mut taken = 0;
+        for &(xi, yi, ri, _, _) in &sorted {
+            let c = Circle {
+                cx: ((xi as f32 + 0.5) * CELL) as f64 * scale,
+                cy: ((yi as f32 + 0.5) * CELL) as f64 * scale,
+                r: (rmin + (ri as f32 + 0.5) * CELL) as f64 * scale,
+            };
+            let near = |o: &Circle| {
+                (o.cx - c.cx).hypot(o.cy - c.cy) < 0.1 * c.r.max(o.r)
+                    && (o.r - c.r).abs() < 0.1 * c.r.max(o.r)
+            };
+            if out.iter().any(near) {
+                continue;
+            }
+            out.push(c);
+            taken += 1;
+            if taken == CANDIDATES / 2 {
+                break;
+            }
+        }
+    }
+    out
 }
 
 /// Candidate circles the perspective search fits.
@@ -586,6 +776,7 @@ pub fn robust_circle(pts: &[[f64; 2]]) -> Option<CircleFit> {
         points: kept,
         confidence: 1.0,
         reflectance: None,
+        uncertainty: None,
     })
 }
 

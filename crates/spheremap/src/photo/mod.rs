@@ -143,6 +143,9 @@ pub struct ShotReport {
     pub confidence: Option<f64>,
     /// The reflectance the perspective rim model saw.
     pub reflectance: Option<f64>,
+    /// The perspective rim model's estimate of one standard deviation of the outline, in
+    /// pixels ([`CircleFit::uncertainty`]).
+    pub uncertainty: Option<f64>,
     /// Ball distance in radii (infinite for the orthographic model).
     pub distance: f64,
     /// Half-angle (degrees) of the unseen cone behind the ball.
@@ -307,7 +310,14 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
             }
             None
         }
-        None => Some(find_circle(photo.image, None).map_err(|e| rename(e, what))?),
+        // A perspective photo's ball by the rim model, an orthographic one's by the edge fit.
+        None => Some(
+            match photo.model {
+                BallModel::Perspective { hfov_deg } => find_ball_perspective(photo.image, hfov_deg),
+                BallModel::Orthographic => find_circle(photo.image, None),
+            }
+            .map_err(|e| rename(e, what))?,
+        ),
     };
     let circle = fit
         .as_ref()
@@ -337,6 +347,7 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
         fit_points: fit.as_ref().map_or(0, |f| f.points.len()),
         confidence: fit.as_ref().map(|f| f.confidence),
         reflectance: fit.as_ref().and_then(|f| f.reflectance),
+        uncertainty: fit.as_ref().and_then(|f| f.uncertainty),
         distance: geom.distance,
         blind_deg: geom.blind_half_angle().to_degrees(),
     };

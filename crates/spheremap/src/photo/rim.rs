@@ -19,25 +19,44 @@
 //! ## The model
 //!
 //! For a cone (its axis `a` and half-angle β, in the camera frame) every pixel within a few
-//! pixels of the silhouette is predicted from the photo itself: the pixel square, cut into
+//! pixels of the silhouette is predicted from the photo itself.  The pixel square, cut into
 //! slices parallel to the rim (the rim is straight at that scale), is the sum over the slices
 //! outside the cone of the background there (the photo at that angle; within 2 px of the rim,
 //! where the photo's pixels mix ball and background, the background is extended as the straight
 //! line fitted to the photo 2–4 px out) and over the slices inside it of R × the mean of the
 //! background over the swath those depths reflect (a cumulative integral along the line of the
-//! same azimuth, sampled uniformly in √depth where the compression is steepest).  R enters
-//! linearly and is solved for in closed form; the axis (2 degrees of freedom) and β are fitted
-//! by Gauss–Newton on the residuals of all pixels in the band, with Huber weights (a highlight,
-//! the ball's stand, a clipped sun).
+//! same azimuth, sampled uniformly in √depth where the compression is steepest).
 //!
-//! ## Confidence
+//! The reflection of a slice at depth u leaves the photo's frame when its swath does (a ball
+//! near the frame's edge, a narrow field of view): deeper than that depth v, the slice shows
+//! what the photo does not, and the model gives it the last value seen plus two free terms of
+//! the sector it lies in (32 sectors round the rim), κ(√u − √v) + μ(u − v) — the shape of a
+//! smooth background compressed as √depth, and its gradient.  R (shared by the whole rim) and
+//! each sector's κ and μ enter linearly and are solved for in closed form; the axis (2 degrees
+//! of freedom) and β are fitted by Gauss–Newton on the residuals of all pixels in the band,
+//! with Huber weights (a highlight, the ball's stand), a line search along each step, and
+//! pixels whose line reads a clipped value left out (a clipped sun has no shape to fit).
 //!
-//! The cone is moved by scans: the silhouette is shifted in and out in small steps and, in each
-//! of 64 sectors round it, the model's residual is taken at every shift; a sector's rim lies at
-//! its clear minimum, and the cone's change is fitted to the sectors' minima.  The confidence is
-//! the fraction of the 64 sectors whose own minimum lies within ½ px of the fitted cone.  A
-//! flat sky seen by a perfect mirror confirms little (there is nothing to see there); a circle
-//! that is not a ball's rim is confirmed by few sectors.
+//! ## Finding the basin, and the confidence
+//!
+//! The model's residual has a basin only about a pixel wide, so the cone is first moved by
+//! scans: the silhouette is shifted in and out in small steps and, in each of 64 sectors round
+//! it, the model's residual (with the sector's own reflectance and free terms) is taken at every
+//! shift; a sector is *informative* where its residual has a clear minimum (its median over the
+//! shifts more than twice the minimum) and the rim model explains the band there at least
+//! twice as well as a smooth field does (a quadratic across the rim plus a slope along it:
+//! over a featureless wall a cone fits as well anywhere).  The cone's change is fitted to the
+//! informative sectors' minima.  Scans run on a half-size copy of the photo (±1 px in ⅛ px
+//! steps, and ±8 px in ½ px steps when that finds nothing), then once on the full photo;
+//! Gauss–Newton then moves the cone by at most 1 px from there.
+//!
+//! A last scan round the final cone measures the **confidence**: the informative sectors whose
+//! own minimum lies within ½ px of the cone, as a share of the informative sectors (counted as
+//! at least 16 of the 64), times the share of the rim they cover (octants holding one, out of
+//! 6, at most 1).  A flat sky seen by a perfect mirror confirms little (there is nothing to see
+//! there); a circle that is not a ball's rim is confirmed by few sectors, or only on one side.
+//! The reflectance is a second check: a circle that is not a ball's rim is often fitted best by
+//! a reflectance no chrome ball has (the caller refuses those).
 
 use super::circle::Plane;
 use crate::camera::Camera;
@@ -54,8 +73,12 @@ pub struct RimFit {
     pub reflectance: f64,
     /// RMS of the band pixels' residuals, relative to the band's mean value.
     pub rms: f64,
-    /// Fraction of the 64 sectors round the rim that confirm it (module docs), 0 to 1.
+    /// How much of the rim confirms the cone (module docs), 0 to 1.
     pub confidence: f64,
+    /// The formal standard deviation of the fitted cone's position and size, in pixels (the
+    /// largest of the three parameters), times 3 for residuals correlated along the rim.  It
+    /// measures the noise of the photo, not a biased model: a fit can be off by more.
+    pub uncertainty: f64,
     /// Pixels in the band that were fitted.
     pub pixels: usize,
 }
@@ -70,6 +93,12 @@ const N_IN: usize = 96;
 /// Slices of a pixel across the rim.
 const SLICES: usize = 16;
 const SECTORS: usize = 32;
+/// How far (px, per parameter) Gauss–Newton may move the cone from where the full-resolution
+/// scan put it (within a quarter of a pixel).  Farther, the band fitted round the scanned cone
+/// can lose the rim: over a smooth background a cone moved off it fits the smooth pixels alone.
+const TRUST: f64 = 1.0;
+/// The factor on the formal standard deviation for residuals correlated along the rim.
+const CORRELATED: f64 = 3.0;
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -132,8 +161,9 @@ impl Cone {
 struct Line {
     /// Background at t = k·OUT_STEP px outside the rim.
     out: Vec<f32>,
-    /// Depths u_i = depth·(i/N_IN)² and the integral of the reflected background to them.
+    /// Depths u_i = depth·(i/N_IN)², the reflected background there and its integral to them.
     depth: f64,
+    val: Vec<f64>,
     cum: Vec<f64>,
     /// Depth up to which the reflection is seen on the photo (its swath is in the frame).
     valid: f64,
@@ -149,6 +179,14 @@ impl Line {
         let i = (x as usize).min(self.out.len() - 2);
         let f = x - i as f64;
         self.out[i] as f64 * (1.0 - f) + self.out[i + 1] as f64 * f
+    }
+    /// The reflected background at depth `u` (within the depth reached).
+    fn value(&self, u: f64) -> f64 {
+        let u = u.clamp(0.0, self.depth);
+        let x = N_IN as f64 * (u / self.depth).sqrt();
+        let i = (x as usize).min(N_IN - 1);
+        let f = x - i as f64;
+        self.val[i] * (1.0 - f) + self.val[i + 1] * f
     }
     /// ∫₀ᵘ (reflected background) du'.
     fn integral(&self, u: f64) -> f64 {
@@ -168,6 +206,8 @@ pub(super) struct Photo<'a> {
     pub camera: &'a Camera,
     /// Values at or above this are clipped (None: nothing is).
     pub clip: Option<f32>,
+    /// Pixels of the full-resolution photo per pixel of `lum` (1, or 2 on a half-size copy).
+    pub scale: f64,
 }
 
 impl Photo<'_> {
@@ -233,7 +273,9 @@ fn lines(photo: &Photo, c: &Cone, bins: usize, depth: f64, out_len: f64) -> Vec<
             // Inside: depth u at θ = β − u/g reflects θ' = θ + π − 2 asin(D sin θ).
             let d = 1.0 / c.beta.sin();
             let mut cum = vec![0f64; N_IN + 1];
+            let mut val = vec![0f64; N_IN + 1];
             let mut prev = background(0.0)?;
+            val[0] = prev;
             let mut valid = depth;
             for i in 1..=N_IN {
                 let (u0, u1) = (
@@ -262,15 +304,18 @@ fn lines(photo: &Photo, c: &Cone, bins: usize, depth: f64, out_len: f64) -> Vec<
                     valid = u0;
                     for j in i..=N_IN {
                         cum[j] = cum[i - 1];
+                        val[j] = prev;
                     }
                     break;
                 };
                 cum[i] = cum[i - 1] + 0.5 * (prev + v) * (u1 - u0);
+                val[i] = v;
                 prev = v;
             }
             Some(Line {
                 out,
                 depth,
+                val,
                 cum,
                 valid,
                 clipped: clipped.get(),
@@ -336,19 +381,32 @@ fn depth(cam: &Camera, c: &Cone, centre: [f64; 2]) -> Option<f64> {
     depth_and_gradient(cam, c, centre).map(|v| v.0)
 }
 
-/// The model of one pixel for a cone: (A, B) with value = R·A + B, and its depth; `None` where
-/// the model does not reach.
+/// What the model makes of one pixel: its value is R·a + b + κ·k + μ·m, with R the ball's
+/// reflectance and κ, μ the free shape of the reflection of what lies beyond the photo in the
+/// pixel's sector (module docs).
+#[derive(Clone, Copy, Debug)]
+struct Terms {
+    a: f64,
+    b: f64,
+    k: f64,
+    m: f64,
+    sector: usize,
+}
+
+/// The model of one pixel for a cone, with its depth and azimuth; `None` where the model does
+/// not reach.
 fn model_pixel(
     photo: &Photo,
     c: &Cone,
     lines: &[Option<Line>],
     p: &BandPixel,
-) -> Option<(f64, f64, f64, f64)> {
+) -> Option<(Terms, f64, f64)> {
     let centre = [p.x as f64 + 0.5, p.y as f64 + 0.5];
     // Depth inside the rim at the pixel centre, and the rim's outward normal.
     let (u, nx, ny, psi) = depth_and_gradient(photo.camera, c, centre)?;
     let bins = lines.len();
-    let fk = psi.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU * bins as f64;
+    let psi = psi.rem_euclid(std::f64::consts::TAU);
+    let fk = psi / std::f64::consts::TAU * bins as f64;
     let k0 = (fk as usize) % bins;
     let k1 = (k0 + 1) % bins;
     let wk = fk - fk.floor();
@@ -356,33 +414,56 @@ fn model_pixel(
     if l0.clipped || l1.clipped {
         return None;
     }
+    // Where the reflection leaves the photo: deeper, the reflected background continues as
+    // its value there plus the free terms in (√u − √v) and (u − v).
+    let v = l0.valid.min(l1.valid);
+    let j_v = (1.0 - wk) * l0.value(v) + wk * l1.value(v);
     let (w, h) = slices(nx, ny);
-    let (mut a, mut b) = (0.0, 0.0);
+    let mut t = Terms {
+        a: 0.0,
+        b: 0.0,
+        k: 0.0,
+        m: 0.0,
+        sector: (psi / std::f64::consts::TAU * SECTORS as f64) as usize % SECTORS,
+    };
     for (j, wj) in w.iter().enumerate() {
         let s = -0.5 * SLICES as f64 * 2.0 * h + (j as f64 + 0.5) * 2.0 * h;
         let (lo, hi) = (u - s - h, u - s + h); // depth interval of the slice
+        let norm = wj / (2.0 * h);
         if hi > 0.0 {
             let (i0, i1) = (lo.max(0.0), hi);
-            if i1 > l0.valid.min(l1.valid) {
+            if i1 > l0.depth {
                 return None;
             }
-            let integral = |l: &Line| l.integral(i1) - l.integral(i0);
-            a += wj * ((1.0 - wk) * integral(l0) + wk * integral(l1)) / (2.0 * h);
+            // The part the photo's reflection reaches.
+            let (r0, r1) = (i0.min(v), i1.min(v));
+            if r1 > r0 {
+                let integral = |l: &Line| l.integral(r1) - l.integral(r0);
+                t.a += norm * ((1.0 - wk) * integral(l0) + wk * integral(l1));
+            }
+            // The part beyond it.
+            let (e0, e1) = (i0.max(v), i1.max(v));
+            if e1 > e0 {
+                t.a += norm * j_v * (e1 - e0);
+                let sq = |x: f64| 2.0 / 3.0 * x.powf(1.5) - v.sqrt() * x;
+                t.k += norm * (sq(e1) - sq(e0));
+                t.m += norm * 0.5 * ((e1 - v).powi(2) - (e0 - v).powi(2));
+            }
         }
         if lo < 0.0 {
             let (t0, t1) = (-(hi.min(0.0)), -lo);
             let tm = 0.5 * (t0 + t1);
             let outside = (1.0 - wk) * l0.outside(tm) + wk * l1.outside(tm);
-            b += wj * outside * (t1 - t0) / (2.0 * h);
+            t.b += norm * outside * (t1 - t0);
         }
     }
-    Some((a, b, u, psi.rem_euclid(std::f64::consts::TAU)))
+    Some((t, u, psi))
 }
 
-/// Residuals of the band for a cone: per pixel (A, B, sector) or None, and the reflectance
-/// that fits best with `weights`.
+/// The model of the band for a cone: each pixel's terms, depth and azimuth (None where the
+/// model does not reach).
 struct Eval {
-    ab: Vec<Option<(f64, f64, usize)>>,
+    ab: Vec<Option<Terms>>,
     /// Each modelled pixel's depth (px, positive inside) and azimuth about the axis.
     at: Vec<Option<(f64, f64)>>,
 }
@@ -402,33 +483,188 @@ fn evaluate(photo: &Photo, c: &Cone, band: &[BandPixel], half: f64) -> Eval {
     // The lines reach 2 px past the band (pixel extent, and a step of the fit).
     let depth = half + 2.5;
     let ls = lines(photo, c, bins, depth, half + 2.5);
-    let m: Vec<Option<(f64, f64, f64, f64)>> = band
+    let m: Vec<Option<(Terms, f64, f64)>> = band
         .par_iter()
-        .map(|p| model_pixel(photo, c, &ls, p).filter(|m| m.2.abs() <= half + 1.5))
+        .map(|p| model_pixel(photo, c, &ls, p).filter(|m| m.1.abs() <= half + 1.5))
         .collect();
-    let sector = |psi: f64| (psi / std::f64::consts::TAU * SECTORS as f64) as usize % SECTORS;
     Eval {
-        ab: m
-            .iter()
-            .map(|m| m.map(|(a, b, _, psi)| (a, b, sector(psi))))
-            .collect(),
-        at: m.iter().map(|m| m.map(|(_, _, u, psi)| (u, psi))).collect(),
+        ab: m.iter().map(|m| m.map(|(t, _, _)| t)).collect(),
+        at: m.iter().map(|m| m.map(|(_, u, psi)| (u, psi))).collect(),
     }
 }
 
-/// The reflectance that fits (weighted least squares over the pixels all of `evals` model).
-fn best_r(band: &[BandPixel], ab: &[Option<(f64, f64, usize)>], w: &[f64], keep: &[bool]) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
+/// The linear part of the model: the reflectance, and each sector's free terms.
+#[derive(Clone, Debug)]
+struct Linear {
+    r: f64,
+    km: Vec<[f64; 2]>,
+}
+
+impl Linear {
+    fn predict(&self, t: &Terms) -> f64 {
+        let [k, m] = self.km[t.sector];
+        self.r * t.a + t.b + k * t.k + m * t.m
+    }
+}
+
+/// Weighted sums of one sector for the linear solve: Gram of (a, k, m) and their products
+/// with y = value − b.
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    g: [[f64; 3]; 3],
+    y: [f64; 3],
+    yy: f64,
+    n: f64,
+}
+
+impl Sums {
+    fn add(&mut self, t: &Terms, y: f64, w: f64) {
+        let x = [t.a, t.k, t.m];
+        for a in 0..3 {
+            for b in 0..3 {
+                self.g[a][b] += w * x[a] * x[b];
+            }
+            self.y[a] += w * x[a] * y;
+        }
+        self.yy += w * y * y;
+        self.n += w;
+    }
+    /// The 2×2 block of the free terms with a ridge (a sector without pixels beyond the
+    /// photo's reflection has none), inverted.
+    fn free_inverse(&self) -> [[f64; 2]; 2] {
+        let ridge = 1e-9 * (self.g[1][1] + self.g[2][2]) + 1e-12;
+        let (p, q, r) = (self.g[1][1] + ridge, self.g[1][2], self.g[2][2] + ridge);
+        let det = p * r - q * q;
+        [[r / det, -q / det], [-q / det, p / det]]
+    }
+    /// With R given, the free terms that fit best.
+    fn free(&self, r: f64) -> [f64; 2] {
+        let inv = self.free_inverse();
+        let v = [self.y[1] - r * self.g[0][1], self.y[2] - r * self.g[0][2]];
+        [
+            inv[0][0] * v[0] + inv[0][1] * v[1],
+            inv[1][0] * v[0] + inv[1][1] * v[1],
+        ]
+    }
+    /// (a⊥·a⊥, a⊥·y⊥): the products of a and y with the free terms projected out.
+    fn reduced(&self) -> (f64, f64) {
+        let inv = self.free_inverse();
+        let ga = [self.g[0][1], self.g[0][2]];
+        let gy = [self.y[1], self.y[2]];
+        let quad = |u: [f64; 2], v: [f64; 2]| {
+            u[0] * (inv[0][0] * v[0] + inv[0][1] * v[1])
+                + u[1] * (inv[1][0] * v[0] + inv[1][1] * v[1])
+        };
+        (self.g[0][0] - quad(ga, ga), self.y[0] - quad(ga, gy))
+    }
+    /// The weighted mean squared residual with its own best R and free terms.
+    fn cost(&self) -> Option<(f64, f64)> {
+        let (aa, ay) = self.reduced();
+        if !(aa > 0.0) || self.n <= 0.0 {
+            return None;
+        }
+        let r = (ay / aa).clamp(0.02, 2.0);
+        let [k, m] = self.free(r);
+        let x = [r, k, m];
+        // Σ w (y − x·t)² = yy − 2 x·y + xᵀ G x.
+        let mut quad = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                quad += x[a] * self.g[a][b] * x[b];
+            }
+        }
+        let sse = self.yy - 2.0 * (x[0] * self.y[0] + x[1] * self.y[1] + x[2] * self.y[2]) + quad;
+        Some((sse.max(0.0) / self.n, r))
+    }
+}
+
+/// Sums of one sector for the smooth alternative to a rim: the pixels as a quadratic in their
+/// depth under the cone plus a slope along the rim.  Where that fits as well as the rim model
+/// (a flat wall, a clear sky), the band shows nothing of a rim.
+#[derive(Clone, Copy, Default)]
+struct Smooth {
+    g: [[f64; 4]; 4],
+    y: [f64; 4],
+    yy: f64,
+    n: f64,
+}
+
+impl Smooth {
+    fn add(&mut self, u: f64, along: f64, y: f64) {
+        let x = [1.0, u, u * u, along];
+        for a in 0..4 {
+            for b in 0..4 {
+                self.g[a][b] += x[a] * x[b];
+            }
+            self.y[a] += x[a] * y;
+        }
+        self.yy += y * y;
+        self.n += 1.0;
+    }
+    /// The mean square of the pixels.
+    fn mean_square(&self) -> f64 {
+        self.yy / self.n.max(1.0)
+    }
+    /// The mean squared residual of the best such fit.
+    fn cost(&self) -> f64 {
+        // Gaussian elimination with partial pivoting on the 4×4 normal equations.
+        let mut m = [[0f64; 5]; 4];
+        for a in 0..4 {
+            m[a][..4].copy_from_slice(&self.g[a]);
+            m[a][4] = self.y[a];
+        }
+        let scale = (0..4).map(|a| self.g[a][a]).fold(0.0, f64::max) * 1e-12 + 1e-300;
+        for col in 0..4 {
+            let piv = (col..4)
+                .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+                .unwrap_or(col);
+            m.swap(col, piv);
+            if m[col][col].abs() <= scale {
+                continue; // a direction the pixels do not span
+            }
+            for r in 0..4 {
+                if r != col {
+                    let f = m[r][col] / m[col][col];
+                    for k in col..5 {
+                        m[r][k] -= f * m[col][k];
+                    }
+                }
+            }
+        }
+        // Σ (y − x·β)² = yy − β·(Xᵀy) at the least-squares β.
+        let mut fit = 0.0;
+        for a in 0..4 {
+            if m[a][a].abs() > scale {
+                fit += m[a][4] / m[a][a] * self.y[a];
+            }
+        }
+        (self.yy - fit).max(0.0) / self.n.max(1.0)
+    }
+}
+
+/// The linear part that fits best (weighted least squares over the kept pixels): R shared by
+/// the whole rim, the free terms per sector.
+fn solve_linear(band: &[BandPixel], terms: &[Option<Terms>], w: &[f64], keep: &[bool]) -> Linear {
+    let mut sums = [Sums::default(); SECTORS];
     for i in 0..band.len() {
-        if let (true, Some((a, b, _))) = (keep[i], ab[i]) {
-            num += w[i] * a * (band[i].v as f64 - b);
-            den += w[i] * a * a;
+        if let (true, Some(t)) = (keep[i], terms[i]) {
+            sums[t.sector].add(&t, band[i].v as f64 - t.b, w[i]);
         }
     }
-    if den > 0.0 {
-        (num / den).clamp(0.02, 2.0)
+    let (mut aa, mut ay) = (0.0, 0.0);
+    for s in &sums {
+        let (a, y) = s.reduced();
+        aa += a;
+        ay += y;
+    }
+    let r = if aa > 0.0 {
+        (ay / aa).clamp(0.02, 2.0)
     } else {
         1.0
+    };
+    Linear {
+        r,
+        km: sums.iter().map(|s| s.free(r)).collect(),
     }
 }
 
@@ -494,6 +730,9 @@ fn moved(c: &Cone, p: [f64; 3], g0: f64) -> Cone {
     cone
 }
 
+/// How many times better than the smooth alternative ([`Smooth`]) the rim model must explain a
+/// sector's band for the sector to count.
+const EVIDENCE: f64 = 2.0;
 /// Sectors of the rim scanned one by one.
 const SCAN_SECTORS: usize = 64;
 
@@ -504,29 +743,30 @@ const SCAN_SECTORS: usize = 64;
 /// s(ψ) = δβ + δ₁ cos ψ + δ₂ sin ψ, with Huber weights.  The model's residual has a basin only
 /// about a pixel wide where the background is textured (with R near 1 a misplaced rim looks like
 /// noise), so a fit from a start a few pixels off needs this search.
-fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<(Cone, usize)> {
+fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<Scan> {
     let half = 3.0;
     let band = band_pixels(photo, c, half + range);
     let k = (range / step).round() as i32;
     let shifts: Vec<f64> = (-k..=k).map(|j| j as f64 * step).collect();
-    // Per sector and shift: Σa², Σa(o−b), Σ(o−b)², n.
-    let mut sums = vec![vec![[0f64; 4]; shifts.len()]; SCAN_SECTORS];
-    for (j, sh) in shifts.iter().enumerate() {
-        let e = evaluate(photo, &moved(c, [0.0, 0.0, *sh], g0), &band, half);
+    // Per sector and shift: the sums of the sector's own linear solve.
+    let mut sums = vec![vec![Sums::default(); shifts.len()]; SCAN_SECTORS];
+    let mut smooth = vec![vec![Smooth::default(); shifts.len()]; SCAN_SECTORS];
+    let evals: Vec<Eval> = shifts
+        .par_iter()
+        .map(|sh| evaluate(photo, &moved(c, [0.0, 0.0, *sh], g0), &band, half))
+        .collect();
+    for (j, e) in evals.iter().enumerate() {
         for i in 0..band.len() {
-            let (Some((a, b, _)), Some((u, psi))) = (e.ab[i], e.at[i]) else {
+            let (Some(t), Some((u, psi))) = (e.ab[i], e.at[i]) else {
                 continue;
             };
             if u.abs() > half {
                 continue;
             }
-            let sec = (psi / std::f64::consts::TAU * SCAN_SECTORS as f64) as usize % SCAN_SECTORS;
-            let ob = band[i].v as f64 - b;
-            let t = &mut sums[sec][j];
-            t[0] += a * a;
-            t[1] += a * ob;
-            t[2] += ob * ob;
-            t[3] += 1.0;
+            let x = psi / std::f64::consts::TAU * SCAN_SECTORS as f64;
+            let sec = x as usize % SCAN_SECTORS;
+            sums[sec][j].add(&t, band[i].v as f64 - t.b, 1.0);
+            smooth[sec][j].add(u, x - x.floor() - 0.5, band[i].v as f64);
         }
     }
     // Each sector's shift at its minimum.
@@ -535,11 +775,10 @@ fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<(Cone
         let cost: Vec<f64> = row
             .iter()
             .map(|t| {
-                if t[3] < 12.0 || t[0] <= 0.0 {
+                if t.n < 12.0 {
                     return f64::INFINITY;
                 }
-                let r = (t[1] / t[0]).clamp(0.02, 2.0);
-                (t[2] - 2.0 * r * t[1] + r * r * t[0]) / t[3]
+                t.cost().map_or(f64::INFINITY, |c| c.0)
             })
             .collect();
         if cost.iter().any(|v| !v.is_finite()) {
@@ -557,6 +796,14 @@ fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<(Cone
         let mut sorted = cost.clone();
         sorted.sort_by(|a, b| a.total_cmp(b));
         if !(sorted[sorted.len() / 2] > 2.0 * min) {
+            continue;
+        }
+        // Evidence of a rim: the rim model explains the band clearly better than a smooth
+        // field does (over a featureless wall a cone fits as well anywhere; on a noise-free
+        // one both residuals vanish, hence the floor far below any photo's noise).
+        let alt = smooth[sec][j].cost();
+        let floor = 1e-8 * smooth[sec][j].mean_square();
+        if !(alt > EVIDENCE * min + floor) {
             continue;
         }
         let (a, b, cc) = (cost[j - 1], cost[j], cost[j + 1]);
@@ -601,30 +848,81 @@ fn scan(photo: &Photo, c: &Cone, g0: f64, range: f64, step: f64) -> Option<(Cone
         res.sort_by(|a, b| a.total_cmp(b));
         scale = (1.4826 * res[res.len() / 2]).max(0.5 * step);
     }
-    // The sectors whose own minimum lies on the fitted cone (within ½ px).
-    let confirming = found
-        .iter()
-        .filter(|&&(psi, sh)| (sh - (p[0] * psi.cos() + p[1] * psi.sin() + p[2])).abs() <= 0.5)
-        .count();
-    Some((moved(c, p, g0), confirming))
+    // The sectors whose own minimum lies on the fitted cone, and on the cone scanned around
+    // (within ½ px at full resolution), and the octants of the rim they occupy.
+    let tol = 0.5 / photo.scale;
+    let agree = |p: [f64; 3]| {
+        let mut octants = [false; 8];
+        let mut n = 0;
+        for &(psi, sh) in &found {
+            if (sh - (p[0] * psi.cos() + p[1] * psi.sin() + p[2])).abs() <= tol {
+                n += 1;
+                octants[((psi / std::f64::consts::TAU * 8.0) as usize).min(7)] = true;
+            }
+        }
+        (n, octants.iter().filter(|o| **o).count())
+    };
+    let (confirming, octants) = agree(p);
+    let (confirming_start, octants_start) = agree([0.0; 3]);
+    Some(Scan {
+        cone: moved(c, p, g0),
+        informative: found.len(),
+        confirming,
+        octants,
+        start: (confirming_start, octants_start),
+    })
 }
 
-/// Fits the silhouette cone starting from `axis`, `beta` (good to a few pixels).
-pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
+/// What a scan found: the moved cone and how the sectors agree with it.
+#[derive(Clone, Copy, Debug)]
+struct Scan {
+    cone: Cone,
+    /// Sectors with a clear minimum of their own.
+    informative: usize,
+    /// Informative sectors whose minimum lies on the fitted cone.
+    confirming: usize,
+    /// Octants round the rim holding a confirming sector.
+    octants: usize,
+    /// The same two counts for the cone the scan started from.
+    start: (usize, usize),
+}
+
+impl Scan {
+    /// The confidence (module docs): the share of the informative sectors that confirm the
+    /// cone, counted against at least a quarter of all sectors, and scaled down when the
+    /// confirming ones leave much of the rim unseen.
+    fn confidence(&self) -> f64 {
+        self.score(self.confirming, self.octants)
+    }
+    /// The confidence of the cone the scan started from.
+    fn confidence_at_start(&self) -> f64 {
+        self.score(self.start.0, self.start.1)
+    }
+    fn score(&self, confirming: usize, octants: usize) -> f64 {
+        let agree = confirming as f64 / self.informative.max(SCAN_SECTORS / 4) as f64;
+        agree * (octants as f64 / 6.0).min(1.0)
+    }
+}
+
+/// Fits the silhouette cone starting from `axis`, `beta` (good to some 15 px): sector scans on
+/// the half-size copy `coarse` bring it within the model's basin, Gauss–Newton on the full photo
+/// settles it, and a last scan there measures the confidence.
+pub(super) fn fit(photo: &Photo, coarse: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
     let c = Cone::new(axis, beta);
     let g0 = photo.camera.focal_px()?;
-    // Sector scans bring the start within the model's basin.
-    // The narrow scan first (the edge fit's start is usually within a pixel or two); when too
-    // few sectors confirm its result, a wide scan, then the narrow one again, and the better.
-    let narrow = scan(photo, &c, g0, 1.5, 0.125);
-    let (mut c, confirming) = match narrow {
-        Some(n) if n.1 * 2 >= SCAN_SECTORS => n,
+    let g1 = coarse.camera.focal_px()?;
+    // On the half-size copy: narrow (±1 px, ⅛ px steps; ±2 and ¼ full-resolution px), and
+    // when that does not find the rim with some confidence, wide (±8 px in ½ px steps) and
+    // narrow again; the better of the two.
+    let narrow = scan(coarse, &c, g1, 1.0, 0.125);
+    let first = match narrow {
+        Some(n) if n.confidence() >= 0.5 => n,
         _ => {
             let wide =
-                scan(photo, &c, g0, 6.0, 0.5).and_then(|w| scan(photo, &w.0, g0, 1.5, 0.125));
+                scan(coarse, &c, g1, 8.0, 0.5).and_then(|w| scan(coarse, &w.cone, g1, 1.0, 0.125));
             match (narrow, wide) {
                 (Some(n), Some(w)) => {
-                    if w.1 > n.1 {
+                    if w.confidence() > n.confidence() {
                         w
                     } else {
                         n
@@ -634,12 +932,14 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
             }
         }
     };
-    // A second narrow scan from where the first left the cone.
+    let mut c = first.cone;
+    let mut normal: Option<([[f64; 3]; 3], f64)> = None;
+    // Full resolution: a narrow scan, then Gauss–Newton.
     if let Some(again) = scan(photo, &c, g0, 1.0, 0.125) {
-        if again.1 >= confirming {
-            c = again.0;
-        }
+        c = again.cone;
     }
+    // How far Gauss–Newton has moved the cone from the scans' (px, per parameter).
+    let mut total = [0.0f64; 3];
     {
         let half = 3.0;
         let band = band_pixels(photo, &c, half);
@@ -652,20 +952,16 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
             let at = |p: [f64; 3]| moved(&c, p, g0);
             const H: f64 = 0.1;
             let base = evaluate(photo, &c, &band, half);
-            let plus: Vec<Eval> = (0..3)
+            let mut pm: Vec<Eval> = (0..6)
+                .into_par_iter()
                 .map(|j| {
                     let mut p = [0.0; 3];
-                    p[j] = H;
+                    p[j % 3] = if j < 3 { H } else { -H };
                     evaluate(photo, &at(p), &band, half)
                 })
                 .collect();
-            let minus: Vec<Eval> = (0..3)
-                .map(|j| {
-                    let mut p = [0.0; 3];
-                    p[j] = -H;
-                    evaluate(photo, &at(p), &band, half)
-                })
-                .collect();
+            let minus = pm.split_off(3);
+            let plus = pm;
             let keep: Vec<bool> = (0..band.len())
                 .map(|i| {
                     base.ab[i].is_some() && plus.iter().chain(&minus).all(|e| e.ab[i].is_some())
@@ -676,15 +972,13 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                 return None;
             }
             let ones = vec![1.0; band.len()];
-            let r = best_r(&band, &base.ab, &ones, &keep);
-            let resid = |e: &Eval, r: f64, i: usize| {
-                let (a, b, _) = e.ab[i].unwrap();
-                band[i].v as f64 - (r * a + b)
-            };
+            let r = solve_linear(&band, &base.ab, &ones, &keep);
+            let resid =
+                |e: &Eval, r: &Linear, i: usize| band[i].v as f64 - r.predict(&e.ab[i].unwrap());
             // Huber weights at 1.5 robust σ.
             let mut abs: Vec<f64> = (0..band.len())
                 .filter(|&i| keep[i])
-                .map(|i| resid(&base, r, i).abs())
+                .map(|i| resid(&base, &r, i).abs())
                 .collect();
             abs.sort_by(|a, b| a.total_cmp(b));
             let sigma = (1.4826 * abs[abs.len() / 2]).max(1e-9);
@@ -693,7 +987,7 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                     if !keep[i] {
                         return 0.0;
                     }
-                    let e = resid(&base, r, i).abs() / (1.5 * sigma);
+                    let e = resid(&base, &r, i).abs() / (1.5 * sigma);
                     if e <= 1.0 {
                         1.0
                     } else {
@@ -701,14 +995,14 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                     }
                 })
                 .collect();
-            let r = best_r(&band, &base.ab, &w, &keep);
-            let rp: Vec<f64> = plus
+            let r = solve_linear(&band, &base.ab, &w, &keep);
+            let rp: Vec<Linear> = plus
                 .iter()
-                .map(|e| best_r(&band, &e.ab, &w, &keep))
+                .map(|e| solve_linear(&band, &e.ab, &w, &keep))
                 .collect();
-            let rm: Vec<f64> = minus
+            let rm: Vec<Linear> = minus
                 .iter()
-                .map(|e| best_r(&band, &e.ab, &w, &keep))
+                .map(|e| solve_linear(&band, &e.ab, &w, &keep))
                 .collect();
             let mut jtj = [[0f64; 3]; 3];
             let mut jtr = [0f64; 3];
@@ -716,9 +1010,10 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                 if !keep[i] {
                     continue;
                 }
-                let r0 = resid(&base, r, i);
-                let j: [f64; 3] = [0, 1, 2]
-                    .map(|k| (resid(&plus[k], rp[k], i) - resid(&minus[k], rm[k], i)) / (2.0 * H));
+                let r0 = resid(&base, &r, i);
+                let j: [f64; 3] = [0, 1, 2].map(|k| {
+                    (resid(&plus[k], &rp[k], i) - resid(&minus[k], &rm[k], i)) / (2.0 * H)
+                });
                 for a in 0..3 {
                     for b in 0..3 {
                         jtj[a][b] += w[i] * j[a] * j[b];
@@ -726,6 +1021,14 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                     jtr[a] += w[i] * j[a] * r0;
                 }
             }
+            // The covariance of the parameters (R profiled out), for the uncertainty reported.
+            let wsum: f64 = (0..band.len()).filter(|&i| keep[i]).map(|i| w[i]).sum();
+            let s2 = (0..band.len())
+                .filter(|&i| keep[i])
+                .map(|i| w[i] * resid(&base, &r, i).powi(2))
+                .sum::<f64>()
+                / (wsum - 4.0 - 2.0 * SECTORS as f64).max(1.0);
+            normal = Some((jtj, s2));
             // Levenberg–Marquardt damping keeps a flat direction (a featureless sector) from
             // taking a wild step.
             for (k, row) in jtj.iter_mut().enumerate() {
@@ -733,8 +1036,12 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
             }
             let step = super::circle::solve3(jtj, jtr.map(|v| -v))?;
             let step = step.map(|v| v.clamp(-1.0, 1.0));
+            // Each multiple of the step, cut back to the trust region round the scanned cone.
+            let within = |m: f64| -> [f64; 3] {
+                [0, 1, 2].map(|k| (total[k] + m * step[k]).clamp(-TRUST, TRUST) - total[k])
+            };
             // A line search along the step (the model is far from linear over a pixel): the
-            // best of ½, 1 and 2 steps by the weighted cost.
+            // best of ½, 1, 2 and 4 steps by the weighted cost.
             // Costs are compared over the pixels both cones model (a moved cone can lose a
             // pixel whose reflection leaves the photo).
             let cost_at = |p: [f64; 3]| {
@@ -745,23 +1052,29 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
                 if both.iter().filter(|b| **b).count() * 10 < n * 9 {
                     return f64::INFINITY;
                 }
-                let rr = best_r(&band, &e.ab, &w, &both);
-                let r0 = best_r(&band, &base.ab, &w, &both);
+                let rr = solve_linear(&band, &e.ab, &w, &both);
+                let r0 = solve_linear(&band, &base.ab, &w, &both);
                 let (mut new, mut old) = (0.0, 0.0);
                 for i in (0..band.len()).filter(|&i| both[i]) {
-                    new += w[i] * resid(&e, rr, i).powi(2);
-                    old += w[i] * resid(&base, r0, i).powi(2);
+                    new += w[i] * resid(&e, &rr, i).powi(2);
+                    old += w[i] * resid(&base, &r0, i).powi(2);
                 }
                 new / old
             };
             let mut best = (1.0, 0.0);
-            for m in [0.5, 1.0, 2.0, 4.0] {
-                let cm = cost_at(step.map(|v| m * v));
+            let costs: Vec<(f64, f64)> = [0.5, 1.0, 2.0, 4.0]
+                .into_par_iter()
+                .map(|m| (cost_at(within(m)), m))
+                .collect();
+            for (cm, m) in costs {
                 if cm < best.0 {
                     best = (cm, m);
                 }
             }
-            let step = step.map(|v| best.1 * v);
+            let step = within(best.1);
+            for k in 0..3 {
+                total[k] += step[k];
+            }
             c = at(step);
             let moved = step.iter().map(|v| v.abs()).fold(0.0, f64::max);
             if moved < 5e-3 || best.1 == 0.0 {
@@ -769,6 +1082,21 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
             }
         }
     }
+    // One standard deviation of each parameter (px), the largest reported: σ² (JᵀWJ)⁻¹ with the
+    // residuals' spread, times √(pixels per independent sample) — the residuals of neighbouring
+    // pixels are not independent (the model's error is smooth along the rim).
+    let (jtj, s2) = normal?;
+    let var = [0, 1, 2].map(|k| {
+        let mut e = [0.0; 3];
+        e[k] = 1.0;
+        super::circle::solve3(jtj, e).map_or(f64::INFINITY, |x| x[k])
+    });
+    let uncertainty = var
+        .iter()
+        .map(|v| (v.max(0.0) * s2).sqrt() * CORRELATED)
+        .fold(0.0, f64::max);
+    // The confidence of the cone reported: a last narrow scan around it, which must not move it.
+    let last = scan(photo, &c, g0, 1.0, 0.125);
     // The report at 3 px: reflectance and residual.
     let half = 3.0;
     let band = band_pixels(photo, &c, half);
@@ -779,12 +1107,13 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
         return None;
     }
     let ones = vec![1.0; band.len()];
-    let r = best_r(&band, &base.ab, &ones, &keep);
+    let lin = solve_linear(&band, &base.ab, &ones, &keep);
+    let r = lin.r;
     let (mut sum2, mut mean) = (0.0, 0.0);
     for i in 0..band.len() {
-        if let Some((a, b, _)) = base.ab[i] {
+        if let Some(t) = base.ab[i] {
             let v = band[i].v as f64;
-            sum2 += (v - (r * a + b)).powi(2);
+            sum2 += (v - lin.predict(&t)).powi(2);
             mean += v;
         }
     }
@@ -794,7 +1123,8 @@ pub(super) fn fit(photo: &Photo, axis: [f64; 3], beta: f64) -> Option<RimFit> {
         beta: c.beta,
         reflectance: r,
         rms: (sum2 / n as f64).sqrt() / mean.abs().max(1e-12),
-        confidence: confirming as f64 / SCAN_SECTORS as f64,
+        confidence: last.map_or(0.0, |l| l.confidence_at_start()),
+        uncertainty,
         pixels: n,
     })
 }
