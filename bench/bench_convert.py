@@ -1,8 +1,10 @@
 """Conversion jobs J1-J4 side by side in one run: spheremap (Python call, in-memory image) vs
 skylibs, py360convert, a vectorised numpy bilinear remap and OpenCV ``remap`` (when installed:
-``pip install opencv-python-headless``), median of repeats, interleaved.
+``pip install opencv-python-headless``). Each job's contenders run interleaved, one call each per
+round (median of 9 rounds: every call follows the others', as in a pipeline); "alone" is the
+median of calls in a row (warm caches); "x" is the interleaved median over spheremap's.
 
-    python bench/bench_convert.py [--repeat 7] [--jobs J1,J2,J3,J4,RT]
+    python bench/bench_convert.py [--rounds 9] [--repeat 7] [--jobs J1,J2,J3,J4,RT]
 
 Goals (2 cores): J1 latlong 2048x1024 -> sphere 1024^2, 1 sample <= 6 ms;
 J2 cube 6x512^2 -> sphere 1024^2 <= 5 ms; J3 sphere 1024^2 -> latlong 2048x1024 <= 8 ms;
@@ -63,8 +65,19 @@ def median_ms(f, repeat):
     return float(np.median(ts)), float(min(ts))
 
 
+def cpu_model():
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def main():
     ap = argparse.ArgumentParser()
+    ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--jobs", default="J1,J2,J3,J4,RT")
     args = ap.parse_args()
@@ -122,15 +135,26 @@ def main():
         dice = sm.cube_to_layout(cube512, "dice")
         jobs["J3"].append(("py360convert c2e (cube 512 -> 2048x1024)",
                            lambda: peers["py360convert"].c2e(dice, 1024, 2048, cube_format="dice")))
-    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cpus, repeat {args.repeat}")
+    print(f"# {cpu_model()}, {os.cpu_count()} cpus; interleaved: {args.rounds} rounds, each calling every "
+          f"contender once; alone: {args.repeat} calls in a row")
     for name in args.jobs.split(","):
-        results = []
-        for label, f in jobs[name]:
+        contenders = jobs[name]
+        for _, f in contenders:
             f()  # warm up
-            results.append((label, *median_ms(f, args.repeat)))
-        base = results[0][1]
-        for label, med, best in results:
-            print(f"{name:3} {label:42} median {med:9.2f} ms  best {best:9.2f} ms  x{med / base:6.1f}")
+        # Interleaved, as a user's pipeline runs: each call follows the others' (cold caches,
+        # memory the others freed).
+        times = {label: [] for label, _ in contenders}
+        for _ in range(args.rounds):
+            for label, f in contenders:
+                t = time.perf_counter()
+                f()
+                times[label].append((time.perf_counter() - t) * 1e3)
+        base = float(np.median(times[contenders[0][0]]))
+        for label, f in contenders:
+            med, best = float(np.median(times[label])), min(times[label])
+            alone = median_ms(f, args.repeat)[0]
+            print(f"{name:3} {label:42} median {med:9.2f} ms  best {best:9.2f} ms  alone {alone:9.2f} ms  "
+                  f"x{med / base:6.1f}")
 
 
 if __name__ == "__main__":

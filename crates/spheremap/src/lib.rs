@@ -20,6 +20,7 @@
 
 pub mod analyze;
 pub mod angular;
+pub mod buffer;
 pub mod camera;
 pub mod chart;
 pub mod conventions;

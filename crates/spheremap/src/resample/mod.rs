@@ -336,7 +336,7 @@ pub fn resample(
         .and_then(|v| v.checked_mul(src.channels))
         .ok_or_else(|| Error::param("size", "too large"))?;
     check_job(src, dst, width, height, opts)?;
-    let mut data: Vec<f32> = Vec::with_capacity(n);
+    let mut data: Vec<f32> = crate::buffer::with_capacity(n);
     let report = resample_uninit(src, dst, width, height, opts, progress, {
         &mut data.spare_capacity_mut()[..n]
     })?;
