@@ -414,7 +414,8 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
             src_preset: str | None = None, dst_preset: str | None = None,
             src_layout: str | None = None,
             seed: int = 0, precision: str = "f32", nonfinite: str = "error",
-            max_memory: int | None = None, out: np.ndarray | None = None) -> np.ndarray:
+            max_memory: int | None = None, out: np.ndarray | None = None,
+            taps: str = "bilinear") -> np.ndarray:
     """Converts an environment map between mappings (the engine of ``spheremap convert``).
 
     image: (H, W, C) float32/float64, C = 1..4 (an (H, W) array is one channel), in `src`'s
@@ -429,6 +430,9 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
         least S stratified samples per texel over the filter's footprint, more where the
         footprint covers more source texels (up to max_samples).
     filter: "box" (the texel's own footprint, default), "tent", "gaussian".
+    taps: how each sample reads the input's texels: "bilinear" (2x2, default) or "bicubic"
+        (4x4 Catmull-Rom, clamped to the nearest 2x2's range; sharper where output texels are
+        as small as the input's or smaller; slower).
     outside: "gutter" (mirror across a disc's rim, default) or "black".
     look, up: the output's view (world vectors of the eye's -Z and +Y), or yaw/pitch/roll in
         degrees; src_look/src_up: the input's view when it was made for one.
@@ -488,7 +492,7 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     res = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
                        filter, outside, int(seed), precision, src_preset, dst_preset,
                        _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),
-                       _vec3(src_up, "src_up"), max_memory, out)
+                       _vec3(src_up, "src_up"), max_memory, out, taps=str(taps))
     if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
         f = res.shape[1]
         res = res.reshape(6, f, f, res.shape[2])

@@ -10,7 +10,7 @@ use spheremap::envio::{
 };
 use spheremap::image_io::ReadOptions;
 use spheremap::mapping::Mapping;
-use spheremap::resample::{resample, EnvMap, Precision, Progress, ResampleOptions};
+use spheremap::resample::{resample, EnvMap, Precision, Progress, ResampleOptions, Taps};
 use spheremap::view;
 use std::time::Instant;
 
@@ -73,6 +73,11 @@ pub struct Args {
     /// f32 (fast, default) or f64 (reference) arithmetic.
     #[arg(long, default_value = "f32")]
     precision: String,
+    /// How each sample reads the input's texels: bilinear (default: 2×2) or bicubic (4×4
+    /// Catmull-Rom, clamped to the nearest 2×2's range: sharper where output texels are as
+    /// small as the input's or smaller; slower).
+    #[arg(long, default_value = "bilinear")]
+    taps: String,
     /// Read/write LDR files as linear values (no sRGB transfer).
     #[arg(long)]
     linear: bool,
@@ -184,6 +189,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         samples: a.sampling.samples,
         max_samples: a.sampling.max_samples,
         filter: a.sampling.filter()?,
+        taps: Taps::parse(&a.taps)?,
         outside: a.sampling.outside()?,
         rotation,
         seed: a.sampling.seed,
@@ -207,7 +213,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "from_look": from_look, "from_up": from_up,
             "to": dst.name(), "preset": dst.preset_name(),
             "size": n, "width": w, "height": h, "channels": out.channels,
-            "samples": a.sampling.samples, "filter": opts.filter.name(), "outside": opts.outside.name(),
+            "samples": a.sampling.samples, "filter": opts.filter.name(), "taps": opts.taps.name(), "outside": opts.outside.name(),
             "lookups": report.lookups, "max_texel_samples": report.max_texel_samples,
             "copied": report.copied,
             "seconds": seconds,

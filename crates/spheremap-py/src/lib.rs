@@ -471,7 +471,7 @@ fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool>
 #[pyfunction]
 #[pyo3(signature = (image, src, dst, size, samples, max_samples, filter, outside, seed, precision,
                     src_preset=None, dst_preset=None, look=None, up=None, ypr=None,
-                    src_look=None, src_up=None, max_memory=None, out=None))]
+                    src_look=None, src_up=None, max_memory=None, out=None, taps="bilinear"))]
 #[allow(clippy::too_many_arguments)]
 fn convert<'py>(
     py: Python<'py>,
@@ -494,6 +494,7 @@ fn convert<'py>(
     src_up: Option<[f64; 3]>,
     max_memory: Option<u64>,
     out: Option<Bound<'py, PyArrayDyn<f32>>>,
+    taps: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
     let sm = parse_mapping(src, src_preset)?;
@@ -514,6 +515,7 @@ fn convert<'py>(
         samples,
         max_samples,
         filter: rs::Filter::parse(filter).map_err(to_py)?,
+        taps: rs::Taps::parse(taps).map_err(to_py)?,
         outside: rs::Outside::parse(outside).map_err(to_py)?,
         rotation: spheremap::view::conversion_rotation(look, up, ypr, src_look, src_up)
             .map_err(to_py)?,

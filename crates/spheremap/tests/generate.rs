@@ -245,10 +245,38 @@ fn outside_the_disc_gutter_or_black() {
             "{:?}",
             g.pixel(0, 0)
         );
-        // The gutter texel just outside the rim on the +x axis mirrors the one just inside.
-        let y = n / 2;
-        let (inside, outside) = (g.pixel(n - 1 - 1, y), g.pixel(n - 1, y));
-        let _ = (inside, outside);
+        // A texel wholly off the disc holds the map's value at the radial mirror image of its
+        // centre across the rim (ρ' = 2 − ρ), looked up bilinearly (texel centres at i + ½).
+        for (x, y) in [
+            (0usize, 0usize),
+            (0, 10),
+            (10, 0),
+            (n - 1, n - 1),
+            (n - 1, 5),
+        ] {
+            let c = 0.5 * n as f64;
+            let d = [x as f64 + 0.5 - c, y as f64 + 0.5 - c];
+            let rho = d[0].hypot(d[1]) / c;
+            assert!(
+                rho > 1.0 + 1.5 / c,
+                "({x}, {y}) must be wholly off the disc"
+            );
+            let k = (2.0 - rho) / rho;
+            let (px, py) = (c + d[0] * k - 0.5, c + d[1] * k - 0.5);
+            let (x0, y0) = (px.floor() as usize, py.floor() as usize);
+            let (fx, fy) = ((px - x0 as f64) as f32, (py - y0 as f64) as f32);
+            for ch in 0..3 {
+                let at = |i: usize, j: usize| g.pixel(i, j)[ch];
+                let want = (1.0 - fy) * ((1.0 - fx) * at(x0, y0) + fx * at(x0 + 1, y0))
+                    + fy * ((1.0 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+                let got = g.pixel(x, y)[ch];
+                assert!(
+                    (got - want).abs() < 1e-5,
+                    "({x}, {y}) channel {ch}: {got} vs {want}"
+                );
+            }
+            assert_eq!(b.pixel(x, y), &[0.0; 3]);
+        }
         // Texels well inside the disc agree between the two.
         assert_eq!(g.pixel(n / 2, n / 2), b.pixel(n / 2, n / 2));
     }

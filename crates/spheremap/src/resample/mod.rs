@@ -9,7 +9,7 @@
 //! seed, mirror-symmetric about the canvas's centre lines: `Mirror`).  Each sample's canvas
 //! point becomes a direction (the destination mapping's inverse), turns by the view rotation
 //! into the source's frame, and is looked up **bilinearly** in the source with the source's
-//! wrap rule.  The texel is the weighted mean, the weight of a sample being
+//! wrap rule (or bicubically, from the 4×4 texels round it: [`Taps::Bicubic`]).  The texel is the weighted mean, the weight of a sample being
 //! `filter(dx)·filter(dy)·dω/dA` — the mapping's solid-angle density, so that a box
 //! average is an average over solid angle and energy is preserved (a lat-long texel near a pole
 //! is not averaged as if it were flat).
@@ -120,6 +120,42 @@ impl Filter {
     }
 }
 
+/// How each sample reads the source's texels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Taps {
+    /// The 2×2 texels round the sample, bilinearly. Default.
+    #[default]
+    Bilinear,
+    /// The 4×4 texels round the sample, Catmull–Rom bicubic (interpolating: a sample on a
+    /// texel centre reads that texel alone), its result clamped per channel to the range of
+    /// the 2×2 nearest texels (no ringing, no negative values from positive ones).  Sharper
+    /// where destination texels are as small as the source's or smaller; read from the source
+    /// itself (a footprint wide enough to read a prefiltered level reads it bilinearly), and
+    /// bilinearly where the 4×4 texels are not all on the map (a disc's rim).  It runs on the
+    /// generic scalar path: 15–30× slower than bilinear's vectorised one.
+    Bicubic,
+}
+
+impl Taps {
+    pub const NAMES: [&'static str; 2] = ["bilinear", "bicubic"];
+    pub fn parse(name: &str) -> Result<Taps> {
+        match name {
+            "bilinear" => Ok(Taps::Bilinear),
+            "bicubic" | "catmull-rom" => Ok(Taps::Bicubic),
+            other => Err(Error::param(
+                "taps",
+                format!("unknown taps {other:?}; expected one of: bilinear, bicubic"),
+            )),
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Taps::Bilinear => "bilinear",
+            Taps::Bicubic => "bicubic",
+        }
+    }
+}
+
 /// What to write where a destination disc mapping has no direction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Outside {
@@ -178,6 +214,8 @@ pub struct ResampleOptions {
     /// The most samples one texel may take when adapting.
     pub max_samples: u32,
     pub filter: Filter,
+    /// How each sample reads the source's texels.
+    pub taps: Taps,
     pub outside: Outside,
     /// Row-major rotation taking directions in the destination's frame to the source's frame
     /// (its columns are the destination's +X, +Y, +Z axes in source coordinates); see
@@ -201,6 +239,7 @@ impl Default for ResampleOptions {
             samples: DEFAULT_SAMPLES,
             max_samples: 1024,
             filter: Filter::Box,
+            taps: Taps::Bilinear,
             outside: Outside::Gutter,
             rotation: IDENTITY,
             seed: 0,
@@ -577,7 +616,7 @@ fn as_f32<'x, 'a, T: Real>(
     s: &'x Src<'a, T>,
     d: &'x Dst<T>,
 ) -> Option<(&'x Src<'a, f32>, &'x Dst<f32>)> {
-    if std::any::TypeId::of::<T>() != std::any::TypeId::of::<f32>() {
+    if std::any::TypeId::of::<T>() != std::any::TypeId::of::<f32>() || s.cubic {
         return None;
     }
     // SAFETY: T is f32 (the TypeId check above), so Src<T>/Dst<T> are Src<f32>/Dst<f32>.
@@ -598,7 +637,7 @@ fn run<T: Real, const C: usize>(
     progress: Option<&Progress>,
     out: &mut [MaybeUninit<f32>],
 ) -> Result<ResampleReport> {
-    let s = Src::<T>::new(src);
+    let s = Src::<T>::new(src).with_taps(opts.taps);
     let d = Dst::<T>::new(dst, w, h, &opts.rotation, opts.outside);
     if let Some(p) = progress {
         p.total.store(h, Ordering::Relaxed);
@@ -712,7 +751,7 @@ fn run<T: Real, const C: usize>(
         };
         return Ok(report);
     }
-    let levels: Vec<Src<T>> = std::iter::once(Src::new(src))
+    let levels: Vec<Src<T>> = std::iter::once(Src::new(src).with_taps(opts.taps))
         .chain(built.iter().map(|l| s.level(l)))
         .collect();
     // The generic path zeroes first (a cancelled row is left as zeros).

@@ -19,6 +19,24 @@ pub(super) struct Src<'a, T: Real> {
     /// are held in order (the source itself; a pyramid level may hold only the rows some
     /// lookup needs).
     pub(super) rowmap: &'a [u32],
+    /// Bicubic taps ([`Taps::Bicubic`]; the source itself only).
+    pub(super) cubic: bool,
+}
+
+/// Catmull–Rom weights of the texels at offsets −1, 0, 1, 2 from a sample `t` ∈ [0, 1) past
+/// texel 0.
+#[inline(always)]
+fn catmull_rom<T: Real>(t: T) -> [T; 4] {
+    let h = T::HALF;
+    let (t2, t3) = (t * t, t * t * t);
+    let two = T::TWO;
+    let three = T::from_f64(3.0);
+    [
+        h * (two * t2 - t3 - t),
+        h * (three * t3 - T::from_f64(5.0) * t2 + two),
+        h * (T::from_f64(4.0) * t2 - three * t3 + t),
+        h * (t3 - t2),
+    ]
 }
 
 impl<'a, T: Real> Src<'a, T> {
@@ -39,7 +57,14 @@ impl<'a, T: Real> Src<'a, T> {
             },
             safe_r2: T::from_f64(safe * safe),
             rowmap: &[],
+            cubic: false,
         }
+    }
+
+    /// The same source read with `taps`.
+    pub(super) fn with_taps(mut self, taps: Taps) -> Self {
+        self.cubic = taps == Taps::Bicubic;
+        self
     }
 
     /// The same map at a prefiltered level (positions scale by `level.scale()`).
@@ -56,6 +81,7 @@ impl<'a, T: Real> Src<'a, T> {
             face: if self.face > 0 { lv.w } else { 0 },
             safe_r2: T::from_f64(safe * safe),
             rowmap: &lv.rowmap,
+            cubic: false,
         }
     }
 
@@ -113,9 +139,50 @@ impl<'a, T: Real> Src<'a, T> {
         [u * self.wf, v * self.hf]
     }
 
-    /// Bilinear lookup at continuous pixel position `p`, accumulating `weight ×` the value.
+    /// Bicubic lookup ([`Taps::Bicubic`]); false where a tap of the 4×4 is off the map (the
+    /// caller then reads bilinearly).
+    fn lookup_cubic<const C: usize>(&self, p: [T; 2], weight: T, acc: &mut [T; C]) -> bool {
+        let px = p[0] - T::HALF;
+        let py = p[1] - T::HALF;
+        let (fx0, fy0) = (px.floor(), py.floor());
+        let x0 = fx0.to_f64() as isize;
+        let y0 = fy0.to_f64() as isize;
+        let (wx, wy) = (catmull_rom(px - fx0), catmull_rom(py - fy0));
+        let mut idx = [0usize; 16];
+        for j in 0..4 {
+            for i in 0..4 {
+                match self.tap(x0 - 1 + i as isize, y0 - 1 + j as isize, p) {
+                    Some(t) => idx[j * 4 + i] = self.held(t),
+                    None => return false,
+                }
+            }
+        }
+        let at = |k: usize, c: usize| T::from_f64(self.data[idx[k] * C + c] as f64);
+        for c in 0..C {
+            let mut v = T::ZERO;
+            for j in 0..4 {
+                let mut row = T::ZERO;
+                for i in 0..4 {
+                    row = row + wx[i] * at(j * 4 + i, c);
+                }
+                v = v + wy[j] * row;
+            }
+            // Clamped to the 2×2 nearest texels' range (taps 5, 6, 9, 10 of the 4×4).
+            let near = [at(5, c), at(6, c), at(9, c), at(10, c)];
+            let lo = near.iter().copied().fold(near[0], |a, b| a.min(b));
+            let hi = near.iter().copied().fold(near[0], |a, b| a.max(b));
+            acc[c] = acc[c] + weight * v.max(lo).min(hi);
+        }
+        true
+    }
+
+    /// Lookup at continuous pixel position `p` (bilinear, or bicubic for [`Taps::Bicubic`]),
+    /// accumulating `weight ×` the value.
     #[inline(always)]
     pub(super) fn lookup<const C: usize>(&self, p: [T; 2], weight: T, acc: &mut [T; C]) {
+        if self.cubic && self.lookup_cubic(p, weight, acc) {
+            return;
+        }
         let px = p[0] - T::HALF;
         let py = p[1] - T::HALF;
         let fx0 = px.floor();
