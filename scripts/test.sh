@@ -31,8 +31,26 @@ if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
   SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --test resample
 fi
 
-echo "== building and installing the Python package (pip install .)"
-CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" python3 -m pip install -q --disable-pip-version-check .
+echo "== building the Python wheel (abi3, CPython >= 3.11) and installing it"
+wheels="$PWD/target/wheels"
+rm -rf "$wheels"
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" \
+  python3 -m pip wheel -q --disable-pip-version-check --no-deps -w "$wheels" .
+wheel=$(ls "$wheels"/spheremap-*.whl)
+python3 -m pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
+
+echo "== the wheel in a clean virtual environment: import, CLI and demo, no Rust involved"
+venv="$PWD/target/wheel-venv"
+rm -rf "$venv"
+python3 -m venv "$venv"
+"$venv/bin/python" -m pip install -q --disable-pip-version-check "$wheel"
+(
+  cd "$venv"
+  bin/python -c "import spheremap, numpy; m = spheremap.convert(numpy.ones((8, 16, 3), numpy.float32), 'latlong', 'sphere', size=8); assert m.shape == (8, 8, 3)"
+  bin/spheremap --version
+  bin/spheremap demo demo-out --size 64 >/dev/null
+  test -s demo-out/teapot_contact_sheet.png
+)
 
 echo "== pytest"
 python3 -m pytest -q -p no:cacheprovider tests

@@ -2,18 +2,13 @@
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 
 import spheremap as sm
+from conftest import cli
 
 TEAPOT = "crates/spheremap/data/teapot.obj"
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True)
 
 
 def test_sphere_map_is_equal_area_and_anisotropic_at_the_rim():

@@ -1,10 +1,8 @@
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 
 def test_version():
@@ -197,10 +195,9 @@ class TestPresets:
 
 
 def test_cli_console_script_is_the_rust_cli(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "spheremap", "--version"], capture_output=True, text=True)
+    out = cli("--version")
     assert out.returncode == 0 and out.stdout.strip() == f"spheremap {sm.__version__}"
-    bad = subprocess.run([sys.executable, "-m", "spheremap", "texgen", str(tmp_path / "none.obj"),
-                          "--modelview", "identity", "-o", str(tmp_path / "x.csv")], capture_output=True, text=True)
+    bad = cli("texgen", str(tmp_path / "none.obj"), "--modelview", "identity", "-o", str(tmp_path / "x.csv"))
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "none.obj" in bad.stderr
     assert not (tmp_path / "x.csv").exists()
@@ -224,3 +221,27 @@ def test_texgen_out_buffer():
     ro.flags.writeable = False
     with pytest.raises(ValueError, match="^out"):
         sm.sphere_texgen(p, n, mv, out=ro)
+
+
+def test_names_and_limits_are_the_cores(tmp_path):
+    # The lists of names are the core's, and the core's parser (with its aliases) checks them.
+    assert sm.FILTERS == ("box", "tent", "gaussian") and sm.TAPS == ("bilinear", "bicubic")
+    assert "hcross" in sm.CUBE_LAYOUTS and sm.PHOTO_FILLS == ("none", "smooth", "mean")
+    img = np.ones((8, 16, 3), np.float32)
+    tent = sm.convert(img, "latlong", "sphere", size=8, filter="tent")
+    np.testing.assert_array_equal(sm.convert(img, "latlong", "sphere", size=8, filter="triangle"), tent)
+    sm.convert(img, "latlong", "sphere", size=8, filter="gauss")
+    for kw, prefix in [(dict(filter="lanczos"), "filter: "), (dict(filter=3), "filter: "),
+                       (dict(outside="grey"), "outside: "), (dict(precision="f16"), "precision: "),
+                       (dict(size=40000), "size: 40000 is out of range 1..=32768")]:
+        with pytest.raises(ValueError, match="^" + prefix):
+            sm.convert(img, "latlong", "sphere", **kw)
+    # One size limit for analysis, in the core: the CLI says the same.
+    with pytest.raises(ValueError, match="^size: 9000 is out of range 1..=8192"):
+        sm.analyze(mapping="sphere", size=9000)
+    r = cli("analyze", "--mapping", "sphere", "--size", 9000, "--output", tmp_path / "a.png")
+    assert r.returncode == 2 and "size: 9000 is out of range 1..=8192" in r.stderr, r.stderr
+    assert not (tmp_path / "a.png").exists()
+    assert sm.analyze(mapping="latlong", size=8)["solid_angle"].shape == (8, 16)
+    rim = sm.dir_to_sphere(np.array([[0.0, 0.0, -1.0]]), singular="centre")
+    np.testing.assert_array_equal(rim, sm.dir_to_sphere(np.array([[0.0, 0.0, -1.0]]), singular="center"))

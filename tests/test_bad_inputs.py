@@ -2,14 +2,13 @@
 Python API: exit code 2, one line naming the file and the cause, no output file; Python raises
 an exception naming the file or argument."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 CORPUS = Path(__file__).parent / "bad_inputs"
 
@@ -36,11 +35,6 @@ BAD_MESHES = {
     "broken.gltf": "cannot read glTF",
     "missing_buffer.gltf": "cannot read glTF",
 }
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)],
-                          capture_output=True, text=True)
 
 
 def assert_refused(r, name, msg, out=None):
@@ -175,6 +169,5 @@ def test_degenerate_triangles_reported(tmp_path):
 def test_pixel_limit_from_the_environment(tmp_path):
     import os
     env = dict(os.environ, SPHEREMAP_MAX_PIXELS="1000")
-    r = subprocess.run([sys.executable, "-m", "spheremap", "info", "testdata/apartment.exr"],
-                       capture_output=True, text=True, env=env)
+    r = cli("info", "testdata/apartment.exr", env=env)
     assert r.returncode == 2 and "over the limit" in r.stderr and "1000 pixels" in r.stderr

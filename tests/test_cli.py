@@ -1,19 +1,14 @@
 """The CLI (the Rust binary behind the `spheremap` console script)."""
 
 import shutil
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 TEAPOT = "crates/spheremap/data/teapot.obj"
-
-
-def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True, cwd=cwd)
 
 
 @pytest.fixture

@@ -15,20 +15,11 @@ import numpy as np
 import pytest
 
 import spheremap
+from conftest import psnr
 
 HERE = os.path.dirname(__file__)
 BUNDLED = os.path.join(HERE, "..", "testdata", "apartment.exr")
 HDRIS = sorted(glob.glob(os.path.join(HERE, "..", "testdata", "hdri", "*.exr")))
-
-
-def psnr(a, b, mask=None):
-    """PSNR in dB with the peak taken as the reference's 99.9th percentile (HDR-safe)."""
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
-    if mask is not None:
-        a, b = a[mask], b[mask]
-    peak = np.percentile(b, 99.9)
-    mse = np.mean((np.minimum(a, peak) - np.minimum(b, peak)) ** 2)
-    return 10 * np.log10(peak**2 / mse)
 
 
 @pytest.fixture(scope="module")
@@ -121,8 +112,8 @@ def test_errors_name_the_argument(hdri):
 
 def test_bicubic_taps_python_and_cli(hdri, tmp_path):
     import json
-    import subprocess
-    import sys
+
+    from conftest import cli
 
     # A smooth map upsampled 2x: bicubic taps land far closer to the map's own values than
     # bilinear ones (the Rust tests measure every mapping pair), and stay within the range of
@@ -142,13 +133,12 @@ def test_bicubic_taps_python_and_cli(hdri, tmp_path):
     # The CLI: the flag, its JSON field, and a bad name refused with exit 2 naming it.
     src, out = tmp_path / "small.exr", tmp_path / "big.exr"
     spheremap.write_image(src, small)
-    cli = [sys.executable, "-m", "spheremap", "convert", src, out, "--from", "latlong", "--to", "latlong",
-           "--size", 2 * n, "--samples", 1]
-    r = subprocess.run([*map(str, cli), "--taps", "bicubic", "--json"], capture_output=True, text=True)
+    args = ["convert", src, out, "--from", "latlong", "--to", "latlong", "--size", 2 * n, "--samples", 1]
+    r = cli(*args, "--taps", "bicubic", "--json")
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["taps"] == "bicubic"
     np.testing.assert_allclose(spheremap.read_image(out)[..., :1], cub, atol=1e-6)
-    r = subprocess.run([*map(str, cli), "--taps", "lanczos"], capture_output=True, text=True)
+    r = cli(*args, "--taps", "lanczos")
     assert r.returncode == 2 and "taps" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 

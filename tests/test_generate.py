@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 
 def sphere_dirs(n):
@@ -187,11 +188,6 @@ def test_errors_name_the_argument():
 
     with pytest.raises(Boom, match="from the callable"):
         sm.generate(16, bad)
-
-
-def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "spheremap", *args], capture_output=True,
-                          text=True, cwd=cwd)
 
 
 def test_cli_generate(tmp_path):

@@ -1,13 +1,12 @@
 """Image I/O through Python and `spheremap info`."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 TESTDATA = "testdata"
 
@@ -67,8 +66,7 @@ def test_errors(tmp_path):
 
 
 def test_info_cli(tmp_path, repo):
-    r = subprocess.run([sys.executable, "-m", "spheremap", "info", str(repo / TESTDATA / "apartment.exr"), "--json"],
-                       capture_output=True, text=True)
+    r = cli("info", str(repo / TESTDATA / "apartment.exr"), "--json")
     assert r.returncode == 0, r.stderr
     info = json.loads(r.stdout)
     assert (info["format"], info["width"], info["height"], info["channels"]) == ("OpenEXR", 512, 256, 3)
@@ -78,14 +76,13 @@ def test_info_cli(tmp_path, repo):
     img = np.ones((4, 8, 3), np.float32)
     img[2, 5, 1] = np.nan
     sm.write_image(tmp_path / "n.pfm", img)
-    info = json.loads(subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "n.pfm"), "--json"],
-                                     capture_output=True, text=True).stdout)
+    info = json.loads(cli("info", str(tmp_path / "n.pfm"), "--json").stdout)
     assert info["nan"] == 1 and info["first_non_finite"] == [5, 2]
     sm.write_image(tmp_path / "p.png", np.zeros((4, 4, 3), np.float32))
     (tmp_path / "p.png").rename(tmp_path / "p.exr")
-    r = subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "p.exr")], capture_output=True, text=True)
+    r = cli("info", str(tmp_path / "p.exr"))
     assert r.returncode == 0 and "the extension says OpenEXR, the content is PNG" in r.stdout
-    bad = subprocess.run([sys.executable, "-m", "spheremap", "info", str(tmp_path / "none.hdr")], capture_output=True, text=True)
+    bad = cli("info", str(tmp_path / "none.hdr"))
     assert bad.returncode == 2 and "none.hdr" in bad.stderr and bad.stderr.count("\n") == 1
 
 
@@ -99,9 +96,9 @@ def test_info_in_python_is_the_cli_json(tmp_path, repo):
     sm.write_image(tmp_path / "p.png", np.full((4, 4, 3), 0.5, np.float32))
     (tmp_path / "p.png").rename(tmp_path / "p.exr")
     for p in [hdri, tmp_path / "n.pfm", tmp_path / "p.exr"]:
-        cli = subprocess.run([sys.executable, "-m", "spheremap", "info", str(p), "--json"], capture_output=True, text=True)
-        assert cli.returncode == 0, cli.stderr
-        assert json.loads(json.dumps(sm.info(p))) == json.loads(cli.stdout), p
+        r = cli("info", str(p), "--json")
+        assert r.returncode == 0, r.stderr
+        assert json.loads(json.dumps(sm.info(p))) == json.loads(r.stdout), p
     assert sm.info(tmp_path / "n.pfm")["first_non_finite"] == (5, 2)
     assert sm.info(tmp_path / "p.exr")["extension_names"] == "OpenEXR"
     assert sm.info(tmp_path / "p.exr", linear=True)["stats"][0]["max"] == pytest.approx(sm.info(tmp_path / "p.exr")["stats"][0]["max"] ** (1 / 2.2), abs=0.03)
@@ -131,8 +128,7 @@ def test_write_image_records_a_mapping(tmp_path, repo):
     rec = sm.info(tmp_path / "s.png")["recorded"]
     assert (rec["mapping"], rec["preset"], rec["look"], rec["up"]) == ("sphere", "skylibs", [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     sm.write_image(tmp_path / "s.exr", sph, mapping="sphere", preset="skylibs", look=(1, 0, 0))
-    r = subprocess.run([sys.executable, "-m", "spheremap", "convert", str(tmp_path / "s.exr"), str(tmp_path / "w.exr"),
-                        "--to", "latlong", "--size", "32", "-q"], capture_output=True, text=True)
+    r = cli("convert", str(tmp_path / "s.exr"), str(tmp_path / "w.exr"), "--to", "latlong", "--size", "32", "-q")
     assert r.returncode == 0, r.stderr
     world = sm.convert(hdri, "latlong", "latlong", size=32)
     assert np.median(np.abs(sm.read_image(tmp_path / "w.exr") - world)) < 0.05

@@ -3,8 +3,6 @@ clipping is counted, a file whose content disagrees with its name is read with a
 errors name their real cause, and a conversion to the same mapping copies the texels."""
 
 import json
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -12,14 +10,11 @@ import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 CORPUS = Path(__file__).parent / "bad_inputs"
 HDRI = "testdata/apartment.exr"
 TEAPOT = "crates/spheremap/data/teapot.obj"
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True)
 
 
 def sun_map(tmp_path, value=1.0e6):

@@ -7,28 +7,16 @@ with a camera in the scene."""
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli, psnr
 
 HDRI = "testdata/apartment.exr"
 FOV = 30.0  # the photo's horizontal field of view
 EYE = (0.0, 0.0, 5.0)  # the camera, 5 radii from the ball's centre
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True)
-
-
-def psnr(a, b, ok):
-    """PSNR over the texels `ok`, peak = the truth's 99.9th percentile (HDR values clipped to it)."""
-    peak = float(np.percentile(b[ok], 99.9))
-    mse = float(np.mean((np.clip(a[ok], 0, peak) - np.clip(b[ok], 0, peak)) ** 2))
-    return 10 * math.log10(peak * peak / mse)
 
 
 @pytest.fixture(scope="module")

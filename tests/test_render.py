@@ -2,19 +2,14 @@
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 TEAPOT = "crates/spheremap/data/teapot.obj"
-
-
-def cli(*args):
-    return subprocess.run([sys.executable, "-m", "spheremap", *map(str, args)], capture_output=True, text=True)
 
 
 def glu(eye, target, up, fovy, near, far, w, h):

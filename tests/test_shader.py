@@ -4,17 +4,16 @@ crates/spheremap/tests/shader.rs) and the GLSL executed in Mesa against the core
 import os
 import shutil
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import spheremap as sm
+from conftest import cli
 
 
 def snippet(lang, what):
-    r = subprocess.run([sys.executable, "-m", "spheremap", "shader", "--lang", lang, "--what", what],
-                       capture_output=True, text=True)
+    r = cli("shader", "--lang", lang, "--what", what)
     assert r.returncode == 0, r.stderr
     return r.stdout
 
@@ -131,6 +130,5 @@ def test_glsl_matcap_runs_in_mesa_like_the_core(mesa):
 
 
 def test_shader_cli_errors():
-    r = subprocess.run([sys.executable, "-m", "spheremap", "shader", "--lang", "metal", "--what", "lookup"],
-                       capture_output=True, text=True)
+    r = cli("shader", "--lang", "metal", "--what", "lookup")
     assert r.returncode == 2 and "lang" in r.stderr and r.stderr.count("\n") == 1

@@ -47,6 +47,7 @@ __all__ = [
     "cube_to_layout",
     "CUBE_LAYOUTS",
     "FILTERS",
+    "TAPS",
     "Scene",
     "generate",
     "NORMALIZE_MODES",
@@ -63,21 +64,24 @@ __all__ = [
     "analyze",
 ]
 
-NORMALIZE_MODES = ("on", "off", "rescale")
-SINGULAR_MODES = ("nan", "center")
-MATCAP_VARIANTS = ("classic", "threejs", "perspective")
+# The lists of names are the core's (spheremap's Rust crate defines each once).
+NORMALIZE_MODES = tuple(_ext.names("normalize"))
+SINGULAR_MODES = tuple(_ext.names("singular"))
+MATCAP_VARIANTS = tuple(_ext.names("matcap"))
 #: Environment mappings (dir_to_uv, uv_to_dir, texel_solid_angles, convert).
 MAPPINGS = ("sphere", "latlong", "cube", "angular", "paraboloid", "octahedral")
 #: Cube-map file layouts (see the README's diagram); "dice" = "hcross".
-CUBE_LAYOUTS = ("hcross", "vcross", "hstrip", "vstrip", "dice", "horizon")
+CUBE_LAYOUTS = tuple(_ext.names("layout"))
 #: Reconstruction filters of convert.
-FILTERS = ("box", "tent", "gaussian")
+FILTERS = tuple(_ext.names("filter"))
+#: How convert's samples read the input's texels.
+TAPS = tuple(_ext.names("taps"))
 #: Fisheye lens models (from_fisheye; Scene.preview takes the first four).
-LENS_MODELS = ("equidistant", "equisolid", "stereographic", "orthographic", "polynomial")
+LENS_MODELS = tuple(_ext.names("lens"))
 #: Modes of render.
-RENDER_MODES = ("per-vertex", "per-pixel", "matcap", "normals", "error")
+RENDER_MODES = tuple(_ext.names("render"))
 #: What from_mirror_ball / from_fisheye put where no photo sees.
-PHOTO_FILLS = ("none", "smooth", "mean")
+PHOTO_FILLS = tuple(_ext.names("fill"))
 
 
 def _floats(x, name: str, *, last: tuple[int, ...] | None = None, ndim: int | None = None) -> np.ndarray:
@@ -114,6 +118,13 @@ def _stack3(a, a_name: str, b, b_name: str) -> np.ndarray:
     return np.concatenate([x, y], axis=-1)
 
 
+def _name(kind: str, value, arg: str) -> str:
+    """`value` checked as a name of `kind` by the core's own parser (aliases included)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{arg}: expected a name, got {value!r}")
+    return _ext.check_name(kind, value, arg)
+
+
 def _choice(value, name: str, allowed: tuple[str, ...]) -> str:
     if value not in allowed:
         raise ValueError(f"{name}: {value!r} is not one of {', '.join(allowed)}")
@@ -147,9 +158,9 @@ def sphere_texgen(positions, normals, modelview, *, normalize: str = "on", singu
     mv = _floats(modelview, "modelview", ndim=2)
     if mv.shape != (4, 4):
         raise ValueError(f"modelview: expected shape (4, 4), got {mv.shape}")
-    _choice(normalize, "normalize", NORMALIZE_MODES)
-    _choice(singular, "singular", SINGULAR_MODES)
-    _choice(precision, "precision", ("f32", "f64"))
+    _name("normalize", normalize, "normalize")
+    _name("singular", singular, "singular")
+    _name("precision", precision, "precision")
     if out is not None and not isinstance(out, np.ndarray):
         raise ValueError("out: expected a numpy array")
     return _ext.sphere_texgen(pos, nrm, mv.astype(np.float64, copy=False), normalize, singular, precision, out)
@@ -163,7 +174,7 @@ def dir_to_sphere(dirs, *, singular: str = "nan") -> np.ndarray:
     Uses a cancellation-free form of GL's formula near the rim.
     """
     d = _floats(dirs, "dirs", last=(3,))
-    return _ext.dir_to_sphere(d, _choice(singular, "singular", SINGULAR_MODES))
+    return _ext.dir_to_sphere(d, _name("singular", singular, "singular"))
 
 
 def sphere_to_dir(st) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +203,7 @@ def matcap_uv(normals, positions=None, *, variant: str = "classic", scale: float
     scale: radius factor (default 0.5, or 0.495 for "threejs").
     """
     n = _floats(normals, "normals", last=(3,))
-    _choice(variant, "variant", MATCAP_VARIANTS)
+    _name("matcap", variant, "variant")
     if positions is None:
         stacked = np.concatenate([n, np.zeros_like(n)], axis=-1)
     else:
@@ -242,7 +253,7 @@ def dir_to_pixel(dirs, size: int, *, preset: str = "gl", singular: str = "nan") 
     that preset's size x size image: (0, 0) is the top-left corner of row 0, pixel centres are at
     i + 1/2. NaN where a direction has no single pixel."""
     d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
-    return _ext.dir_to_pixel(d, _size(size, "size"), preset, _choice(singular, "singular", SINGULAR_MODES))
+    return _ext.dir_to_pixel(d, _size(size, "size"), preset, _name("singular", singular, "singular"))
 
 
 def pixel_to_dir(xy, size: int, *, preset: str = "gl") -> tuple[np.ndarray, np.ndarray]:
@@ -378,7 +389,7 @@ def _vec3(v, name: str):
 
 def _nonfinite(a: np.ndarray, policy: str, name: str) -> np.ndarray:
     """Applies the NaN/Inf policy ("error", "zero", "keep") to an input array."""
-    _choice(policy, "nonfinite", ("error", "zero", "keep"))
+    _name("nonfinite", policy, "nonfinite")
     if policy == "keep":
         return a
     if a.dtype == np.float32 and a.flags.c_contiguous and _ext._all_finite(a):
@@ -451,9 +462,9 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     """
     _choice(src, "src", MAPPINGS)
     _choice(dst, "dst", MAPPINGS)
-    _choice(filter, "filter", FILTERS)
-    _choice(outside, "outside", ("gutter", "black"))
-    _choice(precision, "precision", ("f32", "f64"))
+    _name("filter", filter, "filter")
+    _name("outside", outside, "outside")
+    _name("precision", precision, "precision")
     a = _floats(image, "image")
     if src_layout is not None and src != "cube":
         raise ValueError(f"src_layout: only for src='cube', not {src!r}")
@@ -513,7 +524,7 @@ def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:
     """A cube map given as faces or as one image in a layout -> (6, F, F, C) (or the array
     unchanged when it is neither, for the caller's shape error)."""
     if layout is not None:
-        _choice(layout, f"{name} layout", CUBE_LAYOUTS)
+        _name("layout", layout, f"{name} layout")
         if a.ndim not in (2, 3):
             raise ValueError(f"{name}: a cube map in a layout is (H, W) or (H, W, C), got shape {a.shape}")
         return cube_from_layout(a, layout)
@@ -527,7 +538,7 @@ def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:
 def cube_from_layout(image, layout: str) -> np.ndarray:
     """A cube-map image in `layout` (one of CUBE_LAYOUTS) -> (6, F, F, C) faces in GL order and
     GL face orientation (the crosses and "horizon" hold views from inside; see the README)."""
-    _choice(layout, "layout", CUBE_LAYOUTS)
+    _name("layout", layout, "layout")
     a = _floats(image, "image")
     if a.ndim == 2:
         a = a[:, :, None]
@@ -540,7 +551,7 @@ def cube_from_layout(image, layout: str) -> np.ndarray:
 
 def cube_to_layout(faces, layout: str = "hcross") -> np.ndarray:
     """(6, F, F, C) faces in GL order -> one image in `layout` (unused cells of a cross are 0)."""
-    _choice(layout, "layout", CUBE_LAYOUTS)
+    _name("layout", layout, "layout")
     a = _floats(faces, "faces")
     if a.ndim == 3:
         a = a[..., None]
@@ -709,9 +720,9 @@ def generate(size: int, fire_ray, *, pos=(0.0, 0.0, 0.0), look=None, up=None, sa
     (spheremap.LimitError) a job needing more bytes (default $SPHEREMAP_MAX_MEMORY or 16 GiB).
     """
     _choice(mapping, "mapping", MAPPINGS)
-    _choice(filter, "filter", FILTERS)
-    _choice(outside, "outside", ("gutter", "black"))
-    _choice(precision, "precision", ("f32", "f64"))
+    _name("filter", filter, "filter")
+    _name("outside", outside, "outside")
+    _name("precision", precision, "precision")
     size = _size_any(size, "size")
     samples = _size_any(samples, "samples")
     max_samples = _size_any(max_samples, "max_samples")
@@ -772,9 +783,9 @@ def _map_out(to, preset, size, samples, max_samples, filter, outside, seed, look
              max_memory) -> dict:
     """The output options shared by the photo routes (the CLI's output flags)."""
     _choice(to, "to", MAPPINGS)
-    _choice(filter, "filter", FILTERS)
-    _choice(outside, "outside", ("gutter", "black"))
-    _choice(fill, "fill", PHOTO_FILLS)
+    _name("filter", filter, "filter")
+    _name("outside", outside, "outside")
+    _name("fill", fill, "fill")
     if look is None and up is not None:
         raise ValueError("up: needs look")
     return dict(to=to, preset=preset, size=_size_any(size, "size"),
@@ -1033,7 +1044,7 @@ def analyze(map=None, *, mapping: str = "sphere", preset: str | None = None, siz
     """Sampling analytics (``spheremap analyze``; definitions in the README).
 
     map: an environment map (array or path) whose canvas is analysed as `mapping`; without it,
-        the `mapping` canvas of `size` N.
+        the `mapping` canvas of `size` N (1 to 8192).
     Returns a dict: "solid_angle" (sr), "anisotropy", "resolution_deg" (the coarsest angular
     step per texel), each (H, W) float64 with NaN off the map, and "stats" (min/max/mean of
     each). With `mesh` (a path or (positions, normals or None, triangles)) and a camera as
@@ -1053,9 +1064,10 @@ def analyze(map=None, *, mapping: str = "sphere", preset: str | None = None, siz
         else:
             raise ValueError(f"map: expected an image (H, W[, C]), got shape {a.shape}")
     else:
-        n = _size_any(size, "size")
-        w, h = {"latlong": (2 * n, n), "paraboloid": (2 * n, n), "cube": (n, 6 * n)}.get(mapping, (n, n))
-    sa, an, res = _ext.analyze_mapping(mapping, preset, w, h)
+        w = h = None
+    sa, an, res = _ext.analyze_mapping(mapping, preset, width=w, height=h,
+                                       size=None if map is not None else _size_any(size, "size"))
+    h, w = sa.shape
     out = {"mapping": mapping, "width": w, "height": h, "solid_angle": sa, "anisotropy": an,
            "resolution_deg": res,
            "stats": {"solid_angle": _stats(sa), "anisotropy": _stats(an), "resolution_deg": _stats(res)}}

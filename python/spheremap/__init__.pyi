@@ -63,6 +63,7 @@ def uv_to_dir(uv: _ArrayLike, mapping: str = "latlong", *, preset: str | None = 
 def texel_solid_angles(mapping: str, width: int, height: int | None = None, *, preset: str | None = None) -> npt.NDArray[np.float64]: ...
 CUBE_LAYOUTS: tuple[str, ...]
 FILTERS: tuple[str, ...]
+TAPS: tuple[str, ...]
 def convert(image: npt.ArrayLike, src: str, dst: str, *, size: int | None = None, samples: int = 4,
             max_samples: int = 1024, filter: str = "box", outside: str = "gutter",
             look: npt.ArrayLike | None = None, up: npt.ArrayLike | None = None,

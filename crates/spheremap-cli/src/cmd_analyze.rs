@@ -2,7 +2,7 @@
 
 use crate::camera_args::CameraArgs;
 use crate::job::JobFlags;
-use anyhow::{bail, Context};
+use anyhow::Context;
 use spheremap::analyze::{self, figure, stats, Stats};
 use spheremap::draw;
 use spheremap::image_io::{read_image, write_image, ReadOptions};
@@ -58,12 +58,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .with_context(|| path.clone())?;
             (img.width, img.height)
         }
-        None => {
-            if a.size == 0 || a.size > 8192 {
-                bail!("size: {} is out of range 1..=8192", a.size);
-            }
-            mapping.canvas(a.size)
-        }
+        None => analyze::canvas(mapping, "size", a.size)?,
     };
     let maps = analyze::mapping_maps(mapping, w, h)?;
     let (sa, an, re) = (

@@ -181,9 +181,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Some(n) => n,
         None => default_size(src, src.size_of(img.width, img.height, input.first())?, dst),
     };
-    if n == 0 || n > 1 << 15 {
-        bail!("size: {n} is out of range 1..=32768");
-    }
+    spheremap::error::check_map_size("size", n)?;
     let (w, h) = dst.canvas(n);
     let opts = ResampleOptions {
         samples: a.sampling.samples,

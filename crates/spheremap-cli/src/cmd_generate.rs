@@ -2,7 +2,7 @@
 //! into an environment map (thin layer over `spheremap::generate` and `spheremap::scene`).
 
 use crate::job::vec3;
-use anyhow::{bail, Context};
+use anyhow::Context;
 use spheremap::cube::Layout;
 use spheremap::envio::{env_paths, write_env, EnvFiles};
 use spheremap::generate::{generate, GenerateOptions, GenerateReport, RaySource};
@@ -62,9 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
     let precision = Precision::parse(&a.precision)?;
-    if a.size == 0 || a.size > 1 << 15 {
-        bail!("size: {} is out of range 1..=32768", a.size);
-    }
+    spheremap::error::check_map_size("size", a.size)?;
     let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
     EnvFiles::parse(&a.output).check_output(dst)?;
     let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
@@ -96,9 +94,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // The cube faces are made in the world frame (no view), as six cameras at `pos` would take them.
         let cube = Mapping::parse("cube", None)?;
         let f = a.faces_size.unwrap_or(a.size);
-        if f == 0 || f > 1 << 15 {
-            bail!("faces-size: {f} is out of range 1..=32768");
-        }
+        spheremap::error::check_map_size("faces-size", f)?;
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
         let fo = GenerateOptions {
             rotation: IDENTITY,

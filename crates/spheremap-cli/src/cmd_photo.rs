@@ -59,9 +59,7 @@ pub struct MapOut {
 impl MapOut {
     fn options(&self) -> anyhow::Result<(PhotoOptions, Mapping)> {
         let dst = Mapping::parse(&self.to, self.preset.as_deref()).context("--to/--preset")?;
-        if self.size == 0 || self.size > 1 << 15 {
-            bail!("size: {} is out of range 1..=32768", self.size);
-        }
+        spheremap::error::check_map_size("size", self.size)?;
         let (width, height) = dst.canvas(self.size);
         let rotation =
             view::conversion_rotation(vec3(&self.look), vec3(&self.up), None, None, None)?;

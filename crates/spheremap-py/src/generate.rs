@@ -1,7 +1,7 @@
 //! PyO3 glue for the ray-traced generator: the `Scene` class and `generate` with a scene or a
 //! Python callable as `fire_ray`.  No maths here.
 
-use super::{contiguous, parse_mapping, run_cancellable, to_py};
+use super::{parse_mapping, run_cancellable, to_py};
 use numpy::{
     PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods,
 };
@@ -92,13 +92,7 @@ impl Scene {
         preset: Option<&str>,
     ) -> PyResult<()> {
         let m = parse_mapping(mapping, preset)?;
-        let shape = image.shape().to_vec();
-        let img = spheremap::image_io::Image {
-            height: shape[0],
-            width: shape[1],
-            channels: shape[2],
-            data: contiguous(&image, "environment")?.to_vec(),
-        };
+        let img = super::image_of(&image, "environment")?;
         rs::EnvMap::new(m, &img, "environment").map_err(to_py)?;
         self.inner.environment = Environment::Map {
             image: img,
@@ -301,11 +295,7 @@ fn run<'py>(
     opts: &GenerateOptions,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
-    if size == 0 || size > 1 << 15 {
-        return Err(PyValueError::new_err(format!(
-            "size: {size} is out of range 1..=32768"
-        )));
-    }
+    spheremap::error::check_map_size("size", size).map_err(to_py)?;
     let (w, h) = m.canvas(size);
     let progress = Progress::default();
     let (img, _) = run_cancellable(py, &progress, "the generation", |p| {

@@ -459,6 +459,68 @@ fn texel_solid_angles<'py>(
         .into_any())
 }
 
+/// A numpy (H, W, C) float32 array as an `Image` (copied); `name` is the argument's name in
+/// errors.  The one numpy -> Image conversion of the glue.
+pub(crate) fn image_of(
+    a: &PyReadonlyArrayDyn<'_, f32>,
+    name: &str,
+) -> PyResult<spheremap::image_io::Image> {
+    let shape = a.shape().to_vec();
+    if shape.len() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{name}: expected (H, W, C), got shape {shape:?}"
+        )));
+    }
+    Ok(spheremap::image_io::Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data: contiguous(a, name)?.to_vec(),
+    })
+}
+
+/// The names of `kind` as the core lists them (Python's FILTERS, CUBE_LAYOUTS, ... are these).
+#[pyfunction]
+fn names(kind: &str) -> PyResult<Vec<&'static str>> {
+    use spheremap::*;
+    Ok(match kind {
+        "filter" => resample::Filter::NAMES.to_vec(),
+        "taps" => resample::Taps::NAMES.to_vec(),
+        "layout" => cube::Layout::NAMES.to_vec(),
+        "fill" => photo::Fill::NAMES.to_vec(),
+        "lens" => fisheye::LensModel::NAMES.to_vec(),
+        "render" => render::Mode::NAMES.to_vec(),
+        "normalize" => texgen::NormalMode::NAMES.to_vec(),
+        "singular" => conventions::Singular::NAMES.to_vec(),
+        "matcap" => matcap::MatcapVariant::NAMES.to_vec(),
+        _ => return Err(PyValueError::new_err(format!("kind: unknown {kind:?}"))),
+    })
+}
+
+/// Checks `value` as a name of `kind` with the core's own parser (its aliases included) and
+/// returns it; the error names the Python argument `arg`.
+#[pyfunction]
+fn check_name(kind: &str, value: &str, arg: &str) -> PyResult<String> {
+    use spheremap::*;
+    let r: Result<(), Error> = match kind {
+        "filter" => resample::Filter::parse(value).map(drop),
+        "taps" => resample::Taps::parse(value).map(drop),
+        "outside" => resample::Outside::parse(value).map(drop),
+        "precision" => resample::Precision::parse(value).map(drop),
+        "layout" => cube::Layout::parse(value).map(drop),
+        "fill" => photo::Fill::parse(value).map(drop),
+        "nonfinite" => image_io::NonFinite::parse(value).map(drop),
+        "singular" => conventions::Singular::parse(value, arg).map(drop),
+        "normalize" => texgen::NormalMode::parse(value, arg).map(drop),
+        "matcap" => matcap::MatcapVariant::parse(value, arg).map(drop),
+        _ => return Err(PyValueError::new_err(format!("kind: unknown {kind:?}"))),
+    };
+    r.map(|()| value.to_string()).map_err(|e| match e {
+        Error::InvalidParameter { reason, .. } => PyValueError::new_err(format!("{arg}: {reason}")),
+        other => to_py(other),
+    })
+}
+
 /// Whether every value of a float32 array is finite (the fast check before NaN/Inf policies).
 #[pyfunction]
 fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool> {
@@ -506,11 +568,7 @@ fn convert<'py>(
         .size_of(w, h, "image")
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let n = size.unwrap_or_else(|| spheremap::envio::default_size(sm, n_src, dm));
-    if n == 0 || n > 1 << 15 {
-        return Err(PyValueError::new_err(format!(
-            "size: {n} is out of range 1..=32768"
-        )));
-    }
+    spheremap::error::check_map_size("size", n).map_err(to_py)?;
     let opts = ResampleOptions {
         samples,
         max_samples,
@@ -622,13 +680,7 @@ fn layout_to_stack<'py>(
     layout: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
-    let shape = image.shape().to_vec();
-    let img = spheremap::image_io::Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data: contiguous(&image, "image")?.to_vec(),
-    };
+    let img = image_of(&image, "image")?;
     let st = l
         .to_stack(&img)
         .map_err(|e| PyValueError::new_err(format!("image: {e}")))?;
@@ -645,13 +697,7 @@ fn stack_to_layout<'py>(
     layout: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
-    let shape = stack.shape().to_vec();
-    let img = spheremap::image_io::Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data: contiguous(&stack, "faces")?.to_vec(),
-    };
+    let img = image_of(&stack, "faces")?;
     let out = l.from_stack(&img).map_err(to_py)?;
     Ok(PyArray1::from_vec(py, out.data)
         .reshape([out.height, out.width, out.channels])?
@@ -755,15 +801,8 @@ fn write_image(
     clamp_half: bool,
     note: Option<String>,
 ) -> PyResult<(u64, u64)> {
-    use spheremap::image_io::{Format, Image, Losses, WriteOptions};
-    let shape = array.shape().to_vec();
-    let data = contiguous(&array, "array")?.to_vec();
-    let img = Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data,
-    };
+    use spheremap::image_io::{Format, Losses, WriteOptions};
+    let img = image_of(&array, "array")?;
     let opts = WriteOptions {
         linear,
         png16,
@@ -891,6 +930,8 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
     m.add("LimitError", m.py().get_type::<LimitError>())?;
+    m.add_function(wrap_pyfunction!(names, m)?)?;
+    m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
     m.add_function(wrap_pyfunction!(_all_finite, m)?)?;
     m.add_function(wrap_pyfunction!(dir_to_sphere, m)?)?;

@@ -3,8 +3,8 @@
 //! dictionary out.  Argument checking with argument names is in `python/spheremap/__init__.py`.
 
 use super::generate::Scene;
-use super::{contiguous, parse_mapping, run_cancellable, to_py};
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use super::{image_of, parse_mapping, run_cancellable, to_py};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -14,22 +14,6 @@ use spheremap::generate::GenerateOptions;
 use spheremap::image_io::Image;
 use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
 use spheremap::resample::{self as rs, Progress};
-
-/// An (H, W, C) float32 array as a core image (copied).
-fn image_of(a: &PyReadonlyArrayDyn<'_, f32>, name: &str) -> PyResult<Image> {
-    let shape = a.shape().to_vec();
-    if shape.len() != 3 {
-        return Err(PyValueError::new_err(format!(
-            "{name}: expected (H, W, C), got shape {shape:?}"
-        )));
-    }
-    Ok(Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data: contiguous(a, name)?.to_vec(),
-    })
-}
 
 fn array<'py>(py: Python<'py>, img: Image) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_vec(py, img.data)
@@ -62,12 +46,7 @@ pub struct MapOptions {
 impl MapOptions {
     fn options(&self) -> PyResult<PhotoOptions> {
         let mapping = parse_mapping(&self.to, self.preset.as_deref())?;
-        if self.size == 0 || self.size > 1 << 15 {
-            return Err(PyValueError::new_err(format!(
-                "size: {} is out of range 1..=32768",
-                self.size
-            )));
-        }
+        spheremap::error::check_map_size("size", self.size).map_err(to_py)?;
         let (width, height) = mapping.canvas(self.size);
         Ok(PhotoOptions {
             mapping,

@@ -4,7 +4,6 @@ use super::{contiguous, parse_mapping, to_py};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use spheremap::image_io::Image;
 use spheremap::matcap::MatcapVariant;
 use spheremap::mesh::Mesh;
 use spheremap::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
@@ -134,15 +133,7 @@ pub fn render<'py>(
     let mapping = parse_mapping(env_mapping, env_preset)?;
     let img = env
         .as_ref()
-        .map(|e| -> PyResult<Image> {
-            let s = e.shape();
-            Ok(Image {
-                height: s[0],
-                width: s[1],
-                channels: s[2],
-                data: contiguous(e, "env")?.to_vec(),
-            })
-        })
+        .map(|e| super::image_of(e, "env"))
         .transpose()?;
     // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
     let gl = match &img {
@@ -169,17 +160,24 @@ pub fn render<'py>(
         .into_any())
 }
 
-/// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64.
+/// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64,
+/// on a `width` x `height` canvas, or on the mapping's canvas of `size` N (the core's bounds).
 #[pyfunction]
-#[pyo3(signature = (mapping, preset, width, height))]
+#[pyo3(signature = (mapping, preset, width=None, height=None, size=None))]
 pub fn analyze_mapping<'py>(
     py: Python<'py>,
     mapping: &str,
     preset: Option<&str>,
-    width: usize,
-    height: usize,
+    width: Option<usize>,
+    height: Option<usize>,
+    size: Option<usize>,
 ) -> PyResult<MeshArrays<'py>> {
     let m = parse_mapping(mapping, preset)?;
+    let (width, height) = match (size, width, height) {
+        (Some(n), _, _) => spheremap::analyze::canvas(m, "size", n).map_err(to_py)?,
+        (None, Some(w), Some(h)) => (w, h),
+        _ => return Err(PyValueError::new_err("size: expected a size or a canvas")),
+    };
     let a = py
         .detach(|| spheremap::analyze::mapping_maps(m, width, height))
         .map_err(to_py)?;

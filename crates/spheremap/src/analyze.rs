@@ -82,6 +82,22 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// The largest size N analysed from a mapping alone (its maps hold three f64 values per texel:
+/// 1.5 GiB at 8192²).
+pub const MAX_SIZE: usize = 8192;
+
+/// The canvas (width, height) of `mapping` at size `n` (1..=[`MAX_SIZE`]) for analysis, or an
+/// error naming the argument `what`.
+pub fn canvas(mapping: Mapping, what: &str, n: usize) -> Result<(usize, usize)> {
+    if n == 0 || n > MAX_SIZE {
+        return Err(crate::error::Error::param(
+            what,
+            format!("{n} is out of range 1..={MAX_SIZE}"),
+        ));
+    }
+    Ok(mapping.canvas(n))
+}
+
 /// The analytics of `mapping` on a `width` × `height` canvas.
 pub fn mapping_maps(mapping: Mapping, width: usize, height: usize) -> Result<MappingMaps> {
     mapping.size_of(width, height, "size")?;

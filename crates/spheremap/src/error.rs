@@ -75,6 +75,21 @@ impl Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// The largest map size N any operation makes (a sphere map's side, a lat-long's height, a cube
+/// face): 32768.
+pub const MAX_MAP_SIZE: usize = 1 << 15;
+
+/// `n` as a map size for the argument `what` (1..=[`MAX_MAP_SIZE`]), or an error naming it.
+pub fn check_map_size(what: &str, n: usize) -> Result<usize> {
+    if n == 0 || n > MAX_MAP_SIZE {
+        return Err(Error::param(
+            what,
+            format!("{n} is out of range 1..={MAX_MAP_SIZE}"),
+        ));
+    }
+    Ok(n)
+}
+
 /// The memory a job may allocate unless told otherwise: `SPHEREMAP_MAX_MEMORY` (bytes, or with
 /// a K/M/G/T suffix, powers of 1024) or else 16 GiB.
 pub fn default_max_memory() -> u64 {

@@ -2,13 +2,10 @@ use spheremap::image_io::{
     decode, encode, inspect, read_image, srgb_to_linear, write_image, Format, Image, Limits,
     ReadOptions, WriteOptions,
 };
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn testdata(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../testdata")
-        .join(name)
-}
+mod common;
+use common::{max_diff, testdata};
 
 fn ramp(w: usize, h: usize, c: usize) -> Image {
     let mut img = Image::new(w, h, c);
@@ -28,18 +25,6 @@ fn round_trip(img: &Image, fmt: Format, opts: &WriteOptions, ropts: &ReadOptions
     let bytes = encode(p, img, fmt, opts).unwrap();
     assert_eq!(Format::sniff(&bytes), Some(fmt));
     decode(p, &bytes, ropts).unwrap()
-}
-
-fn max_diff(a: &Image, b: &Image) -> f32 {
-    assert_eq!(
-        (a.width, a.height, a.channels),
-        (b.width, b.height, b.channels)
-    );
-    a.data
-        .iter()
-        .zip(&b.data)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f32::max)
 }
 
 #[test]

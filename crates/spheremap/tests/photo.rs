@@ -6,7 +6,7 @@
 use spheremap::camera::{self, Camera, Projection};
 use spheremap::fisheye::{Lens, LensModel};
 use spheremap::generate::{generate, EnvSource, GenerateOptions};
-use spheremap::image_io::{self, Image};
+use spheremap::image_io::Image;
 use spheremap::photo::{self, BallModel, BallPhoto, Fill, PhotoOptions};
 use spheremap::resample::EnvMap;
 use spheremap::scene::{Environment, Material, Scene, SceneBuilder};
@@ -16,14 +16,8 @@ use spheremap::Mapping;
 const SPHERE: Mapping = Mapping::Sphere(&spheremap::PRESETS[0]);
 const N: usize = 128;
 
-fn hdri() -> Image {
-    image_io::decode(
-        std::path::Path::new("apartment.exr"),
-        spheremap::demo::APARTMENT_EXR,
-        &Default::default(),
-    )
-    .unwrap()
-}
+mod common;
+use common::apartment as hdri;
 
 fn latlong() -> Mapping {
     Mapping::parse("latlong", None).unwrap()

@@ -9,6 +9,9 @@ use spheremap::resample::{
 };
 use spheremap::view;
 
+mod common;
+use common::max_diff;
+
 fn mappings() -> Vec<Mapping> {
     [
         ("sphere", None),
@@ -61,15 +64,6 @@ fn convert(src: Mapping, img: &Image, dst: Mapping, n: usize, o: &ResampleOption
     let e = EnvMap::new(src, img, "src").unwrap();
     let (w, h) = dst.canvas(n);
     resample(&e, dst, w, h, o, None).unwrap().0
-}
-
-/// The largest difference of two images' values.
-fn max_diff(a: &Image, b: &Image) -> f32 {
-    a.data
-        .iter()
-        .zip(&b.data)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0f32, f32::max)
 }
 
 fn opts(samples: u32) -> ResampleOptions {
@@ -738,11 +732,12 @@ fn bicubic_taps_are_sharper_where_the_output_is_finer() {
                 let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
                 (rms, e.len())
             };
-            let bil = err(&opts(1));
-            let cub = err(&ResampleOptions {
+            let cubic = ResampleOptions {
                 taps: Taps::Bicubic,
                 ..opts(1)
-            });
+            };
+            let bil = err(&opts(1));
+            let cub = err(&cubic);
             assert!(bil.1 > 100, "{} -> {}", nm(&src), nm(&dst));
             // Measured: an eighth of bilinear's error on the smooth canvases; on the cube's and
             // the octahedral map's, whose canvas is creased where faces meet, a quarter to a half.
@@ -759,27 +754,12 @@ fn bicubic_taps_are_sharper_where_the_output_is_finer() {
                 bil.0
             );
             // The f32 path against the f64 reference, with bicubic taps.
-            let a = convert(
-                src,
-                &img,
-                dst,
-                2 * n,
-                &ResampleOptions {
-                    taps: Taps::Bicubic,
-                    ..opts(1)
-                },
-            );
-            let b = convert(
-                src,
-                &img,
-                dst,
-                2 * n,
-                &ResampleOptions {
-                    taps: Taps::Bicubic,
-                    precision: Precision::F64,
-                    ..opts(1)
-                },
-            );
+            let a = convert(src, &img, dst, 2 * n, &cubic);
+            let f64_cubic = ResampleOptions {
+                precision: Precision::F64,
+                ..cubic
+            };
+            let b = convert(src, &img, dst, 2 * n, &f64_cubic);
             assert!(max_diff(&a, &b) < 2e-3, "{} -> {}", nm(&src), nm(&dst));
         }
     }

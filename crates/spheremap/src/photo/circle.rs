@@ -299,9 +299,10 @@ const REFLECTANCE: (f64, f64) = (0.3, 1.25);
 /// A candidate this confident ends the search.
 const SURE: f64 = 0.8;
 
-/// Hough vote on a copy at most 512 px on its longer side: the candidate circles, the most
-/// likely first.
-fn coarse(full: &Plane) -> Result<Vec<Circle>> {
+/// The photo's copy at most 512 px on its longer side (halved as often as needed), how many
+/// full-resolution pixels one of its pixels spans, and its Sobel gradient (gx, gy, |g|) at every
+/// pixel (0 on the border).
+fn small_gradients(full: &Plane) -> (Plane, f64, Vec<(f32, f32, f32)>) {
     let mut p = Plane {
         w: full.w,
         h: full.h,
@@ -313,10 +314,9 @@ fn coarse(full: &Plane) -> Result<Vec<Circle>> {
         scale *= 2.0;
     }
     let (w, h) = (p.w, p.h);
-    // Sobel.
     let mut grad = vec![(0f32, 0f32, 0f32); w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
             let gx = (p.at(x + 1, y - 1) + 2.0 * p.at(x + 1, y) + p.at(x + 1, y + 1))
                 - (p.at(x - 1, y - 1) + 2.0 * p.at(x - 1, y) + p.at(x - 1, y + 1));
             let gy = (p.at(x - 1, y + 1) + 2.0 * p.at(x, y + 1) + p.at(x + 1, y + 1))
@@ -324,6 +324,14 @@ fn coarse(full: &Plane) -> Result<Vec<Circle>> {
             grad[y * w + x] = (gx, gy, gx.hypot(gy));
         }
     }
+    (p, scale, grad)
+}
+
+/// Hough vote on a copy at most 512 px on its longer side: the candidate circles, the most
+/// likely first.
+fn coarse(full: &Plane) -> Result<Vec<Circle>> {
+    let (p, scale, grad) = small_gradients(full);
+    let (w, h) = (p.w, p.h);
     let mut mags: Vec<f32> = grad.iter().map(|g| g.2).filter(|&m| m > 0.0).collect();
     if mags.len() < 16 {
         return Err(Error::data(
@@ -480,29 +488,10 @@ fn coarse(full: &Plane) -> Result<Vec<Circle>> {
 /// while a reflected horizon or a window inside the ball is only an arc, and straight edges
 /// spread their votes over many circles.
 fn coarse_circles(full: &Plane) -> Vec<Circle> {
-    let mut p = Plane {
-        w: full.w,
-        h: full.h,
-        v: full.v.clone(),
-    };
-    let mut scale = 1.0;
-    while p.w.max(p.h) > 512 && p.w >= 32 && p.h >= 32 {
-        p = p.half();
-        scale *= 2.0;
-    }
+    let (p, scale, grad) = small_gradients(full);
     let (w, h) = (p.w, p.h);
     if w < 8 || h < 8 {
         return vec![];
-    }
-    let mut grad = vec![(0f32, 0f32, 0f32); w * h];
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let gx = (p.at(x + 1, y - 1) + 2.0 * p.at(x + 1, y) + p.at(x + 1, y + 1))
-                - (p.at(x - 1, y - 1) + 2.0 * p.at(x - 1, y) + p.at(x - 1, y + 1));
-            let gy = (p.at(x - 1, y + 1) + 2.0 * p.at(x, y + 1) + p.at(x + 1, y + 1))
-                - (p.at(x - 1, y - 1) + 2.0 * p.at(x, y - 1) + p.at(x + 1, y - 1));
-            grad[y * w + x] = (gx, gy, gx.hypot(gy));
-        }
     }
     let mut mags: Vec<f32> = grad.iter().map(|g| g.2).filter(|&m| m > 0.0).collect();
     if mags.len() < 16 {
