@@ -91,6 +91,7 @@ def test_errors_name_the_argument(hdri):
         (dict(dst="globe"), "dst:"),
         (dict(filter="lanczos"), "filter:"),
         (dict(taps="lanczos"), "taps:"),
+        (dict(taps=None), "taps:"),
         (dict(samples=0), "samples:"),
         (dict(size=0), "size:"),
         (dict(look=(0, 0, 0)), "look:"),

@@ -503,7 +503,7 @@ def convert(image, src: str, dst: str, *, size: int | None = None, samples: int 
     res = _ext.convert(np.ascontiguousarray(a, dtype=np.float32), src, dst, size, samples, max_samples,
                        filter, outside, int(seed), precision, src_preset, dst_preset,
                        _vec3(look, "look"), _vec3(up, "up"), ypr, _vec3(src_look, "src_look"),
-                       _vec3(src_up, "src_up"), max_memory, out, taps=str(taps))
+                       _vec3(src_up, "src_up"), max_memory, out, taps=_name("taps", taps, "taps"))
     if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
         f = res.shape[1]
         res = res.reshape(6, f, f, res.shape[2])
