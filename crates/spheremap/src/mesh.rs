@@ -20,25 +20,49 @@ pub struct Mesh {
     pub normals_from_file: bool,
 }
 
-/// Loads a mesh, choosing the reader from the file's content (glTF JSON, GLB magic) or else
-/// its extension.
-pub fn load_mesh(path: &Path) -> Result<Mesh> {
-    let bytes = crate::io::read_file(path)?;
+/// The two kinds of mesh and scene file read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFormat {
+    /// glTF 2.0: JSON (.gltf) or binary (.glb).
+    Gltf,
+    /// Wavefront OBJ (with its MTL).
+    Obj,
+}
+
+/// What a mesh or scene file holds: by its content first (the GLB magic, or JSON: glTF; OBJ
+/// statements), else by its extension; `None` when neither tells.  The one rule for meshes
+/// and scenes.
+pub fn mesh_format(path: &Path, bytes: &[u8]) -> Option<MeshFormat> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let mesh = if bytes.starts_with(b"glTF") || ext == "gltf" || ext == "glb" {
-        crate::scene::precheck_gltf(path, &bytes)?;
-        crate::error::guard_parser(path, "glTF", || load_gltf(path))?
-    } else if ext == "obj" || looks_like_obj(&bytes) {
-        load_obj(path)?
+    let json = bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{');
+    if bytes.starts_with(b"glTF") || json || ext == "gltf" || ext == "glb" {
+        Some(MeshFormat::Gltf)
+    } else if ext == "obj" || looks_like_obj(bytes) {
+        Some(MeshFormat::Obj)
     } else {
-        return Err(Error::unsupported(
-            format!("mesh file {}", path.display()),
-            "expected an OBJ, glTF (.gltf) or GLB file",
-        ));
+        None
+    }
+}
+
+/// Loads a mesh, choosing the reader by [`mesh_format`].
+pub fn load_mesh(path: &Path) -> Result<Mesh> {
+    let bytes = crate::io::read_file(path)?;
+    let mesh = match mesh_format(path, &bytes) {
+        Some(MeshFormat::Gltf) => {
+            precheck_gltf(path, &bytes)?;
+            crate::error::guard_parser(path, "glTF", || load_gltf(path))?
+        }
+        Some(MeshFormat::Obj) => load_obj(path)?,
+        None => {
+            return Err(Error::unsupported(
+                format!("mesh file {}", path.display()),
+                "expected an OBJ, glTF (.gltf) or GLB file",
+            ))
+        }
     };
     validate(path, &mesh)?;
     Ok(mesh)
@@ -293,6 +317,63 @@ pub fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f3
         .iter()
         .map(|&g| acc[g].normalize_or_zero().as_vec3().to_array())
         .collect()
+}
+
+/// Checks what the `gltf` crate's own validation indexes without checking (gltf-json 1.4.1
+/// panics on a POSITION accessor index out of range — found by our fuzzer), so a malformed
+/// file gets a precise error.  The full validation runs afterwards in `gltf::import`, and the
+/// reading under [`crate::error::guard_parser`] (the crate has more panics on files that pass
+/// its validation: an index accessor of floats reaches an `unreachable!`).
+pub(crate) fn precheck_gltf(path: &Path, bytes: &[u8]) -> Result<()> {
+    let glb;
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        glb = gltf::Glb::from_slice(bytes)
+            .map_err(|e| Error::data(path, format!("cannot read GLB: {e}")))?;
+        &glb.json
+    } else {
+        bytes
+    };
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
+        .map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
+    // External buffers and images are read by the gltf crate itself: make sure each is a
+    // regular file (a device would be read forever).
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
+    for uri in uris {
+        if uri.starts_with("data:") || uri.contains("://") {
+            continue;
+        }
+        let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
+            return Err(Error::data(
+                path,
+                format!("cannot read glTF: {uri:?} is not a regular file"),
+            ));
+        }
+    }
+    let n = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, p) in mesh.primitives.iter().enumerate() {
+            let bad = p.attributes.values().any(|i| i.value() >= n)
+                || p.indices.is_some_and(|i| i.value() >= n)
+                || p.targets.iter().flatten().any(|t| {
+                    [t.positions, t.normals, t.tangents]
+                        .iter()
+                        .flatten()
+                        .any(|i| i.value() >= n)
+                });
+            if bad {
+                return Err(Error::data(
+                    path,
+                    format!("cannot read glTF: mesh {m} primitive {k} names an accessor beyond the {n} there are"),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

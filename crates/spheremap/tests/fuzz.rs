@@ -19,6 +19,9 @@ use spheremap::Mapping;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::GLTF_TRIANGLE as GLTF_SEED;
+
 struct Rng(u64);
 
 impl Rng {
@@ -403,15 +406,6 @@ f 1/1/1 2/2/1 3/3/1\nf 2 4 3\ng g\nusemtl m\nf -1 -2 -3\n";
 
 const MTL_SEED: &str = "newmtl m\nKe 1 0.5 0\nKd 0.2 0.3 0.4\nKs 1 1 1\nillum 3\n\
 newmtl n\nKd 0.5 0.5 0.5\nd 1\nNs 10\n";
-
-const GLTF_SEED: &str = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
-"nodes":[{"mesh":0,"translation":[0,0,-2]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},
-"indices":1,"material":0}]}],"materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1]},
-"emissiveFactor":[1,1,1]}],"buffers":[{"byteLength":42,
-"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIA"}],
-"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
-"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
-{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
 
 fn targets() -> Vec<Target> {
     vec![

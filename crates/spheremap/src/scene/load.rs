@@ -27,27 +27,24 @@
 use super::{Environment, Light, Material, Scene, SceneBuilder, TriangleInput};
 use crate::error::{Error, Result};
 use crate::image_io::{self, Image, ReadOptions};
+use crate::mesh::precheck_gltf;
 use std::path::Path;
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
     let bytes = crate::io::read_file(path)?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let trimmed = bytes.iter().position(|b| !b.is_ascii_whitespace());
-    let json = trimmed.is_some_and(|i| bytes[i] == b'{');
-    let b = if bytes.starts_with(b"glTF") || json || ext == "gltf" || ext == "glb" {
-        precheck_gltf(path, &bytes)?;
-        crate::error::guard_parser(path, "glTF", || load_gltf(path))?
-    } else if ext == "obj" || crate::mesh::looks_like_obj(&bytes) {
-        load_obj(path)?
-    } else {
-        return Err(Error::unsupported(
-            format!("scene file {}", path.display()),
-            "expected an OBJ, glTF (.gltf) or GLB file",
-        ));
+    use crate::mesh::{mesh_format, MeshFormat};
+    let b = match mesh_format(path, &bytes) {
+        Some(MeshFormat::Gltf) => {
+            precheck_gltf(path, &bytes)?;
+            crate::error::guard_parser(path, "glTF", || load_gltf(path))?
+        }
+        Some(MeshFormat::Obj) => load_obj(path)?,
+        None => {
+            return Err(Error::unsupported(
+                format!("scene file {}", path.display()),
+                "expected an OBJ, glTF (.gltf) or GLB file",
+            ))
+        }
     };
     b.build(Environment::Constant([0.0; 3]), &path.display().to_string())
 }
@@ -55,8 +52,10 @@ pub(super) fn load(path: &Path) -> Result<Scene> {
 /// A scene from bytes in memory (glTF JSON with embedded data: URIs, GLB, or OBJ without
 /// MTL); `name` is used in messages.  What the fuzzers drive.
 pub(super) fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
-    let trimmed = bytes.iter().position(|b| !b.is_ascii_whitespace());
-    let b = if bytes.starts_with(b"glTF") || trimmed.is_some_and(|i| bytes[i] == b'{') {
+    // No extension to go by: glTF when the content says so, else OBJ.
+    let gltf =
+        crate::mesh::mesh_format(Path::new(""), bytes) == Some(crate::mesh::MeshFormat::Gltf);
+    let b = if gltf {
         precheck_gltf(Path::new(name), bytes)?;
         crate::error::guard_parser(Path::new(name), "glTF", || {
             let (doc, buffers, images) = gltf::import_slice(bytes)
@@ -89,63 +88,6 @@ pub(super) fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Resu
     };
     from_obj(Path::new(name), models, mtls, Path::new("."))?
         .build(Environment::Constant([0.0; 3]), name)
-}
-
-/// Checks what the `gltf` crate's own validation indexes without checking (gltf-json 1.4.1
-/// panics on a POSITION accessor index out of range — found by our fuzzer), so a malformed
-/// file gets a precise error.  The full validation runs afterwards in `gltf::import`, and the
-/// reading under [`crate::error::guard_parser`] (the crate has more panics on files that pass
-/// its validation: an index accessor of floats reaches an `unreachable!`).
-pub(crate) fn precheck_gltf(path: &Path, bytes: &[u8]) -> Result<()> {
-    let glb;
-    let json: &[u8] = if bytes.starts_with(b"glTF") {
-        glb = gltf::Glb::from_slice(bytes)
-            .map_err(|e| Error::data(path, format!("cannot read GLB: {e}")))?;
-        &glb.json
-    } else {
-        bytes
-    };
-    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
-        .map_err(|e| Error::data(path, format!("cannot read glTF: {e}")))?;
-    // External buffers and images are read by the gltf crate itself: make sure each is a
-    // regular file (a device would be read forever).
-    let uris = root
-        .buffers
-        .iter()
-        .filter_map(|b| b.uri.as_deref())
-        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
-    for uri in uris {
-        if uri.starts_with("data:") || uri.contains("://") {
-            continue;
-        }
-        let file = path.parent().unwrap_or(Path::new(".")).join(uri);
-        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
-            return Err(Error::data(
-                path,
-                format!("cannot read glTF: {uri:?} is not a regular file"),
-            ));
-        }
-    }
-    let n = root.accessors.len();
-    for (m, mesh) in root.meshes.iter().enumerate() {
-        for (k, p) in mesh.primitives.iter().enumerate() {
-            let bad = p.attributes.values().any(|i| i.value() >= n)
-                || p.indices.is_some_and(|i| i.value() >= n)
-                || p.targets.iter().flatten().any(|t| {
-                    [t.positions, t.normals, t.tangents]
-                        .iter()
-                        .flatten()
-                        .any(|i| i.value() >= n)
-                });
-            if bad {
-                return Err(Error::data(
-                    path,
-                    format!("cannot read glTF: mesh {m} primitive {k} names an accessor beyond the {n} there are"),
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 fn load_obj(path: &Path) -> Result<SceneBuilder> {

@@ -48,7 +48,6 @@ mod builtin;
 mod load;
 
 pub use builtin::{demo_scene, floor_scene, mirror_ball_scene, octant_colour, octant_sphere_scene};
-pub(crate) use load::precheck_gltf;
 
 use crate::error::{Error, Result};
 use crate::generate::RaySource;
