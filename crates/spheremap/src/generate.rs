@@ -50,7 +50,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-/// The seed's `fire_ray(pos, ray)`, batched: what the world shows along each ray.
+/// A ray source, `fire_ray(pos, ray)` batched: what the world shows along each ray.
 ///
 /// `trace` gets ray origins and unit directions (world frame) and writes `channels()` values
 /// per ray into `out` (`out.len() == directions.len() * channels()`).  It is called from

@@ -48,22 +48,34 @@ pub fn mesh_format(path: &Path, bytes: &[u8]) -> Option<MeshFormat> {
     }
 }
 
+/// Reads the file at `path` (its `bytes`) with the reader [`mesh_format`] chooses: `gltf`
+/// after [`precheck_gltf`] and under [`crate::error::guard_parser`], or `obj`; `what` ("mesh",
+/// "scene") names the file in the error when neither fits.  The one dispatch of meshes and
+/// scenes.
+pub(crate) fn read_by_format<T>(
+    path: &Path,
+    bytes: &[u8],
+    what: &str,
+    gltf: impl FnOnce() -> Result<T>,
+    obj: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    match mesh_format(path, bytes) {
+        Some(MeshFormat::Gltf) => {
+            precheck_gltf(path, bytes)?;
+            crate::error::guard_parser(path, "glTF", gltf)
+        }
+        Some(MeshFormat::Obj) => obj(),
+        None => Err(Error::unsupported(
+            format!("{what} file {}", path.display()),
+            "expected an OBJ, glTF (.gltf) or GLB file",
+        )),
+    }
+}
+
 /// Loads a mesh, choosing the reader by [`mesh_format`].
 pub fn load_mesh(path: &Path) -> Result<Mesh> {
     let bytes = crate::io::read_file(path)?;
-    let mesh = match mesh_format(path, &bytes) {
-        Some(MeshFormat::Gltf) => {
-            precheck_gltf(path, &bytes)?;
-            crate::error::guard_parser(path, "glTF", || load_gltf(path))?
-        }
-        Some(MeshFormat::Obj) => load_obj(path)?,
-        None => {
-            return Err(Error::unsupported(
-                format!("mesh file {}", path.display()),
-                "expected an OBJ, glTF (.gltf) or GLB file",
-            ))
-        }
-    };
+    let mesh = read_by_format(path, &bytes, "mesh", || load_gltf(path), || load_obj(path))?;
     validate(path, &mesh)?;
     Ok(mesh)
 }

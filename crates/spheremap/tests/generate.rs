@@ -332,7 +332,7 @@ fn environment_and_closure_sources() {
     assert!(img.pixel(16, 16)[0] > 0.99);
 }
 
-/// The seed's two routes: ray-trace the six cube faces at `pos`, then convert — against the
+/// The two-step route — ray-trace the six cube faces at `pos`, then convert — against the
 /// direct generation.  They agree except where the cube faces' resolution shows (sharp
 /// edges are softened by the two resamplings).
 #[test]

@@ -32,20 +32,8 @@ use std::path::Path;
 
 pub(super) fn load(path: &Path) -> Result<Scene> {
     let bytes = crate::io::read_file(path)?;
-    use crate::mesh::{mesh_format, MeshFormat};
-    let b = match mesh_format(path, &bytes) {
-        Some(MeshFormat::Gltf) => {
-            precheck_gltf(path, &bytes)?;
-            crate::error::guard_parser(path, "glTF", || load_gltf(path))?
-        }
-        Some(MeshFormat::Obj) => load_obj(path)?,
-        None => {
-            return Err(Error::unsupported(
-                format!("scene file {}", path.display()),
-                "expected an OBJ, glTF (.gltf) or GLB file",
-            ))
-        }
-    };
+    let b =
+        crate::mesh::read_by_format(path, &bytes, "scene", || load_gltf(path), || load_obj(path))?;
     b.build(Environment::Constant([0.0; 3]), &path.display().to_string())
 }
 
