@@ -40,3 +40,39 @@ def psnr(a, b, mask=None):
     peak = float(np.percentile(b, 99.9))
     mse = float(np.mean((np.clip(a, 0, peak) - np.clip(b, 0, peak)) ** 2))
     return 10 * math.log10(peak * peak / mse)
+
+
+def write_glb(path, positions, normals, indices, nodes, scene_nodes):
+    """A minimal glTF 2.0 binary: one mesh (one triangle primitive), the given nodes."""
+    import json
+    import struct
+
+    pos = np.asarray(positions, np.float32).tobytes()
+    nrm = np.asarray(normals, np.float32).tobytes()
+    idx = np.asarray(indices, np.uint32).tobytes()
+    blob = pos + nrm + idx
+    p = np.asarray(positions, np.float32)
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(blob)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+            {"buffer": 0, "byteOffset": len(pos), "byteLength": len(nrm)},
+            {"buffer": 0, "byteOffset": len(pos) + len(nrm), "byteLength": len(idx)},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": len(p), "type": "VEC3",
+             "min": p.min(0).tolist(), "max": p.max(0).tolist()},
+            {"bufferView": 1, "componentType": 5126, "count": len(p), "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5125, "count": len(indices), "type": "SCALAR"},
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+        "nodes": nodes,
+        "scenes": [{"nodes": scene_nodes}],
+        "scene": 0,
+    }
+    js = json.dumps(doc).encode()
+    js += b" " * (-len(js) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
+    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import spheremap as sm
-from conftest import cli
+from conftest import cli, write_glb
 
 TEAPOT = "crates/spheremap/data/teapot.obj"
 
@@ -121,42 +121,6 @@ def test_conventions_command_lists_presets():
     assert "+X -> pixel (54.627, 32.000)" in r.stdout
 
 
-def _write_glb(path, positions, normals, indices, nodes, scene_nodes):
-    """A minimal glTF 2.0 binary: one mesh (one triangle primitive), the given nodes."""
-    import json
-    import struct
-
-    pos = np.asarray(positions, np.float32).tobytes()
-    nrm = np.asarray(normals, np.float32).tobytes()
-    idx = np.asarray(indices, np.uint32).tobytes()
-    blob = pos + nrm + idx
-    p = np.asarray(positions, np.float32)
-    doc = {
-        "asset": {"version": "2.0"},
-        "buffers": [{"byteLength": len(blob)}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
-            {"buffer": 0, "byteOffset": len(pos), "byteLength": len(nrm)},
-            {"buffer": 0, "byteOffset": len(pos) + len(nrm), "byteLength": len(idx)},
-        ],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": len(p), "type": "VEC3",
-             "min": p.min(0).tolist(), "max": p.max(0).tolist()},
-            {"bufferView": 1, "componentType": 5126, "count": len(p), "type": "VEC3"},
-            {"bufferView": 2, "componentType": 5125, "count": len(indices), "type": "SCALAR"},
-        ],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
-        "nodes": nodes,
-        "scenes": [{"nodes": scene_nodes}],
-        "scene": 0,
-    }
-    js = json.dumps(doc).encode()
-    js += b" " * (-len(js) % 4)
-    blob += b"\0" * (-len(blob) % 4)
-    body = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(blob), 0x004E4942) + blob
-    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body)
-
-
 def test_texgen_gltf_applies_node_transforms_to_positions_and_normals(tmp_path):
     positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
     normals = [[0.6, 0, 0.8], [0, 0.6, 0.8], [0, 0, 1]]
@@ -166,7 +130,7 @@ def test_texgen_gltf_applies_node_transforms_to_positions_and_normals(tmp_path):
         {"scale": [2.0, 1.0, 0.5], "mesh": 0},
     ]
     glb = tmp_path / "tri.glb"
-    _write_glb(glb, positions, normals, [0, 1, 2], nodes, [0])
+    write_glb(glb, positions, normals, [0, 1, 2], nodes, [0])
     out = tmp_path / "st.npy"
     r = cli("texgen", glb, "--modelview", "identity", "-o", out)
     assert r.returncode == 0, r.stderr
@@ -370,3 +334,10 @@ def test_maps_record_their_mapping(tmp_path):
     r = cli("convert", tmp_path / "plain.exr", tmp_path / "p.exr", "--to", "sphere")
     assert r.returncode == 2 and "records no mapping" in r.stderr and r.stderr.count("\n") == 1, r.stderr
     assert not (tmp_path / "p.exr").exists()
+
+
+def test_preview_without_a_camera_position_is_a_usage_error(tmp_path):
+    out = tmp_path / "p.png"
+    r = cli("preview", "--scene", "builtin:demo", "-o", out)
+    assert r.returncode == 2 and "--eye" in r.stderr and "internal error" not in r.stderr
+    assert not out.exists()

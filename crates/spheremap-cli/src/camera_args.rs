@@ -2,7 +2,7 @@
 //! `gluPerspective` arguments, each defaulting to a framing of the mesh.
 
 use crate::job::vec3;
-use spheremap::render::GlCamera;
+use spheremap::jobs::render::GlCamera;
 
 #[derive(clap::Args, Debug)]
 pub struct CameraArgs {
@@ -40,7 +40,7 @@ impl CameraArgs {
             Some(spec) => {
                 let v = spec
                     .strip_prefix("lookat:")
-                    .map(|r| spheremap::parse::parse_numbers(r, "camera"))
+                    .map(|r| spheremap::base::parse::parse_numbers(r, "camera"))
                     .transpose()?
                     .filter(|v| v.len() == 9)
                     .ok_or_else(|| {

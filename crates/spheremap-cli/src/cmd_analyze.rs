@@ -1,14 +1,14 @@
-//! `spheremap analyze`: a thin layer over `spheremap::analyze`.
+//! `spheremap analyze`: a thin layer over `spheremap::jobs::analyze`.
 
 use crate::camera_args::CameraArgs;
 use crate::job::JobFlags;
 use anyhow::Context;
-use spheremap::analyze::{self, figure, stats, Stats};
-use spheremap::draw;
-use spheremap::image_io::{read_image, write_image, ReadOptions};
-use spheremap::mapping::Mapping;
+use spheremap::images::codec::{read_image, write_image, ReadOptions};
+use spheremap::images::draw;
+use spheremap::jobs::analyze::{self, figure, stats, Stats};
+use spheremap::jobs::render::{self, Env, Mode, RenderOptions};
+use spheremap::mappings::mapping::Mapping;
 use spheremap::mesh::load_mesh;
-use spheremap::render::{self, Env, Mode, RenderOptions};
 use std::path::Path;
 
 #[derive(clap::Args, Debug)]

@@ -1,4 +1,4 @@
-use spheremap::conventions::{RowOrder, Singular, PRESETS};
+use spheremap::frame::conventions::{RowOrder, Singular, PRESETS};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

@@ -1,17 +1,17 @@
 //! `spheremap convert`: any environment mapping to any other (thin layer over
-//! `spheremap::resample` and `spheremap::envio`).
+//! `spheremap::resample` and `spheremap::images::envmap`).
 
 use crate::job::vec3;
 use anyhow::{bail, Context};
-use spheremap::cube::Layout;
-use spheremap::envio::{
-    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, recorded,
+use spheremap::frame::view;
+use spheremap::images::codec::ReadOptions;
+use spheremap::images::cube_layout::Layout;
+use spheremap::images::envmap::{
+    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, read_note,
     split_paths, write_env_files, EnvFiles,
 };
-use spheremap::image_io::ReadOptions;
-use spheremap::mapping::Mapping;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{resample, EnvMap, Precision, Progress, ResampleOptions, Taps};
-use spheremap::view;
 use std::time::Instant;
 
 #[derive(clap::Args, Debug)]
@@ -86,9 +86,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    // What IN records (spheremap's note, crate::tag): the default of --from, --from-preset,
+    // What IN records (spheremap's note, crate::images::note): the default of --from, --from-preset,
     // --from-layout and --from-look/--from-up, and a check on --from when given.
-    let recorded = recorded(&a.paths[0])?;
+    let recorded = read_note(&a.paths[0])?;
     let src = mapping_for(
         a.from.as_deref(),
         a.from_preset.as_deref(),
@@ -160,7 +160,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             bail!(
                 "{p}: one face ({}) of a cube map of six files; give all six, or a pattern such \
                  as 'sky_{{face}}.exr'",
-                spheremap::cube::FACE_NAMES[f]
+                spheremap::mappings::cube::FACE_NAMES[f]
             );
         }
     }
@@ -181,7 +181,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Some(n) => n,
         None => default_size(src, src.size_of(img.width, img.height, input.first())?, dst),
     };
-    spheremap::error::check_map_size("size", n)?;
+    spheremap::base::error::check_map_size("size", n)?;
     let (w, h) = dst.canvas(n);
     let opts = ResampleOptions {
         samples: a.sampling.samples,

@@ -1,16 +1,16 @@
 //! `spheremap generate`: sphere maps (or any mapping) by ray tracing a scene, or by firing rays
-//! into an environment map (thin layer over `spheremap::generate` and `spheremap::scene`).
+//! into an environment map (thin layer over `spheremap::trace::generate` and `spheremap::trace::scene`).
 
 use crate::job::vec3;
 use anyhow::Context;
-use spheremap::cube::Layout;
-use spheremap::envio::{env_paths, write_env, EnvFiles};
-use spheremap::generate::{generate, GenerateOptions, GenerateReport, RaySource};
-use spheremap::image_io::Image;
-use spheremap::mapping::Mapping;
+use spheremap::frame::view;
+use spheremap::images::cube_layout::Layout;
+use spheremap::images::envmap::{env_paths, write_env, EnvFiles};
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{Precision, Progress, IDENTITY};
-use spheremap::scene::Scene;
-use spheremap::view;
+use spheremap::trace::generate::{generate, GenerateOptions, GenerateReport, RaySource};
+use spheremap::trace::scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -62,7 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
     let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
     let precision = Precision::parse(&a.precision)?;
-    spheremap::error::check_map_size("size", a.size)?;
+    spheremap::base::error::check_map_size("size", a.size)?;
     let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
     EnvFiles::parse(&a.output).check_output(dst)?;
     let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
@@ -94,7 +94,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // The cube faces are made in the world frame (no view), as six cameras at `pos` would take them.
         let cube = Mapping::parse("cube", None)?;
         let f = a.faces_size.unwrap_or(a.size);
-        spheremap::error::check_map_size("faces-size", f)?;
+        spheremap::base::error::check_map_size("faces-size", f)?;
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
         let fo = GenerateOptions {
             rotation: IDENTITY,

@@ -1,5 +1,5 @@
-use spheremap::image_io::{inspect, ReadOptions};
-use spheremap::tag::MapTag;
+use spheremap::images::codec::ReadOptions;
+use spheremap::images::info::info;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -20,87 +20,67 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     use std::fmt::Write;
-    let i = inspect(
+    let r = info(
         &a.file,
         &ReadOptions {
             linear: a.linear,
             ..Default::default()
         },
     )?;
-    let recorded = i.tag.as_deref().and_then(MapTag::parse);
     let mut o = String::new();
-    let mismatch = i.extension_mismatch.map(|f| f.name());
     if a.json {
-        let stats: Vec<_> = i
-            .channel_names
-            .iter()
-            .zip(&i.stats)
-            .map(|(n, s)| serde_json::json!({"channel": n, "min": finite(s.0 as f64), "max": finite(s.1 as f64), "mean": finite(s.2)}))
-            .collect();
-        let v = serde_json::json!({
-            "file": a.file.display().to_string(),
-            "format": i.format.name(),
-            "extension_names": mismatch,
-            "width": i.width,
-            "height": i.height,
-            "channels": i.channels,
-            "stats": stats,
-            "nan": i.nan_count,
-            "inf": i.inf_count,
-            "negative": i.negative_count,
-            "first_non_finite": i.first_non_finite,
-            "mapping_guess": {"name": i.mapping_guess.0, "reason": i.mapping_guess.1, "is_a_guess": true},
-            "recorded": recorded.map(|t| serde_json::json!({
-                "mapping": t.mapping.name(), "preset": t.mapping.preset_name(),
-                "layout": t.layout.map(|l| l.name()),
-                "face": t.face.map(|f| spheremap::cube::FACE_NAMES[f]),
-                "look": t.view.map(|v| v.0), "up": t.view.map(|v| v.1),
-            })),
-        });
-        let _ = writeln!(o, "{v}");
+        let _ = writeln!(o, "{}", serde_json::to_string(&r)?);
     } else {
+        let names: Vec<&str> = r.stats.iter().map(|s| s.channel.as_str()).collect();
         let _ = writeln!(
             o,
             "{}: {} {}x{}, {} channels ({})",
-            a.file.display(),
-            i.format.name(),
-            i.width,
-            i.height,
-            i.channels,
-            i.channel_names.join(",")
+            r.file,
+            r.format,
+            r.width,
+            r.height,
+            r.channels,
+            names.join(",")
         );
-        if let Some(m) = mismatch {
+        if let Some(m) = r.extension_names {
             let _ = writeln!(
                 o,
                 "  note: the extension says {m}, the content is {}",
-                i.format.name()
+                r.format
             );
         }
-        for (n, s) in i.channel_names.iter().zip(&i.stats) {
-            let _ = writeln!(o, "  {n}: min {:.6}  max {:.6}  mean {:.6}", s.0, s.1, s.2);
+        let num = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.6}"));
+        for s in &r.stats {
+            let _ = writeln!(
+                o,
+                "  {}: min {}  max {}  mean {}",
+                s.channel,
+                num(s.min),
+                num(s.max),
+                num(s.mean)
+            );
         }
         let _ = writeln!(
             o,
             "  non-finite: {} NaN, {} Inf{}",
-            i.nan_count,
-            i.inf_count,
-            i.first_non_finite
+            r.nan,
+            r.inf,
+            r.first_non_finite
                 .map_or(String::new(), |(x, y)| format!(" (first at x={x}, y={y})"))
         );
-        let _ = writeln!(o, "  negative values: {}", i.negative_count);
-        match recorded {
-            Some(t) => {
+        let _ = writeln!(o, "  negative values: {}", r.negative);
+        match (&r.recorded, &r.note) {
+            (Some(_), Some(text)) => {
                 let _ = writeln!(
                     o,
-                    "  mapping (recorded in the file by spheremap when it wrote it): {}",
-                    t.text()
+                    "  mapping (recorded in the file by spheremap when it wrote it): {text}"
                 );
             }
-            None => {
+            _ => {
                 let _ = writeln!(
                     o,
                     "  mapping (a guess from the shape, not read from the file): {} — {}",
-                    i.mapping_guess.0, i.mapping_guess.1
+                    r.mapping_guess.name, r.mapping_guess.reason
                 );
             }
         }
@@ -108,11 +88,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     crate::out(&o);
     if a.check {
         let mut problems = Vec::new();
-        if i.nan_count + i.inf_count > 0 {
-            problems.push(format!("{} NaN/Inf values", i.nan_count + i.inf_count));
+        if r.nan + r.inf > 0 {
+            problems.push(format!("{} NaN/Inf values", r.nan + r.inf));
         }
-        if let Some(m) = mismatch {
-            problems.push(format!("named {m} but holds {}", i.format.name()));
+        if let Some(m) = r.extension_names {
+            problems.push(format!("named {m} but holds {}", r.format));
         }
         if !problems.is_empty() {
             return Err(crate::FoundProblem(format!(
@@ -124,9 +104,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// JSON has no NaN/Inf: those become null.
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
 }

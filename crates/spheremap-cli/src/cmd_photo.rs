@@ -1,17 +1,18 @@
 //! `spheremap from-photo` (mirror-ball photos) and `spheremap from-fisheye`: thin layers over
-//! `spheremap::photo`.
+//! `spheremap::jobs::photo`.
 
 use crate::job::{vec3, JobFlags};
 use anyhow::{bail, Context};
-use spheremap::cube::Layout;
-use spheremap::envio::{write_env, EnvFiles};
-use spheremap::fisheye::{Lens, LensModel};
-use spheremap::generate::GenerateOptions;
-use spheremap::image_io::{check_nonfinite, read_image, Image, ReadOptions};
-use spheremap::mapping::Mapping;
-use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::frame::view;
+use spheremap::images::codec::{check_nonfinite, read_image, ReadOptions};
+use spheremap::images::cube_layout::Layout;
+use spheremap::images::envmap::{write_env, EnvFiles};
+use spheremap::images::Image;
+use spheremap::jobs::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::mappings::fisheye::{Lens, LensModel};
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::Progress;
-use spheremap::view;
+use spheremap::trace::generate::GenerateOptions;
 use std::path::Path;
 use std::time::Instant;
 
@@ -59,7 +60,7 @@ pub struct MapOut {
 impl MapOut {
     fn options(&self) -> anyhow::Result<(PhotoOptions, Mapping)> {
         let dst = Mapping::parse(&self.to, self.preset.as_deref()).context("--to/--preset")?;
-        spheremap::error::check_map_size("size", self.size)?;
+        spheremap::base::error::check_map_size("size", self.size)?;
         let (width, height) = dst.canvas(self.size);
         let rotation =
             view::conversion_rotation(vec3(&self.look), vec3(&self.up), None, None, None)?;
@@ -182,7 +183,7 @@ fn model_of(a: &PhotoArgs, path: &str, img: &Image) -> anyhow::Result<(BallModel
         return Ok((BallModel::Orthographic, "orthographic".into()));
     }
     let bytes = if a.fov.is_none() && a.focal.is_none() {
-        Some(spheremap::io::read_file(Path::new(path))?)
+        Some(spheremap::base::files::read_file(Path::new(path))?)
     } else {
         None
     };

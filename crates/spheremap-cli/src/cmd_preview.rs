@@ -1,13 +1,13 @@
 //! `spheremap preview`: a photo of a scene (or an environment map) through a perspective or
 //! fisheye camera, ray traced — to look at a scene before making maps from it, or to make
-//! test photos of a mirror ball (thin layer over `spheremap::camera`).
+//! test photos of a mirror ball (thin layer over `spheremap::trace::camera`).
 
 use crate::job::vec3;
 use anyhow::bail;
-use spheremap::camera::{self, Camera, Projection};
-use spheremap::fisheye::{Lens, LensModel};
-use spheremap::image_io::write_image;
+use spheremap::images::codec::write_image;
+use spheremap::mappings::fisheye::{Lens, LensModel};
 use spheremap::resample::Progress;
+use spheremap::trace::camera::{self, Camera, Projection};
 use std::path::Path;
 use std::time::Instant;
 
@@ -16,10 +16,10 @@ pub struct Args {
     #[command(flatten)]
     world: crate::scene_args::SceneArgs,
     /// Where the camera stands.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    #[arg(long, required = true, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     eye: Vec<f64>,
     /// The point it looks at.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    #[arg(long, required = true, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     target: Vec<f64>,
     /// Its up direction (default 0 1 0), as gluLookAt.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
@@ -73,7 +73,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if a.samples == 0 || a.samples > 4096 {
         bail!("samples: {} is out of range 1..=4096", a.samples);
     }
-    spheremap::error::check_memory(
+    spheremap::base::error::check_memory(
         "size",
         2 * (w as u128 * h as u128 * 4 * 4),
         a.job.max_memory()?,

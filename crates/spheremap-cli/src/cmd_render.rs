@@ -1,14 +1,18 @@
-//! `spheremap render`: a thin layer over `spheremap::render`.
+//! `spheremap render`: a thin layer over `spheremap::jobs::render`.
 
 use crate::camera_args::CameraArgs;
 use crate::job::JobFlags;
 use anyhow::{bail, Context};
-use spheremap::envio::read_env;
-use spheremap::image_io::{check_nonfinite, write_image, Format, Image, ReadOptions};
-use spheremap::matcap::MatcapVariant;
+use spheremap::images::codec::{check_nonfinite, write_image, ReadOptions};
+use spheremap::images::envmap::read_env;
+use spheremap::images::format::Format;
+use spheremap::images::tonemap::{tone_map, ToneMap};
+use spheremap::images::Image;
+use spheremap::jobs::render::{
+    self, heat_colour, Env, EnvInput, GlCamera, Mode, RenderOptions, Wrap,
+};
+use spheremap::mappings::matcap::MatcapVariant;
 use spheremap::mesh::load_mesh;
-use spheremap::render::{self, heat_colour, Env, EnvInput, GlCamera, Mode, RenderOptions, Wrap};
-use spheremap::tonemap::{tone_map, ToneMap};
 use std::path::Path;
 use std::time::Instant;
 
@@ -116,7 +120,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let what = a.env.as_deref().unwrap_or("env");
     // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
     let gl = match &env_img {
-        Some(img) => spheremap::render::gl_sphere_for(mode, mapping, img, what)?,
+        Some(img) => spheremap::jobs::render::gl_sphere_for(mode, mapping, img, what)?,
         None => None,
     };
     let (mapping, env_img) = match gl {
@@ -210,7 +214,7 @@ fn turntable(
         frames.push(finish(img, a, opts, op, linear_out));
     }
     let written = if gif {
-        spheremap::image_io::write_gif(Path::new(&a.output), &frames, a.frame_ms)?;
+        spheremap::images::codec::write_gif(Path::new(&a.output), &frames, a.frame_ms)?;
         vec![a.output.clone()]
     } else {
         let digits = (n - 1).to_string().len().max(3);

@@ -1,6 +1,6 @@
 //! `spheremap shader`: prints a tested shader snippet.
 
-use spheremap::shader::snippet;
+use spheremap::jobs::shader::snippet;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {

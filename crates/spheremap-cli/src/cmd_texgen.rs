@@ -1,6 +1,8 @@
 use anyhow::{bail, Context};
-use spheremap::texgen::{sphere_texgen, ModelviewState, NormalMode, TexgenOptions};
-use spheremap::{io, mesh, parse, Singular};
+use spheremap::base::{files, parse};
+use spheremap::mappings::texgen::{sphere_texgen, ModelviewState, NormalMode, TexgenOptions};
+use spheremap::mesh::write::write_obj_with_uv;
+use spheremap::{mesh, Singular};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -64,9 +66,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut st = vec![0.0f32; 2 * mesh.positions.len()];
     sphere_texgen(&pos, 3, &nrm, &mv, opts, &mut st)?;
     match ext.as_str() {
-        "csv" => io::write_csv(&a.output, &["s", "t"], &st)?,
-        "npy" => io::write_npy_f32(&a.output, &[mesh.positions.len(), 2], &st)?,
-        _ => io::write_obj_with_uv(&a.output, &mesh, &st, None)?,
+        "csv" => files::write_csv(&a.output, &["s", "t"], &st)?,
+        "npy" => files::write_npy_f32(&a.output, &[mesh.positions.len(), 2], &st)?,
+        _ => write_obj_with_uv(&a.output, &mesh, &st, None)?,
     }
     let nan = st
         .chunks_exact(2)

@@ -1,7 +1,7 @@
 //! Flags shared by the commands that make a map (`convert`, `generate`): output encoding,
 //! limits, NaN policy, overwrite, progress and summary.
 
-use spheremap::image_io::{NonFinite, WriteOptions};
+use spheremap::images::codec::{NonFinite, WriteOptions};
 use std::path::Path;
 
 #[derive(clap::Args, Debug)]
@@ -44,7 +44,7 @@ impl JobFlags {
         inputs: &[I],
         outputs: &[O],
     ) -> anyhow::Result<()> {
-        use spheremap::envio::{env_paths, same_file};
+        use spheremap::images::envmap::{env_paths, same_file};
         if self.force {
             return Ok(());
         }
@@ -69,17 +69,17 @@ impl JobFlags {
         }
     }
 
-    /// Adds what writing `img` to `path` lost ([`spheremap::image_io::Losses`]) to a `--json`
+    /// Adds what writing `img` to `path` lost ([`spheremap::images::codec::Losses`]) to a `--json`
     /// summary: `clipped` (values out of the format's range) and `clamped_half`.
     pub fn add_losses(
         &self,
         summary: &mut serde_json::Value,
-        img: &spheremap::image_io::Image,
+        img: &spheremap::images::Image,
         path: &str,
         linear: bool,
     ) {
-        let l = spheremap::image_io::Format::from_extension(Path::new(path))
-            .map(|f| spheremap::image_io::Losses::of(img, f, &self.write_options(linear)))
+        let l = spheremap::images::format::Format::from_extension(Path::new(path))
+            .map(|f| spheremap::images::codec::Losses::of(img, f, &self.write_options(linear)))
             .unwrap_or_default();
         summary["clipped"] = l.clipped.into();
         summary["clamped_half"] = l.beyond_half.into();
@@ -88,8 +88,8 @@ impl JobFlags {
     /// `--max-memory` (absent: the core's default).
     pub fn max_memory(&self) -> anyhow::Result<u64> {
         match &self.max_memory {
-            None => Ok(spheremap::error::default_max_memory()),
-            Some(s) => spheremap::error::parse_bytes(s).ok_or_else(|| {
+            None => Ok(spheremap::base::error::default_max_memory()),
+            Some(s) => spheremap::base::error::parse_bytes(s).ok_or_else(|| {
                 anyhow::anyhow!(
                     "max-memory: cannot read {s:?}; expected bytes or a size like 512M, 8G"
                 )
@@ -113,8 +113,8 @@ pub fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
 }
 
 /// An environment map's mapping and cube layout from `--…-format`/`--…-preset`/`--…-layout`
-/// flags: what is given, else what the file records (spheremap's note, `spheremap::tag`;
-/// `envio::mapping_for`), else `default` (the flag's documented default).  `flag` names the
+/// flags: what is given, else what the file records (spheremap's note, `spheremap::images::note`;
+/// `images::envmap::mapping_for`), else `default` (the flag's documented default).  `flag` names the
 /// format flag in errors; a file that cannot be read is an error naming it.
 pub fn env_mapping(
     path: &str,
@@ -123,16 +123,20 @@ pub fn env_mapping(
     layout: Option<&str>,
     default: &str,
     flag: &str,
-) -> anyhow::Result<(spheremap::Mapping, Option<spheremap::cube::Layout>)> {
+) -> anyhow::Result<(
+    spheremap::Mapping,
+    Option<spheremap::images::cube_layout::Layout>,
+)> {
     use anyhow::Context;
     // No file (an empty path: the command has no --env) records nothing.
     let recorded = match path {
         "" => None,
-        p => spheremap::envio::recorded(p)?,
+        p => spheremap::images::envmap::read_note(p)?,
     };
-    let mapping = spheremap::envio::mapping_for(format, preset, recorded.as_ref(), Some(default))
-        .with_context(|| flag.to_string())?
-        .expect("a default mapping is given");
-    let layout = spheremap::envio::layout_for(layout, recorded.as_ref(), mapping)?;
+    let mapping =
+        spheremap::images::envmap::mapping_for(format, preset, recorded.as_ref(), Some(default))
+            .with_context(|| flag.to_string())?
+            .expect("a default mapping is given");
+    let layout = spheremap::images::envmap::layout_for(layout, recorded.as_ref(), mapping)?;
     Ok((mapping, layout))
 }

@@ -73,6 +73,27 @@ enum Command {
     Shader(cmd_shader::Args),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
+    /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
+    Completions(CompletionsArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct CompletionsArgs {
+    /// The shell to complete for.
+    shell: clap_complete::Shell,
+}
+
+/// The whole command-line definition (the reference in `docs/cli.md`, the man page and the
+/// completion scripts are made from it).
+pub fn command() -> clap::Command {
+    <Cli as clap::CommandFactory>::command()
+}
+
+fn completions(a: CompletionsArgs) -> anyhow::Result<()> {
+    let mut script = Vec::new();
+    clap_complete::generate(a.shell, &mut command(), "spheremap", &mut script);
+    out(&String::from_utf8_lossy(&script));
+    Ok(())
 }
 
 /// Prints to stdout; a closed pipe (`spheremap conventions | head`) is not an error.
@@ -97,7 +118,7 @@ where
     // A panic is a bug: report it in one line (the hook), never as a backtrace.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|info| {
-        if spheremap::error::panic_is_guarded() {
+        if spheremap::base::error::panic_is_guarded() {
             return; // a parser's panic the core turns into an error
         }
         eprintln!(
@@ -106,7 +127,7 @@ where
     }));
     // Warnings go to stderr while the command runs, even inside a host (the Python module's
     // console script) that collects them otherwise.
-    let previous_sink = spheremap::error::set_warning_sink(None);
+    let previous_sink = spheremap::base::error::set_warning_sink(None);
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Texgen(a) => cmd_texgen::run(a),
         Command::Demo(a) => cmd_demo::run(a),
@@ -120,9 +141,10 @@ where
         Command::Render(a) => cmd_render::run(*a),
         Command::Analyze(a) => cmd_analyze::run(*a),
         Command::Shader(a) => cmd_shader::run(a),
+        Command::Completions(a) => completions(a),
     });
     std::panic::set_hook(previous_hook);
-    spheremap::error::set_warning_sink(previous_sink);
+    spheremap::base::error::set_warning_sink(previous_sink);
     match result {
         Ok(Ok(())) => 0,
         Ok(Err(e)) if e.downcast_ref::<FoundProblem>().is_some() => {

@@ -4,12 +4,13 @@
 
 use crate::job::{vec3, JobFlags};
 use anyhow::bail;
-use spheremap::envio::read_env;
-use spheremap::generate::{EnvSource, RaySource};
-use spheremap::image_io::{check_nonfinite, Image, ReadOptions};
-use spheremap::mapping::Mapping;
+use spheremap::images::codec::{check_nonfinite, ReadOptions};
+use spheremap::images::envmap::read_env;
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{EnvMap, IDENTITY};
-use spheremap::scene::{self, Environment, Light, Scene, Shading};
+use spheremap::trace::generate::{EnvSource, RaySource};
+use spheremap::trace::scene::{self, Environment, Light, Scene, Shading};
 use std::path::Path;
 
 #[derive(clap::Args, Debug)]

@@ -8,9 +8,9 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use spheremap::generate::{GenerateOptions, RaySource};
 use spheremap::resample::{self as rs, Progress};
-use spheremap::scene::{self, Environment, Light, Shading};
+use spheremap::trace::generate::{GenerateOptions, RaySource};
+use spheremap::trace::scene::{self, Environment, Light, Shading};
 use std::sync::Mutex;
 
 /// A ray-traced scene (see the README): callable as `fire_ray(origins, directions)`.
@@ -277,11 +277,11 @@ fn options(
         max_samples,
         filter: rs::Filter::parse(filter).map_err(to_py)?,
         outside: rs::Outside::parse(outside).map_err(to_py)?,
-        rotation: spheremap::view::conversion_rotation(look, up, None, None, None)
+        rotation: spheremap::frame::view::conversion_rotation(look, up, None, None, None)
             .map_err(to_py)?,
         pos,
         seed,
-        max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
+        max_memory: max_memory.unwrap_or_else(spheremap::base::error::default_max_memory),
         precision: rs::Precision::parse(precision).map_err(to_py)?,
     })
 }
@@ -295,11 +295,11 @@ fn run<'py>(
     opts: &GenerateOptions,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
-    spheremap::error::check_map_size("size", size).map_err(to_py)?;
+    spheremap::base::error::check_map_size("size", size).map_err(to_py)?;
     let (w, h) = m.canvas(size);
     let progress = Progress::default();
     let (img, _) = run_cancellable(py, &progress, "the generation", |p| {
-        spheremap::generate::generate(m, w, h, source, opts, Some(p))
+        spheremap::trace::generate::generate(m, w, h, source, opts, Some(p))
     })?;
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([img.height, img.width, img.channels])?

@@ -12,7 +12,7 @@ use numpy::{
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use spheremap::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
+use spheremap::mappings::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
 mod generate;
@@ -44,7 +44,7 @@ pyo3::create_exception!(
     "Valid input that spheremap does not handle."
 );
 
-/// Warnings the core gave while the GIL was released ([`spheremap::error::warn`]), waiting to
+/// Warnings the core gave while the GIL was released ([`spheremap::base::error::warn`]), waiting to
 /// be emitted as `UserWarning`s by [`emit_warnings`].
 static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
 
@@ -347,13 +347,13 @@ fn matcap_uv<'py>(
     // (..., 6): normal then position (ignored unless has_positions).
     Ok(rowwise!(py, normals_positions, "normals", 6 -> 2, |r: T| {
         let p = if has_positions { Some([r[3], r[4], r[5]]) } else { None };
-        spheremap::matcap_uv::<T>([r[0], r[1], r[2]], p, v, <T as spheremap::real::Real>::from_f64(sc))
+        spheremap::matcap_uv::<T>([r[0], r[1], r[2]], p, v, <T as spheremap::base::real::Real>::from_f64(sc))
     }))
 }
 
 #[pyfunction]
 fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
-    let v = py.detach(|| spheremap::sphere::solid_angle_map(size));
+    let v = py.detach(|| spheremap::mappings::sphere::solid_angle_map(size));
     Ok(PyArray1::from_vec(py, v).reshape([size, size])?.into_any())
 }
 
@@ -464,14 +464,14 @@ fn texel_solid_angles<'py>(
 pub(crate) fn image_of(
     a: &PyReadonlyArrayDyn<'_, f32>,
     name: &str,
-) -> PyResult<spheremap::image_io::Image> {
+) -> PyResult<spheremap::images::Image> {
     let shape = a.shape().to_vec();
     if shape.len() != 3 {
         return Err(PyValueError::new_err(format!(
             "{name}: expected (H, W, C), got shape {shape:?}"
         )));
     }
-    Ok(spheremap::image_io::Image {
+    Ok(spheremap::images::Image {
         height: shape[0],
         width: shape[1],
         channels: shape[2],
@@ -479,53 +479,29 @@ pub(crate) fn image_of(
     })
 }
 
-/// The names of `kind` as the core lists them (Python's FILTERS, CUBE_LAYOUTS, ... are these).
+/// The names of `kind` as the core lists them ([`spheremap::names`]; Python's FILTERS,
+/// CUBE_LAYOUTS, ... are these).
 #[pyfunction]
 fn names(kind: &str) -> PyResult<Vec<&'static str>> {
-    use spheremap::*;
-    Ok(match kind {
-        "filter" => resample::Filter::NAMES.to_vec(),
-        "taps" => resample::Taps::NAMES.to_vec(),
-        "layout" => cube::Layout::NAMES.to_vec(),
-        "fill" => photo::Fill::NAMES.to_vec(),
-        "lens" => fisheye::LensModel::NAMES.to_vec(),
-        "render" => render::Mode::NAMES.to_vec(),
-        "normalize" => texgen::NormalMode::NAMES.to_vec(),
-        "singular" => conventions::Singular::NAMES.to_vec(),
-        "matcap" => matcap::MatcapVariant::NAMES.to_vec(),
-        _ => return Err(PyValueError::new_err(format!("kind: unknown {kind:?}"))),
-    })
+    spheremap::names::list(kind)
+        .map(|n| n.to_vec())
+        .ok_or_else(|| PyValueError::new_err(format!("kind: unknown {kind:?}")))
 }
 
 /// Checks `value` as a name of `kind` with the core's own parser (its aliases included) and
 /// returns it; the error names the Python argument `arg`.
 #[pyfunction]
 fn check_name(kind: &str, value: &str, arg: &str) -> PyResult<String> {
-    use spheremap::*;
-    let r: Result<(), Error> = match kind {
-        "filter" => resample::Filter::parse(value).map(drop),
-        "taps" => resample::Taps::parse(value).map(drop),
-        "outside" => resample::Outside::parse(value).map(drop),
-        "precision" => resample::Precision::parse(value).map(drop),
-        "layout" => cube::Layout::parse(value).map(drop),
-        "fill" => photo::Fill::parse(value).map(drop),
-        "nonfinite" => image_io::NonFinite::parse(value).map(drop),
-        "singular" => conventions::Singular::parse(value, arg).map(drop),
-        "normalize" => texgen::NormalMode::parse(value, arg).map(drop),
-        "matcap" => matcap::MatcapVariant::parse(value, arg).map(drop),
-        _ => return Err(PyValueError::new_err(format!("kind: unknown {kind:?}"))),
-    };
-    r.map(|()| value.to_string()).map_err(|e| match e {
-        Error::InvalidParameter { reason, .. } => PyValueError::new_err(format!("{arg}: {reason}")),
-        other => to_py(other),
-    })
+    spheremap::names::check(kind, value, arg)
+        .map(|()| value.to_string())
+        .map_err(to_py)
 }
 
 /// Whether every value of a float32 array is finite (the fast check before NaN/Inf policies).
 #[pyfunction]
 fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool> {
     let data = contiguous(&a, "a")?;
-    Ok(py.detach(|| spheremap::image_io::all_finite(data)))
+    Ok(py.detach(|| spheremap::images::codec::all_finite(data)))
 }
 
 /// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
@@ -567,18 +543,18 @@ fn convert<'py>(
     let n_src = sm
         .size_of(w, h, "image")
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let n = size.unwrap_or_else(|| spheremap::envio::default_size(sm, n_src, dm));
-    spheremap::error::check_map_size("size", n).map_err(to_py)?;
+    let n = size.unwrap_or_else(|| spheremap::images::envmap::default_size(sm, n_src, dm));
+    spheremap::base::error::check_map_size("size", n).map_err(to_py)?;
     let opts = ResampleOptions {
         samples,
         max_samples,
         filter: rs::Filter::parse(filter).map_err(to_py)?,
         taps: rs::Taps::parse(taps).map_err(to_py)?,
         outside: rs::Outside::parse(outside).map_err(to_py)?,
-        rotation: spheremap::view::conversion_rotation(look, up, ypr, src_look, src_up)
+        rotation: spheremap::frame::view::conversion_rotation(look, up, ypr, src_look, src_up)
             .map_err(to_py)?,
         seed,
-        max_memory: max_memory.unwrap_or_else(spheremap::error::default_max_memory),
+        max_memory: max_memory.unwrap_or_else(spheremap::base::error::default_max_memory),
         precision: rs::Precision::parse(precision).map_err(to_py)?,
     };
     let (dw, dh) = dm.canvas(n);
@@ -679,7 +655,7 @@ fn layout_to_stack<'py>(
     image: PyReadonlyArrayDyn<'py, f32>,
     layout: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
+    let l = spheremap::images::cube_layout::Layout::parse(layout).map_err(to_py)?;
     let img = image_of(&image, "image")?;
     let st = l
         .to_stack(&img)
@@ -696,7 +672,7 @@ fn stack_to_layout<'py>(
     stack: PyReadonlyArrayDyn<'py, f32>,
     layout: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let l = spheremap::cube::Layout::parse(layout).map_err(to_py)?;
+    let l = spheremap::images::cube_layout::Layout::parse(layout).map_err(to_py)?;
     let img = image_of(&stack, "faces")?;
     let out = l.from_stack(&img).map_err(to_py)?;
     Ok(PyArray1::from_vec(py, out.data)
@@ -713,12 +689,13 @@ fn read_image<'py>(
     linear: bool,
     max_pixels: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::image_io::{Limits, ReadOptions};
+    use spheremap::images::codec::{Limits, ReadOptions};
     let mut limits = Limits::default();
     if let Some(m) = max_pixels {
         limits.max_pixels = m;
     }
-    let img = py.detach(|| spheremap::image_io::read_image(&path, &ReadOptions { linear, limits }));
+    let img =
+        py.detach(|| spheremap::images::codec::read_image(&path, &ReadOptions { linear, limits }));
     emit_warnings(py)?;
     let img = img.map_err(to_py)?;
     let (h, w, c) = (img.height, img.width, img.channels);
@@ -734,56 +711,16 @@ fn info<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     linear: bool,
-) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-    use pyo3::types::PyDict;
-    use spheremap::image_io::{inspect, ReadOptions};
+) -> PyResult<Bound<'py, PyAny>> {
+    use spheremap::images::codec::ReadOptions;
     let opts = ReadOptions {
         linear,
         ..Default::default()
     };
-    let i = py.detach(|| inspect(&path, &opts)).map_err(to_py)?;
-    let finite = |v: f64| v.is_finite().then_some(v);
-    let d = PyDict::new(py);
-    d.set_item("file", path.display().to_string())?;
-    d.set_item("format", i.format.name())?;
-    d.set_item("extension_names", i.extension_mismatch.map(|f| f.name()))?;
-    d.set_item("width", i.width)?;
-    d.set_item("height", i.height)?;
-    d.set_item("channels", i.channels)?;
-    let stats = pyo3::types::PyList::empty(py);
-    for (n, st) in i.channel_names.iter().zip(&i.stats) {
-        let c = PyDict::new(py);
-        c.set_item("channel", n)?;
-        c.set_item("min", finite(st.0 as f64))?;
-        c.set_item("max", finite(st.1 as f64))?;
-        c.set_item("mean", finite(st.2))?;
-        stats.append(c)?;
-    }
-    d.set_item("stats", stats)?;
-    d.set_item("nan", i.nan_count)?;
-    d.set_item("inf", i.inf_count)?;
-    d.set_item("negative", i.negative_count)?;
-    d.set_item("first_non_finite", i.first_non_finite)?;
-    let g = PyDict::new(py);
-    g.set_item("name", i.mapping_guess.0)?;
-    g.set_item("reason", i.mapping_guess.1)?;
-    g.set_item("is_a_guess", true)?;
-    d.set_item("mapping_guess", g)?;
-    let recorded = i.tag.as_deref().and_then(spheremap::tag::MapTag::parse);
-    match recorded {
-        Some(t) => {
-            let r = PyDict::new(py);
-            r.set_item("mapping", t.mapping.name())?;
-            r.set_item("preset", t.mapping.preset_name())?;
-            r.set_item("layout", t.layout.map(|l| l.name()))?;
-            r.set_item("face", t.face.map(|f| spheremap::cube::FACE_NAMES[f]))?;
-            r.set_item("look", t.view.map(|v| v.0))?;
-            r.set_item("up", t.view.map(|v| v.1))?;
-            d.set_item("recorded", r)?;
-        }
-        None => d.set_item("recorded", py.None())?,
-    }
-    Ok(d)
+    let report = py
+        .detach(|| spheremap::images::info::info(&path, &opts))
+        .map_err(to_py)?;
+    Ok(pythonize::pythonize(py, &report)?)
 }
 
 /// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
@@ -801,7 +738,8 @@ fn write_image(
     clamp_half: bool,
     note: Option<String>,
 ) -> PyResult<(u64, u64)> {
-    use spheremap::image_io::{Format, Losses, WriteOptions};
+    use spheremap::images::codec::{Losses, WriteOptions};
+    use spheremap::images::format::Format;
     let img = image_of(&array, "array")?;
     let opts = WriteOptions {
         linear,
@@ -810,7 +748,7 @@ fn write_image(
         clamp_half,
     };
     py.detach(|| {
-        spheremap::image_io::write_image_tagged(&path, &img, &opts, note.as_deref())?;
+        spheremap::images::codec::write_image_with_note(&path, &img, &opts, note.as_deref())?;
         let l = Format::from_extension(&path)
             .map(|f| Losses::of(&img, f, &opts))
             .unwrap_or_default();
@@ -820,7 +758,7 @@ fn write_image(
 }
 
 /// What to read the map at `path` as: (mapping, preset, layout) from the `mapping`/`preset`
-/// given, each one absent taken from the file's note ([`spheremap::envio::mapping_for`]), else
+/// given, each one absent taken from the file's note ([`spheremap::images::envmap::mapping_for`]), else
 /// `default`; the layout is the note's when the mapping is its cube.
 #[pyfunction]
 #[pyo3(signature = (path, mapping, preset, default))]
@@ -830,28 +768,29 @@ fn mapping_for(
     preset: Option<&str>,
     default: &str,
 ) -> PyResult<(&'static str, &'static str, Option<&'static str>)> {
-    let recorded = spheremap::envio::recorded(path).map_err(to_py)?;
-    let m = spheremap::envio::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
-        .map_err(to_py)?
-        .expect("a default is given");
-    let layout = spheremap::envio::layout_for(None, recorded.as_ref(), m)
+    let recorded = spheremap::images::envmap::read_note(path).map_err(to_py)?;
+    let m =
+        spheremap::images::envmap::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
+            .map_err(to_py)?
+            .expect("a default is given");
+    let layout = spheremap::images::envmap::layout_for(None, recorded.as_ref(), m)
         .map_err(to_py)?
         .map(|l| l.name());
     Ok((m.name(), m.preset_name(), layout))
 }
 
 /// The cube layout a `width`×`height` image's shape implies (the core's rule,
-/// `cube::Layout::from_shape`): (name, None), or (None, why not).
+/// `images::cube_layout::Layout::from_shape`): (name, None), or (None, why not).
 #[pyfunction]
 fn cube_layout_of(width: usize, height: usize) -> (Option<&'static str>, Option<String>) {
-    match spheremap::cube::Layout::from_shape(width, height) {
+    match spheremap::images::cube_layout::Layout::from_shape(width, height) {
         Ok(l) => (Some(l.name()), None),
         Err(spheremap::Error::InvalidParameter { reason, .. }) => (None, Some(reason)),
         Err(e) => (None, Some(e.to_string())),
     }
 }
 
-/// The note ([`spheremap::tag`]) that records a map's mapping, preset, cube layout and view;
+/// The note ([`spheremap::images::note`]) that records a map's mapping, preset, cube layout and view;
 /// each argument checked and named in its error.
 #[pyfunction]
 #[pyo3(signature = (mapping, preset, layout, look, up))]
@@ -864,7 +803,7 @@ fn map_note(
 ) -> PyResult<String> {
     let mapping = spheremap::Mapping::parse(mapping, preset).map_err(to_py)?;
     let layout = layout
-        .map(spheremap::cube::Layout::parse)
+        .map(spheremap::images::cube_layout::Layout::parse)
         .transpose()
         .map_err(to_py)?;
     if layout.is_some() != matches!(mapping, spheremap::Mapping::Cube(_)) {
@@ -874,13 +813,14 @@ fn map_note(
     }
     let view = match look {
         Some(l) => {
-            let v = spheremap::view::look_up(l, up.unwrap_or([0.0, 1.0, 0.0])).map_err(to_py)?;
-            spheremap::view::as_look_up(&v)
+            let v =
+                spheremap::frame::view::look_up(l, up.unwrap_or([0.0, 1.0, 0.0])).map_err(to_py)?;
+            spheremap::frame::view::as_look_up(&v)
         }
         None if up.is_some() => return Err(PyValueError::new_err("up: needs look")),
         None => None,
     };
-    Ok(spheremap::tag::MapTag {
+    Ok(spheremap::images::note::MapNote {
         mapping,
         layout,
         face: None,
@@ -919,13 +859,13 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // messages: keep the default hook quiet for them.
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
-        if !spheremap::error::panic_is_guarded() {
+        if !spheremap::base::error::panic_is_guarded() {
             previous(info)
         }
     }));
-    spheremap::error::set_warning_sink(Some(queue_warning));
+    spheremap::base::error::set_warning_sink(Some(queue_warning));
     m.add("__version__", spheremap::VERSION)?;
-    m.add("MAX_SPLIT", spheremap::analyze::MAX_SPLIT)?;
+    m.add("MAX_SPLIT", spheremap::jobs::analyze::MAX_SPLIT)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;

@@ -1,5 +1,5 @@
-//! PyO3 glue for the photo routes (`spheremap::photo`) and the camera render
-//! (`spheremap::camera`).  No maths here: arrays and strings in, core calls, arrays and a report
+//! PyO3 glue for the photo routes (`spheremap::jobs::photo`) and the camera render
+//! (`spheremap::trace::camera`).  No maths here: arrays and strings in, core calls, arrays and a report
 //! dictionary out.  Argument checking with argument names is in `python/spheremap/__init__.py`.
 
 use super::generate::Scene;
@@ -8,12 +8,12 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use spheremap::camera::{self, Camera, Projection};
-use spheremap::fisheye::{Lens, LensModel};
-use spheremap::generate::GenerateOptions;
-use spheremap::image_io::Image;
-use spheremap::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::images::Image;
+use spheremap::jobs::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
+use spheremap::mappings::fisheye::{Lens, LensModel};
 use spheremap::resample::{self as rs, Progress};
+use spheremap::trace::camera::{self, Camera, Projection};
+use spheremap::trace::generate::GenerateOptions;
 
 fn array<'py>(py: Python<'py>, img: Image) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_vec(py, img.data)
@@ -46,7 +46,7 @@ pub struct MapOptions {
 impl MapOptions {
     fn options(&self) -> PyResult<PhotoOptions> {
         let mapping = parse_mapping(&self.to, self.preset.as_deref())?;
-        spheremap::error::check_map_size("size", self.size).map_err(to_py)?;
+        spheremap::base::error::check_map_size("size", self.size).map_err(to_py)?;
         let (width, height) = mapping.canvas(self.size);
         Ok(PhotoOptions {
             mapping,
@@ -57,14 +57,14 @@ impl MapOptions {
                 max_samples: self.max_samples,
                 filter: rs::Filter::parse(&self.filter).map_err(to_py)?,
                 outside: rs::Outside::parse(&self.outside).map_err(to_py)?,
-                rotation: spheremap::view::conversion_rotation(
+                rotation: spheremap::frame::view::conversion_rotation(
                     self.look, self.up, None, None, None,
                 )
                 .map_err(to_py)?,
                 seed: self.seed,
                 max_memory: self
                     .max_memory
-                    .unwrap_or_else(spheremap::error::default_max_memory),
+                    .unwrap_or_else(spheremap::base::error::default_max_memory),
                 ..Default::default()
             },
             fill: Fill::parse(&self.fill).map_err(to_py)?,

@@ -1,12 +1,12 @@
-//! PyO3 glue for the rasterizer (`spheremap::render`) and the mesh loader. No maths here.
+//! PyO3 glue for the rasterizer (`spheremap::jobs::render`) and the mesh loader. No maths here.
 
 use super::{contiguous, parse_mapping, to_py};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use spheremap::matcap::MatcapVariant;
+use spheremap::jobs::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
+use spheremap::mappings::matcap::MatcapVariant;
 use spheremap::mesh::Mesh;
-use spheremap::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
 
 type MeshArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
 
@@ -137,7 +137,9 @@ pub fn render<'py>(
         .transpose()?;
     // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
     let gl = match &img {
-        Some(i) => spheremap::render::gl_sphere_for(mode, mapping, i, "env").map_err(to_py)?,
+        Some(i) => {
+            spheremap::jobs::render::gl_sphere_for(mode, mapping, i, "env").map_err(to_py)?
+        }
         None => None,
     };
     let (mapping, img) = match gl {
@@ -153,7 +155,7 @@ pub fn render<'py>(
         aa,
     };
     let (out, _) = py
-        .detach(|| spheremap::render::render(&mesh, &cam, env, &opts))
+        .detach(|| spheremap::jobs::render::render(&mesh, &cam, env, &opts))
         .map_err(to_py)?;
     Ok(PyArray1::from_vec(py, out.data)
         .reshape([out.height, out.width, out.channels])?
@@ -174,12 +176,12 @@ pub fn analyze_mapping<'py>(
 ) -> PyResult<MeshArrays<'py>> {
     let m = parse_mapping(mapping, preset)?;
     let (width, height) = match (size, width, height) {
-        (Some(n), _, _) => spheremap::analyze::canvas(m, "size", n).map_err(to_py)?,
+        (Some(n), _, _) => spheremap::jobs::analyze::canvas(m, "size", n).map_err(to_py)?,
         (None, Some(w), Some(h)) => (w, h),
         _ => return Err(PyValueError::new_err("size: expected a size or a canvas")),
     };
     let a = py
-        .detach(|| spheremap::analyze::mapping_maps(m, width, height))
+        .detach(|| spheremap::jobs::analyze::mapping_maps(m, width, height))
         .map_err(to_py)?;
     let arr = |v: Vec<f64>| -> PyResult<Bound<'py, PyAny>> {
         Ok(PyArray1::from_vec(py, v)
@@ -236,7 +238,7 @@ pub fn analyze_mesh<'py>(
     )
     .map_err(to_py)?;
     let e = py
-        .detach(|| spheremap::analyze::mesh_error(&mesh, &cam, threshold))
+        .detach(|| spheremap::jobs::analyze::mesh_error(&mesh, &cam, threshold))
         .map_err(to_py)?;
     let (k, after, unfixable) = (e.uniform_split(), e.triangles_after(), e.unfixable());
     Ok((

@@ -1,8 +1,8 @@
 //! Criterion benches of the ray-traced generator (see BENCHMARKS.md; the side-by-side run
 //! against Embree is bench/bench_generate.py).
 use criterion::{criterion_group, criterion_main, Criterion};
-use spheremap::generate::{generate, GenerateOptions};
-use spheremap::scene::{self, Shading};
+use spheremap::trace::generate::{generate, GenerateOptions};
+use spheremap::trace::scene::{self, Shading};
 use spheremap::Mapping;
 
 fn benches(c: &mut Criterion) {

@@ -3,8 +3,8 @@
 //! J3 ≤ 8 ms, J4 ≤ 50 ms, cube 6×256² → sphere 512² ≤ 2 ms.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use spheremap::image_io::Image;
-use spheremap::mapping::Mapping;
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{resample, EnvMap, ResampleOptions};
 use std::time::Duration;
 

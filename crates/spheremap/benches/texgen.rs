@@ -2,7 +2,7 @@
 //! J5 (the goal): 1M-vertex GL_SPHERE_MAP texgen, f32 path, 2 cores: <= 1.5 ms.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use spheremap::texgen::{
+use spheremap::mappings::texgen::{
     sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions,
 };
 

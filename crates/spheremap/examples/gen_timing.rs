@@ -1,6 +1,6 @@
 //! Dev timing of the generator (not a benchmark; see benches/ and bench/).
-use spheremap::generate::{generate, GenerateOptions};
-use spheremap::scene::{self, Shading};
+use spheremap::trace::generate::{generate, GenerateOptions};
+use spheremap::trace::scene::{self, Shading};
 use std::time::Instant;
 fn main() {
     let mut sc = scene::octant_sphere_scene(10.0, 112);

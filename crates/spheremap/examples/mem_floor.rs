@@ -21,7 +21,7 @@
 //! disc, f64 here), clamped into the canvas; lookups the engine sends the general way
 //! (seams, rims) are read here as plain taps too, so the floor is slightly optimistic.
 use rayon::prelude::*;
-use spheremap::mapping::Mapping;
+use spheremap::mappings::mapping::Mapping;
 use std::time::Instant;
 
 const AHEAD: usize = 64;

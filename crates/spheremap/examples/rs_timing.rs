@@ -2,8 +2,8 @@
 //! `cargo run --release --example rs_timing -- SRC W H DST N SAMPLES [MAX_SAMPLES [REPS]]`.
 //! Prints the best and the median of REPS runs (default 15), each into a reused buffer
 //! (`resample_into`) and, for comparison, with a fresh result (`resample`).
-use spheremap::image_io::Image;
-use spheremap::mapping::Mapping;
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{resample, resample_into, EnvMap, ResampleOptions};
 use std::time::Instant;
 

@@ -8,12 +8,13 @@
 //! teapot drawn with that sphere map per vertex (as OpenGL) and per pixel, with the error heat
 //! map, in one contact sheet.
 
-use crate::chart::direction_chart;
-use crate::error::{Error, Result};
-use crate::io;
+use crate::base::error::{Error, Result};
+use crate::base::files;
+use crate::base::parse::look_at;
+use crate::jobs::chart::direction_chart;
+use crate::mappings::texgen::{sphere_texgen, ModelviewState, TexgenOptions};
+use crate::mesh::write::write_obj_with_uv;
 use crate::mesh::{parse_obj, Mesh};
-use crate::parse::look_at;
-use crate::texgen::{sphere_texgen, ModelviewState, TexgenOptions};
 use std::path::{Path, PathBuf};
 
 /// The Utah teapot (public domain; npm package `teapot` 1.0.0), 792 vertices, no normals.
@@ -23,8 +24,8 @@ pub const TEAPOT_OBJ: &str = include_str!("../data/teapot.obj");
 pub const APARTMENT_EXR: &[u8] = include_bytes!("../data/apartment.exr");
 
 /// The bundled HDRI, decoded.
-pub fn apartment() -> Result<crate::image_io::Image> {
-    crate::image_io::decode(
+pub fn apartment() -> Result<crate::images::Image> {
+    crate::images::codec::decode(
         Path::new("apartment.exr (bundled)"),
         APARTMENT_EXR,
         &Default::default(),
@@ -55,7 +56,7 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     let chart = direction_chart(chart_size);
     for name in ["direction_chart.png", "direction_chart.exr"] {
         let p = outdir.join(name);
-        crate::image_io::write_image(&p, &chart, &Default::default())?;
+        crate::images::codec::write_image(&p, &chart, &Default::default())?;
         files.push(p);
     }
     let mesh = teapot()?;
@@ -65,13 +66,13 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     let mut st = vec![0.0f32; 2 * mesh.positions.len()];
     sphere_texgen(&pos, 3, &nrm, &mv, TexgenOptions::default(), &mut st)?;
     let mtl = outdir.join("teapot_spheremap.mtl");
-    io::write_text(&mtl, "# spheremap demo: the direction chart as the teapot's texture\nnewmtl chart\nKd 1 1 1\nmap_Kd direction_chart.png\n")?;
+    files::write_text(&mtl, "# spheremap demo: the direction chart as the teapot's texture\nnewmtl chart\nKd 1 1 1\nmap_Kd direction_chart.png\n")?;
     files.push(mtl);
     let obj = outdir.join("teapot_spheremap.obj");
-    io::write_obj_with_uv(&obj, &mesh, &st, Some(("teapot_spheremap.mtl", "chart")))?;
+    write_obj_with_uv(&obj, &mesh, &st, Some(("teapot_spheremap.mtl", "chart")))?;
     files.push(obj);
     let csv = outdir.join("teapot_texgen.csv");
-    io::write_csv(&csv, &["s", "t"], &st)?;
+    files::write_csv(&csv, &["s", "t"], &st)?;
     files.push(csv);
     // The HDRI as the sphere map of the demo viewer (the eye looks at the target from DEMO_EYE).
     let hdri = apartment()?;
@@ -81,41 +82,48 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         "apartment.exr",
     )?;
     let look = [0, 1, 2].map(|k| DEMO_TARGET[k] - DEMO_EYE[k]);
-    let view = crate::view::look_up(look, DEMO_UP)?;
+    let view = crate::frame::view::look_up(look, DEMO_UP)?;
     let opts = crate::resample::ResampleOptions {
         rotation: view,
         ..Default::default()
     };
     let sphere = crate::Mapping::parse("sphere", None)?;
     let (map, _) = crate::resample::resample(&src, sphere, chart_size, chart_size, &opts, None)?;
-    // Written as `convert` writes maps: with the note of their mapping and view (crate::tag).
+    // Written as `convert` writes maps: with the note of their mapping and view (crate::images::note).
     for name in ["apartment_sphere.exr", "apartment_sphere.png"] {
         let p = outdir.join(name);
         let path = p.display().to_string();
-        crate::envio::write_env(&path, sphere, &map, None, &view, &Default::default())?;
+        crate::images::envmap::write_env(&path, sphere, &map, None, &view, &Default::default())?;
         files.push(p);
     }
     // The teapot drawn with that sphere map by the rasterizer, from the demo camera: OpenGL's
     // per-vertex texgen and the per-pixel lookup side by side, with the angle between their
     // lookup directions as a heat map.
     let p = outdir.join("teapot_contact_sheet.png");
-    crate::image_io::write_image(&p, &contact_sheet(&mesh, &map)?, &Default::default())?;
+    crate::images::codec::write_image(&p, &contact_sheet(&mesh, &map)?, &Default::default())?;
     files.push(p);
     // The built-in scene, ray-traced into the sphere map of an eye at (0, 1, 0) looking
     // down -Z (16 rays per texel, more at the rim).
-    let scene = crate::scene::demo_scene();
-    let gopts = crate::generate::GenerateOptions {
+    let scene = crate::trace::scene::demo_scene();
+    let gopts = crate::trace::generate::GenerateOptions {
         samples: 16,
         pos: [0.0, 1.0, 0.0],
         ..Default::default()
     };
     let (traced, _) =
-        crate::generate::generate(sphere, chart_size, chart_size, &scene, &gopts, None)?;
+        crate::trace::generate::generate(sphere, chart_size, chart_size, &scene, &gopts, None)?;
     for name in ["raytraced_sphere.exr", "raytraced_sphere.png"] {
         let p = outdir.join(name);
         let path = p.display().to_string();
-        let identity = crate::view::IDENTITY;
-        crate::envio::write_env(&path, sphere, &traced, None, &identity, &Default::default())?;
+        let identity = crate::frame::view::IDENTITY;
+        crate::images::envmap::write_env(
+            &path,
+            sphere,
+            &traced,
+            None,
+            &identity,
+            &Default::default(),
+        )?;
         files.push(p);
     }
     let nan_texcoords = st
@@ -133,9 +141,9 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
 /// (320 × 240, 2 × 2 samples per pixel, fovy 30°), captioned, the heat map with its colour bar.
 pub fn contact_sheet(
     mesh: &Mesh,
-    sphere_map: &crate::image_io::Image,
-) -> Result<crate::image_io::Image> {
-    use crate::render::{render, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+    sphere_map: &crate::images::Image,
+) -> Result<crate::images::Image> {
+    use crate::jobs::render::{render, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
     let cam = GlCamera::look_at(DEMO_EYE, DEMO_TARGET, DEMO_UP, 30.0, 1.0, 200.0, 320, 240)?;
     let tex = Texture {
         image: sphere_map,
@@ -168,11 +176,13 @@ pub fn contact_sheet(
         })
         .collect();
     let heat =
-        crate::analyze::figure::panel(&deg, 320, 240, 0.0, top, false, "lookup angle", "deg");
+        crate::jobs::analyze::figure::panel(&deg, 320, 240, 0.0, top, false, "lookup angle", "deg");
     let items = [
         (&vertex, "per-vertex (OpenGL GL_SPHERE_MAP)".to_string()),
         (&pixel, "per-pixel reflection".to_string()),
         (&heat, "per-vertex vs per-pixel".to_string()),
     ];
-    Ok(crate::draw::contact_sheet(&items, 3, [0.02; 3], [0.9; 3]))
+    Ok(crate::images::draw::contact_sheet(
+        &items, 3, [0.02; 3], [0.9; 3],
+    ))
 }

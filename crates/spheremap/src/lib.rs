@@ -1,64 +1,47 @@
 //! # spheremap
 //!
 //! Exact, documented and fast sphere-map environment mapping: OpenGL `GL_SPHERE_MAP` texgen,
-//! mirror-ball images and MatCaps.
+//! mirror-ball images and MatCaps, conversions between mappings, ray-traced maps, maps from
+//! photos, GL-exact renders and analytics.
 //!
-//! * [`conventions`] — **read first**: eye space, the disc, image rows vs t, texel centres,
-//!   presets for other tools.
-//! * [`sphere`] — direction ↔ (s,t), reflection, exact texel solid angles.
-//! * [`texgen`] — mesh texgen exactly as OpenGL computes it (f32 fast path, f64 reference).
-//! * [`latlong`] — the lat-long (equirectangular) mapping and its presets (Blender, three.js, skylibs, Filament, Mitsuba, pbrt).
-//! * [`matcap`] — MatCap lookups (classic, three.js, perspective-correct).
-//! * [`image_io`] — images in and out (EXR, HDR, PFM, PNG, JPEG, WebP), by content.
-//! * [`mesh`], [`io`], [`parse`] — meshes in, vertex data out, small textual inputs.
-//! * [`chart`], [`demo`] — the labelled direction chart and the built-in demo.
+//! The crate is a stack of layers; a module uses its own layer and those below, never one above
+//! (checked by `tests/layers.rs`; the diagram and the map of concepts are in `ARCHITECTURE.md`):
+//!
+//! | layer | modules |
+//! |---|---|
+//! | 7 top | [`demo`], [`names`] (every list of names and its parser) |
+//! | 6 jobs | [`jobs`]: photo, render, analyze, chart, shader |
+//! | 5 tracing | [`trace`]: generate, scene, camera |
+//! | 4 resampling | [`resample`]: filters, strata, the CPU dispatch, conversions |
+//! | 3 images and meshes | [`images`]: the `Image` type, codecs, the map note, cube layouts, environment files; [`mesh`] |
+//! | 2 mappings | [`mappings`]: sphere, latlong, cube, angular, paraboloid, octahedral, fisheye, texgen, matcap |
+//! | 1 frames | [`frame`]: conventions (**read first**), views |
+//! | 0 base | [`base`]: errors, `Real`, quadrature, files, parsing, buffers |
 
 // `!(x > 0)` and friends are deliberate throughout: they send NaN down the invalid branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 // Index loops over channels and axes read like the formulas they implement.
 #![allow(clippy::needless_range_loop)]
 
-pub mod analyze;
-pub mod angular;
-pub mod buffer;
-pub mod camera;
-pub mod chart;
-pub mod conventions;
-pub mod cube;
+pub mod base;
 pub mod demo;
-pub mod draw;
-pub mod envio;
-pub mod error;
-pub mod fisheye;
-pub mod generate;
-pub mod image_io;
-pub mod io;
-pub mod latlong;
-pub mod mapping;
-pub mod matcap;
+pub mod frame;
+pub mod images;
+pub mod jobs;
+pub mod mappings;
 pub mod mesh;
-pub mod octahedral;
-pub mod paraboloid;
-pub mod parse;
-pub mod photo;
-mod quad;
-pub mod real;
-pub mod render;
+pub mod names;
 pub mod resample;
-pub mod scene;
-pub mod shader;
-pub mod sphere;
-pub mod tag;
-pub mod texgen;
-pub mod tonemap;
-pub mod view;
+pub mod trace;
 
-pub use conventions::{RowOrder, Singular, SpherePreset, PRESETS};
-pub use error::{Error, Result};
-pub use mapping::Mapping;
-pub use matcap::{matcap_uv, MatcapVariant};
-pub use sphere::{dir_to_st, reflect, st_to_dir, texel_solid_angle};
-pub use texgen::{sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions};
+pub use base::error::{Error, Result};
+pub use frame::conventions::{RowOrder, Singular, SpherePreset, PRESETS};
+pub use mappings::mapping::Mapping;
+pub use mappings::matcap::{matcap_uv, MatcapVariant};
+pub use mappings::sphere::{dir_to_st, reflect, st_to_dir, texel_solid_angle};
+pub use mappings::texgen::{
+    sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions,
+};
 
 /// The crate version.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

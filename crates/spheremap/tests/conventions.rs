@@ -1,7 +1,7 @@
 //! Every preset pinned to concrete pixels for ±X, ±Y, ±Z (64×64 image; (0,0) = top-left corner
 //! of row 0).  c = 64 · 1/(2√2): the axis directions sit at radius 1/√2 of the disc.
 
-use spheremap::conventions::{
+use spheremap::frame::conventions::{
     pixel_to_st, st_to_pixel, texel_center, RowOrder, Singular, SpherePreset,
 };
 

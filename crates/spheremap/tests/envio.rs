@@ -1,13 +1,14 @@
 //! Environment maps in files: the naming of six cube faces (patterns and named files), how a
 //! conversion's positional paths split into input and output, and writes that leave nothing
 //! behind when any file fails.
-use spheremap::cube::face_paths;
-use spheremap::envio::{
+use spheremap::frame::view::IDENTITY;
+use spheremap::images::codec::{NonFinite, ReadOptions, WriteOptions};
+use spheremap::images::cube_layout::face_paths;
+use spheremap::images::envmap::{
     check_nonfinite_env, read_env_files, split_paths, write_env_files, EnvFiles,
 };
-use spheremap::image_io::{Image, NonFinite, ReadOptions, WriteOptions};
-use spheremap::mapping::Mapping;
-use spheremap::view::IDENTITY;
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 
 fn strings(v: &[&str]) -> Vec<String> {
     v.iter().map(|s| s.to_string()).collect()
@@ -197,9 +198,10 @@ fn tempdir() -> std::path::PathBuf {
 /// face in the formats that have a place for it; the pixels are those of an untagged file.
 #[test]
 fn written_maps_record_their_mapping_and_read_back_the_same() {
-    use spheremap::cube::Layout;
-    use spheremap::image_io::{decode, encode, Format};
-    use spheremap::tag::{self, MapTag};
+    use spheremap::images::codec::{decode, encode};
+    use spheremap::images::cube_layout::Layout;
+    use spheremap::images::format::Format;
+    use spheremap::images::note::{self, MapNote};
     let dir = tempdir();
     let sky = Mapping::parse("sphere", Some("skylibs")).unwrap();
     let mut img = Image::new(16, 16, 3);
@@ -209,7 +211,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
     let ropts = ReadOptions::default();
     // A view that is not the identity: its look/up are recorded and give the view back.
     let (look, up) = ([0.3, -0.2, -1.7], [0.1, 1.0, 0.2]);
-    let turned = spheremap::view::look_up(look, up).unwrap();
+    let turned = spheremap::frame::view::look_up(look, up).unwrap();
     for ext in ["exr", "png", "jpg", "hdr", "pfm"] {
         let p = dir.join(format!("s.{ext}")).display().to_string();
         write_env_files(
@@ -221,9 +223,9 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
             &WriteOptions::default(),
         )
         .unwrap();
-        let got = tag::read_file(std::path::Path::new(&p))
+        let got = note::read_file(std::path::Path::new(&p))
             .unwrap()
-            .and_then(|t| MapTag::parse(&t));
+            .and_then(|t| MapNote::parse(&t));
         if ext == "pfm" {
             assert_eq!(got, None);
         } else {
@@ -236,10 +238,10 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
             assert_eq!((t.layout, t.face), (None, None));
             let (l, u) = t.view.expect("the view is recorded");
             // The same view, to the rounding of look_up's normalizations.
-            let back = spheremap::view::look_up(l, u).unwrap();
+            let back = spheremap::frame::view::look_up(l, u).unwrap();
             let err = (0..9).map(|k| (back[k / 3][k % 3] - turned[k / 3][k % 3]).abs());
             assert!(err.fold(0.0, f64::max) < 1e-14, "{ext}: {back:?}");
-            assert_eq!(spheremap::envio::recorded(&p).unwrap(), Some(t));
+            assert_eq!(spheremap::images::envmap::read_note(&p).unwrap(), Some(t));
         }
         // The note changes no pixel: the file decodes as the same image encoded without it.
         let bytes = std::fs::read(&p).unwrap();
@@ -274,7 +276,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
         &WriteOptions::default(),
     )
     .unwrap();
-    let t = spheremap::envio::recorded(&p).unwrap().unwrap();
+    let t = spheremap::images::envmap::read_note(&p).unwrap().unwrap();
     assert_eq!(t.view, None, "the identity view is not written");
     assert_eq!(
         (t.mapping.preset_name(), t.layout),
@@ -292,44 +294,47 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
     )
     .unwrap();
     for (i, f) in faces.paths().iter().enumerate() {
-        let t = spheremap::envio::recorded(f).unwrap().unwrap();
+        let t = spheremap::images::envmap::read_note(f).unwrap().unwrap();
         assert_eq!((t.mapping.name(), t.face), ("cube", Some(i)), "{f}");
     }
     assert_eq!(
-        spheremap::envio::recorded(&pattern).unwrap().unwrap().face,
+        spheremap::images::envmap::read_note(&pattern)
+            .unwrap()
+            .unwrap()
+            .face,
         Some(0)
     );
 }
 
 #[test]
 fn notes_parse_strictly_and_skip_unknown_keys() {
-    use spheremap::tag::MapTag;
-    let t = MapTag::parse("mapping=latlong preset=pbrt").unwrap();
+    use spheremap::images::note::MapNote;
+    let t = MapNote::parse("mapping=latlong preset=pbrt").unwrap();
     assert_eq!(
         (t.mapping.name(), t.mapping.preset_name()),
         ("latlong", "pbrt")
     );
-    assert_eq!(MapTag::parse(&t.text()), Some(t));
+    assert_eq!(MapNote::parse(&t.text()), Some(t));
     // A key from a later version is skipped; a missing preset is the mapping's own.
-    let t = MapTag::parse("mapping=cube preset=gl layout=horizon version=9").unwrap();
+    let t = MapNote::parse("mapping=cube preset=gl layout=horizon version=9").unwrap();
     assert_eq!(t.layout.map(|l| l.name()), Some("horizon"));
     assert_eq!(
-        MapTag::parse("mapping=sphere")
+        MapNote::parse("mapping=sphere")
             .unwrap()
             .mapping
             .preset_name(),
         "gl"
     );
-    let t = MapTag::parse("mapping=sphere look=1,0,0 up=0,1,0").unwrap();
+    let t = MapNote::parse("mapping=sphere look=1,0,0 up=0,1,0").unwrap();
     assert_eq!(t.view, Some(([1.0, 0.0, 0.0], [0.0, 1.0, 0.0])));
-    assert_eq!(MapTag::parse(&t.text()), Some(t));
+    assert_eq!(MapNote::parse(&t.text()), Some(t));
     for bad in [
         "mapping=sphere look=1,0,0",
         "mapping=sphere look=1,0 up=0,1,0",
         "mapping=sphere look=0,1,0 up=0,1,0",
         "mapping=sphere look=nan,0,1 up=0,1,0",
     ] {
-        assert_eq!(MapTag::parse(bad), None, "{bad:?}");
+        assert_eq!(MapNote::parse(bad), None, "{bad:?}");
     }
     for bad in [
         "",
@@ -339,7 +344,7 @@ fn notes_parse_strictly_and_skip_unknown_keys() {
         "mapping=cube face=up",
         "hello world",
     ] {
-        assert_eq!(MapTag::parse(bad), None, "{bad:?}");
+        assert_eq!(MapNote::parse(bad), None, "{bad:?}");
     }
 }
 
@@ -347,9 +352,9 @@ fn notes_parse_strictly_and_skip_unknown_keys() {
 /// (a preset only from a note of the same mapping), else from the default.
 #[test]
 fn flags_fill_in_from_the_note() {
-    use spheremap::envio::mapping_for;
-    use spheremap::tag::MapTag;
-    let note = MapTag::parse("mapping=sphere preset=skylibs").unwrap();
+    use spheremap::images::envmap::mapping_for;
+    use spheremap::images::note::MapNote;
+    let note = MapNote::parse("mapping=sphere preset=skylibs").unwrap();
     let n = Some(&note);
     let get = |name, preset, rec, default| {
         mapping_for(name, preset, rec, default)

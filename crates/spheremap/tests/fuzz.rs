@@ -11,10 +11,12 @@
 //! Budget: `SPHEREMAP_FUZZ_SECONDS` per target (default 2); `SPHEREMAP_FUZZ_SEED` picks the
 //! random stream.  Long runs: `SPHEREMAP_FUZZ_SECONDS=600 cargo test --release --test fuzz`.
 
-use spheremap::cube::Layout;
-use spheremap::image_io::{self, Format, Image, Limits, ReadOptions, WriteOptions};
+use spheremap::images::codec::{self, Limits, ReadOptions, WriteOptions};
+use spheremap::images::cube_layout::Layout;
+use spheremap::images::format::Format;
+use spheremap::images::Image;
 use spheremap::resample::Filter;
-use spheremap::scene::Scene;
+use spheremap::trace::scene::Scene;
 use spheremap::Mapping;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -301,13 +303,13 @@ fn run_image(data: &[u8]) {
         },
     };
     for name in ["fuzz.exr", "fuzz.png", "fuzz"] {
-        if let Ok(img) = image_io::decode(Path::new(name), data, &opts) {
+        if let Ok(img) = codec::decode(Path::new(name), data, &opts) {
             assert_eq!(img.data.len(), img.width * img.height * img.channels);
         }
     }
-    // spheremap's note in the file's header (crate::tag), and its parse.
-    if let Some(t) = spheremap::tag::read(data) {
-        let _ = spheremap::tag::MapTag::parse(&t);
+    // spheremap's note in the file's header (crate::images::note), and its parse.
+    if let Some(t) = spheremap::images::note::read(data) {
+        let _ = spheremap::images::note::MapNote::parse(&t);
     }
 }
 
@@ -333,12 +335,12 @@ fn run_gltf(data: &[u8]) {
 
 fn run_text(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
-    let _ = spheremap::parse::parse_matrix4(&text, false, "m");
-    let _ = spheremap::parse::parse_matrix4(&text, true, "m");
-    if let Ok(v) = spheremap::parse::parse_numbers(&text, "v") {
+    let _ = spheremap::base::parse::parse_matrix4(&text, false, "m");
+    let _ = spheremap::base::parse::parse_matrix4(&text, true, "m");
+    if let Ok(v) = spheremap::base::parse::parse_numbers(&text, "v") {
         if v.len() >= 6 {
-            let _ = spheremap::view::look_up([v[0], v[1], v[2]], [v[3], v[4], v[5]]);
-            let _ = spheremap::view::yaw_pitch_roll(v[0], v[1], v[2]);
+            let _ = spheremap::frame::view::look_up([v[0], v[1], v[2]], [v[3], v[4], v[5]]);
+            let _ = spheremap::frame::view::yaw_pitch_roll(v[0], v[1], v[2]);
         }
     }
     let _ = Layout::parse(&text);
@@ -346,9 +348,9 @@ fn run_text(data: &[u8]) {
     let (m, p) = (parts.next().unwrap_or(""), parts.next());
     let _ = Mapping::parse(m, p);
     let _ = Filter::parse(&text);
-    let _ = spheremap::envio::env_paths(&text);
-    if let Some(t) = spheremap::tag::MapTag::parse(&text) {
-        assert_eq!(spheremap::tag::MapTag::parse(&t.text()), Some(t));
+    let _ = spheremap::images::envmap::env_paths(&text);
+    if let Some(t) = spheremap::images::note::MapNote::parse(&text) {
+        assert_eq!(spheremap::images::note::MapNote::parse(&t.text()), Some(t));
     }
 }
 
@@ -385,13 +387,13 @@ fn image_seeds() -> Vec<Vec<u8>> {
         (Format::Jpeg, WriteOptions::default()),
     ] {
         for im in [&img, &grey] {
-            if let Ok(b) = image_io::encode(Path::new("seed"), im, f, &o) {
+            if let Ok(b) = codec::encode(Path::new("seed"), im, f, &o) {
                 seeds.push(b);
             }
         }
-        // The same with spheremap's note (crate::tag) in the header.
+        // The same with spheremap's note (crate::images::note) in the header.
         let note = "mapping=cube preset=d3d layout=vcross look=0.5,0,-1 up=0,1,0";
-        if let Ok(b) = image_io::encode_tagged(Path::new("seed"), &img, f, &o, Some(note)) {
+        if let Ok(b) = codec::encode_with_note(Path::new("seed"), &img, f, &o, Some(note)) {
             seeds.push(b);
         }
     }
@@ -466,7 +468,7 @@ fn fuzz_every_parser() {
     let only = std::env::var("SPHEREMAP_FUZZ_TARGET").ok();
     // Panics are expected to be caught here; keep their messages short.
     std::panic::set_hook(Box::new(|info| {
-        if !spheremap::error::panic_is_guarded() {
+        if !spheremap::base::error::panic_is_guarded() {
             eprintln!("fuzz: panic: {info}")
         }
     }));
@@ -506,6 +508,6 @@ fn fuzz_seeds_parse() {
     let seeds = image_seeds();
     assert!(seeds.len() >= 14);
     for s in &seeds {
-        image_io::decode(Path::new("seed"), s, &opts).unwrap();
+        codec::decode(Path::new("seed"), s, &opts).unwrap();
     }
 }

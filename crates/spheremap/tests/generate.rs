@@ -1,10 +1,12 @@
 //! The ray-traced generator: analytic scenes with known answers, determinism, convergence,
 //! the environment-map and closure sources, the cube-face route, scene files.
 
-use spheremap::generate::{generate, EnvSource, FnSource, GenerateOptions, RaySource};
-use spheremap::image_io::Image;
+use spheremap::images::Image;
 use spheremap::resample::{self, EnvMap, Outside, Precision, ResampleOptions};
-use spheremap::scene::{self, Environment, Light, Material, SceneBuilder, Shading, TriangleInput};
+use spheremap::trace::generate::{generate, EnvSource, FnSource, GenerateOptions, RaySource};
+use spheremap::trace::scene::{
+    self, Environment, Light, Material, SceneBuilder, Shading, TriangleInput,
+};
 use spheremap::Mapping;
 
 const SPHERE: Mapping = Mapping::Sphere(&spheremap::PRESETS[0]);
@@ -25,8 +27,8 @@ fn opts(samples: u32) -> GenerateOptions {
 fn views() -> Vec<[[f64; 3]; 3]> {
     vec![
         resample::IDENTITY,
-        spheremap::view::look_up([0.3, -0.5, -1.0], [0.0, 1.0, 0.0]).unwrap(),
-        spheremap::view::look_up([1.0, 0.2, 0.1], [0.1, 0.3, 1.0]).unwrap(),
+        spheremap::frame::view::look_up([0.3, -0.5, -1.0], [0.0, 1.0, 0.0]).unwrap(),
+        spheremap::frame::view::look_up([1.0, 0.2, 0.1], [0.1, 0.3, 1.0]).unwrap(),
     ]
 }
 
@@ -607,10 +609,10 @@ fn approximated_illumination_models_are_named() {
     fn sink(m: &str) {
         SEEN.lock().unwrap().push(m.to_string());
     }
-    spheremap::error::set_warning_sink(Some(sink));
+    spheremap::base::error::set_warning_sink(Some(sink));
     let _ = floor_scene("newmtl M\nillum 7\nKs 1 1 1\n", "");
     let _ = floor_scene("newmtl M\nillum 2\nKs 1 1 1\n", "");
-    spheremap::error::set_warning_sink(None);
+    spheremap::base::error::set_warning_sink(None);
     let seen = SEEN.lock().unwrap();
     let ours: Vec<_> = seen.iter().filter(|m| m.starts_with("floor.obj")).collect();
     assert_eq!(ours.len(), 1, "{seen:?}");

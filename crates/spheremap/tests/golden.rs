@@ -2,9 +2,11 @@
 //! with the files in tests/golden/ (EXR, linear float). After an intended change, re-bless them:
 //! `SPHEREMAP_BLESS=1 cargo test -p spheremap --test golden`, look at the new files, commit.
 
-use spheremap::image_io::{read_image, write_image, Image, WriteOptions};
-use spheremap::matcap::MatcapVariant;
-use spheremap::render::{render, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+use spheremap::images::codec::{read_image, write_image, WriteOptions};
+
+use spheremap::images::Image;
+use spheremap::jobs::render::{render, Env, GlCamera, Mode, RenderOptions, Texture, Wrap};
+use spheremap::mappings::matcap::MatcapVariant;
 use std::path::PathBuf;
 
 fn golden_dir() -> PathBuf {

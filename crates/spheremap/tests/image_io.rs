@@ -1,7 +1,9 @@
-use spheremap::image_io::{
-    decode, encode, inspect, read_image, srgb_to_linear, write_image, Format, Image, Limits,
-    ReadOptions, WriteOptions,
+use spheremap::images::codec::{
+    decode, encode, inspect, read_image, srgb_to_linear, write_image, Limits, ReadOptions,
+    WriteOptions,
 };
+use spheremap::images::format::Format;
+use spheremap::images::Image;
 use std::path::Path;
 
 mod common;
@@ -116,8 +118,9 @@ fn png_srgb_8_and_16_bit_and_alpha_is_linear() {
         .filter(rgb)
         .map(|(_, p)| p)
         .map(|(x, y)| {
-            (spheremap::image_io::linear_to_srgb(*x) - spheremap::image_io::linear_to_srgb(*y))
-                .abs()
+            (spheremap::images::codec::linear_to_srgb(*x)
+                - spheremap::images::codec::linear_to_srgb(*y))
+            .abs()
         })
         .fold(0.0, f32::max);
     assert!(err8 <= 0.5 / 255.0 + 1e-6, "{err8}");
@@ -297,7 +300,7 @@ fn truncated_and_garbage_files_are_data_errors() {
 
 #[test]
 fn all_finite_finds_any_nan_or_inf_in_any_block() {
-    use spheremap::image_io::{all_finite, find_nonfinite};
+    use spheremap::images::codec::{all_finite, find_nonfinite};
     // Several parallel blocks (65536 values each) and a ragged end.
     let n = 3 * 65536 + 17;
     let mut v = vec![1.5f32; n];
@@ -329,8 +332,8 @@ fn all_finite_finds_any_nan_or_inf_in_any_block() {
 /// other shapes go by their aspect ratio.
 #[test]
 fn the_mapping_guess_tells_a_guttered_disc_from_a_full_square() {
-    use spheremap::image_io::guess_mapping;
-    use spheremap::mapping::Mapping;
+    use spheremap::images::codec::guess_mapping;
+    use spheremap::mappings::mapping::Mapping;
     use spheremap::resample::{resample, EnvMap, Outside, ResampleOptions};
     let ll = read_image(&testdata("apartment.exr"), &ReadOptions::default()).unwrap();
     assert_eq!(guess_mapping(&ll).0, "latlong");

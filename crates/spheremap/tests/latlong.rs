@@ -1,7 +1,7 @@
 //! Lat-long presets pinned to concrete pixels of a 64×32 image: (x, y) = (u·64, v·32).
 
 use proptest::prelude::*;
-use spheremap::latlong::{LatLongPreset, LATLONG_PRESETS};
+use spheremap::mappings::latlong::{LatLongPreset, LATLONG_PRESETS};
 
 const AXES: [([f64; 3], &str); 6] = [
     ([1., 0., 0.], "+X"),

@@ -1,7 +1,7 @@
 //! Meshes and scenes share one rule for what a file holds (content first, then extension).
 
 use spheremap::mesh::{load_mesh, mesh_format, MeshFormat};
-use spheremap::scene::Scene;
+use spheremap::trace::scene::Scene;
 use std::path::Path;
 
 mod common;

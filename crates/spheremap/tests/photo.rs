@@ -3,14 +3,14 @@
 //! body in the scene, unwarped and compared with the sphere map generated directly from the
 //! HDRI for the same view.  Also: the circle fit on those photos, and fisheye round trips.
 
-use spheremap::camera::{self, Camera, Projection};
-use spheremap::fisheye::{Lens, LensModel};
-use spheremap::generate::{generate, EnvSource, GenerateOptions};
-use spheremap::image_io::Image;
-use spheremap::photo::{self, BallModel, BallPhoto, Fill, PhotoOptions};
+use spheremap::frame::view::{self, Mat3};
+use spheremap::images::Image;
+use spheremap::jobs::photo::{self, BallModel, BallPhoto, Fill, PhotoOptions};
+use spheremap::mappings::fisheye::{Lens, LensModel};
 use spheremap::resample::EnvMap;
-use spheremap::scene::{Environment, Material, Scene, SceneBuilder};
-use spheremap::view::{self, Mat3};
+use spheremap::trace::camera::{self, Camera, Projection};
+use spheremap::trace::generate::{generate, EnvSource, GenerateOptions};
+use spheremap::trace::scene::{Environment, Material, Scene, SceneBuilder};
 use spheremap::Mapping;
 
 const SPHERE: Mapping = Mapping::Sphere(&spheremap::PRESETS[0]);

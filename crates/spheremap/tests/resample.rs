@@ -2,12 +2,12 @@
 //! The conversion engine: furnace, energy, conventions chained through every pair, seams,
 //! views, anti-aliasing, and f32 against f64.
 
-use spheremap::image_io::Image;
-use spheremap::mapping::Mapping;
+use spheremap::frame::view;
+use spheremap::images::Image;
+use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{
     resample, resample_into, EnvMap, Filter, Outside, Precision, ResampleOptions, Taps,
 };
-use spheremap::view;
 
 mod common;
 use common::max_diff;

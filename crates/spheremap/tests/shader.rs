@@ -1,7 +1,7 @@
 //! The shader snippets compile: GLSL and WGSL through naga's front ends and validator (the GLSL
 //! is also executed in Mesa by tests/test_shader.py; the HLSL is compiled there by glslang).
 
-use spheremap::shader::{snippet, WHATS};
+use spheremap::jobs::shader::{snippet, WHATS};
 
 /// A fragment shader calling every function of the snippet. naga's GLSL front end does not
 /// take combined `sampler2D` uniforms (OpenGL's), so the one function that samples the map,

@@ -1,6 +1,8 @@
 use proptest::prelude::*;
-use spheremap::conventions::Singular;
-use spheremap::sphere::{dir_to_st, reflect, solid_angle_map, st_to_dir, texel_solid_angle};
+use spheremap::frame::conventions::Singular;
+use spheremap::mappings::sphere::{
+    dir_to_st, reflect, solid_angle_map, st_to_dir, texel_solid_angle,
+};
 use std::f64::consts::PI;
 
 fn unit(v: [f64; 3]) -> [f64; 3] {

@@ -1,6 +1,6 @@
 use proptest::prelude::*;
-use spheremap::matcap::{matcap_uv, MatcapVariant};
-use spheremap::texgen::{
+use spheremap::mappings::matcap::{matcap_uv, MatcapVariant};
+use spheremap::mappings::texgen::{
     sphere_texgen, sphere_texgen_f64, ModelviewState, NormalMode, TexgenOptions,
 };
 use spheremap::Singular;

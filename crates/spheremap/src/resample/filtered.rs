@@ -1085,14 +1085,14 @@ mod tests {
     /// previous row's bottom ones (lat-long: positions; cube: directions too).
     #[test]
     fn footprints_reuse_the_previous_rows_bottom_edge_exactly() {
-        use crate::image_io::Image;
+        use crate::images::Image;
         for (src, n) in [("latlong", 32), ("cube", 16)] {
             let m = Mapping::parse(src, None).unwrap();
             let (sw, sh) = m.canvas(n);
             let img = Image::new(sw, sh, 3);
             let e = EnvMap::new(m, &img, "t").unwrap();
             let s = Src::<f32>::new(&e);
-            let rot = crate::view::look_up([0.3, 1.0, -0.2], [0.0, 0.0, 1.0]).unwrap();
+            let rot = crate::frame::view::look_up([0.3, 1.0, -0.2], [0.0, 0.0, 1.0]).unwrap();
             let sp = Mapping::parse("sphere", None).unwrap();
             let w = 40;
             let d = Dst::<f32>::new(sp, w, w, &rot, Outside::Gutter);

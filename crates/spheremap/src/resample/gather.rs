@@ -14,8 +14,9 @@
 //! - [`level_lookup`]: any lane, scalar; the general `Src::lookup` where pass 2b gave `SLOW`.
 
 use super::lanes::Lanes;
-use super::rows::{bilerp, bilerp4, prefetch, simd, vec4_limit, Simd, SLOW};
+use super::rows::{bilerp, bilerp4, prefetch, vec4_limit, SLOW};
 use super::source::Src;
+use crate::base::cpu::{simd, Simd};
 
 /// Whether this CPU runs [`sum8`] (AVX2 and FMA, not turned off: see [`simd`]); checked
 /// once per row by the callers.

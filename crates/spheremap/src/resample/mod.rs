@@ -48,12 +48,12 @@
 //! [`Precision::F64`] is the reference path (f64 maths and accumulation, libm trig).  They are
 //! tested against each other.
 
-use crate::conventions::mat3_mul;
-use crate::cube;
-use crate::error::{Error, Result};
-use crate::image_io::Image;
-use crate::mapping::Mapping;
-use crate::real::Real;
+use crate::base::error::{Error, Result};
+use crate::base::real::Real;
+use crate::frame::conventions::mat3_mul;
+use crate::images::Image;
+use crate::mappings::cube;
+use crate::mappings::mapping::Mapping;
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -167,6 +167,7 @@ pub enum Outside {
 }
 
 impl Outside {
+    pub const NAMES: [&'static str; 2] = ["gutter", "black"];
     pub fn parse(name: &str) -> Result<Outside> {
         match name {
             "gutter" => Ok(Outside::Gutter),
@@ -194,6 +195,7 @@ pub enum Precision {
 }
 
 impl Precision {
+    pub const NAMES: [&'static str; 2] = ["f32", "f64"];
     pub fn parse(name: &str) -> Result<Precision> {
         match name {
             "f32" => Ok(Precision::F32),
@@ -219,12 +221,12 @@ pub struct ResampleOptions {
     pub outside: Outside,
     /// Row-major rotation taking directions in the destination's frame to the source's frame
     /// (its columns are the destination's +X, +Y, +Z axes in source coordinates); see
-    /// [`crate::view`].
+    /// [`crate::frame::view`].
     pub rotation: [[f64; 3]; 3],
     pub seed: u64,
     pub precision: Precision,
     /// Refuse a job whose estimated allocation is over this many bytes
-    /// ([`crate::error::default_max_memory`]).
+    /// ([`crate::base::error::default_max_memory`]).
     pub max_memory: u64,
 }
 
@@ -244,7 +246,7 @@ impl Default for ResampleOptions {
             rotation: IDENTITY,
             seed: 0,
             precision: Precision::F32,
-            max_memory: crate::error::default_max_memory(),
+            max_memory: crate::base::error::default_max_memory(),
         }
     }
 }
@@ -375,7 +377,7 @@ pub fn resample(
         .and_then(|v| v.checked_mul(src.channels))
         .ok_or_else(|| Error::param("size", "too large"))?;
     check_job(src, dst, width, height, opts)?;
-    let mut data: Vec<f32> = crate::buffer::with_capacity(n);
+    let mut data: Vec<f32> = crate::base::buffer::with_capacity(n);
     let report = resample_uninit(src, dst, width, height, opts, progress, {
         &mut data.spare_capacity_mut()[..n]
     })?;
@@ -445,7 +447,7 @@ fn check_job(
     }
     check_rotation(&opts.rotation)?;
     // The output, and as much again for whoever encodes it.
-    crate::error::check_memory(
+    crate::base::error::check_memory(
         "size",
         2 * (width as u128 * height as u128 * src.channels as u128 * 4),
         opts.max_memory,
@@ -816,7 +818,7 @@ const SMALL_PYRAMID: u128 = 32 << 20;
 /// The memory check of a filtered conversion: the output (and as much again for whoever
 /// encodes it), plus the levels.
 fn check_memory_filtered(out_values: usize, levels: u128, opts: &ResampleOptions) -> Result<()> {
-    crate::error::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
+    crate::base::error::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
 }
 
 /// The strata count's slack, in source texels: a footprint a thousandth of a texel over an

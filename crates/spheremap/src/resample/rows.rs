@@ -10,7 +10,9 @@
 
 use super::lanes::Lanes;
 use super::*;
-use crate::real::{atan2_poly, atan2_upper, floor_v, mad, vmax, vmin};
+pub(crate) use crate::base::cpu::vectorized;
+use crate::base::cpu::{simd, Simd};
+use crate::base::real::{atan2_poly, atan2_upper, floor_v, mad, vmax, vmin};
 use crate::RowOrder;
 
 pub(crate) struct Scratch {
@@ -169,7 +171,7 @@ impl Fold {
             let inv = 1.0 / period;
             to.zip(from).for_each(|(a, p)| {
                 let v = k - p;
-                *a = v - crate::real::floor_fast(v * inv) * period;
+                *a = v - crate::base::real::floor_fast(v * inv) * period;
             });
         } else {
             to.zip(from).for_each(|(a, p)| *a = k - p);
@@ -179,7 +181,7 @@ impl Fold {
 
 impl Plan {
     pub(crate) fn new(s: &Src<f32>, d: &Dst<f32>, rot: &[[f64; 3]; 3], w: usize) -> Self {
-        use crate::view::{mul, transpose};
+        use crate::frame::view::{mul, transpose};
         let sphere_m = match d.m {
             Mapping::Sphere(p) => mul(rot, &transpose(&p.frame)),
             _ => *rot,
@@ -407,7 +409,7 @@ fn stages<const C: usize, const F: bool>(
                 let (ax, ay, az) = (a.abs(), b.abs(), c.abs());
                 let is_x = ax >= ay && ax >= az;
                 let is_y = !is_x && ay >= az;
-                // The GL face table (crate::cube), branch-free.
+                // The GL face table (crate::mappings::cube), branch-free.
                 let ma = if is_x {
                     a
                 } else if is_y {
@@ -453,7 +455,7 @@ fn stages<const C: usize, const F: bool>(
                 let il = 1.0 / mad::<F>(a, a, mad::<F>(b, b, c * c)).sqrt();
                 let (a, b, c) = (a * il, b * il, c * il);
                 let q = mad::<F>(a, a, b * b);
-                // 1 + z without cancellation (crate::sphere::dir_to_st).
+                // 1 + z without cancellation (crate::mappings::sphere::dir_to_st).
                 let zp1 = if c >= 0.0 { 1.0 + c } else { q / (1.0 - c) };
                 let h2 = mad::<F>(zp1, zp1, q);
                 let k = 0.5 / h2.sqrt();
@@ -743,68 +745,6 @@ fn taps_loop<const C: usize, const FULL: bool>(
     }
 }
 
-/// The vector instructions the f32 passes and gathers use, chosen once per process: the
-/// widest this CPU has, or none when the environment variable `SPHEREMAP_PORTABLE` is set
-/// (to anything) — the code CPUs without AVX2 run — or at most AVX2 when
-/// `SPHEREMAP_NO_AVX512` is set (what AVX2-only CPUs run, for testing on an AVX-512 one).
-/// `scripts/test.sh` runs the conversion tests each way the CPU allows.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) enum Simd {
-    Portable,
-    /// AVX2 and FMA.
-    Avx2,
-    /// AVX-512 F/VL/DQ, AVX2 and FMA.
-    Avx512,
-}
-
-pub(crate) fn simd() -> Simd {
-    static SIMD: std::sync::OnceLock<Simd> = std::sync::OnceLock::new();
-    *SIMD.get_or_init(|| {
-        if std::env::var_os("SPHEREMAP_PORTABLE").is_some() {
-            return Simd::Portable;
-        }
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::is_x86_feature_detected as has;
-            let fma = has!("avx2") && has!("fma");
-            let wide = std::env::var_os("SPHEREMAP_NO_AVX512").is_none();
-            if fma && wide && has!("avx512f") && has!("avx512vl") && has!("avx512dq") {
-                return Simd::Avx512;
-            }
-            if fma {
-                return Simd::Avx2;
-            }
-        }
-        Simd::Portable
-    })
-}
-
-/// Runs `f` compiled for the widest vectors this CPU has (`f` must be `#[inline(always)]`
-/// code: it is inlined into the feature-enabled wrapper and vectorized there).
-#[inline(always)]
-pub(crate) fn vectorized<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-        unsafe fn avx512<R>(f: impl FnOnce() -> R) -> R {
-            f()
-        }
-        #[target_feature(enable = "avx2,fma")]
-        unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
-            f()
-        }
-        match simd() {
-            // SAFETY: the features were detected at run time.
-            Simd::Avx512 => return unsafe { avx512(f) },
-            // SAFETY: the features were detected at run time.
-            Simd::Avx2 => return unsafe { avx2(f) },
-            Simd::Portable => {}
-        }
-    }
-    f()
-}
-
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn stages_avx2<const C: usize, const TAPS: bool>(
@@ -1022,7 +962,7 @@ fn fold_all(f: Fold, sc: &mut Scratch) {
         let inv = 1.0 / period;
         p.iter_mut().for_each(|a| {
             let v = k - *a;
-            *a = v - crate::real::floor_fast(v * inv) * period;
+            *a = v - crate::base::real::floor_fast(v * inv) * period;
         });
     } else {
         p.iter_mut().for_each(|a| *a = k - *a);
@@ -1289,7 +1229,7 @@ pub(crate) fn bilerp4<const C: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image_io::Image;
+    use crate::images::Image;
 
     /// The AVX2 pairs give the one-by-one lookups' values bit for bit, whatever mix of
     /// plain and general (`SLOW`) lookups a row holds, for 3 and 4 channels, odd and even
@@ -1382,7 +1322,7 @@ mod tests {
             let sp = Mapping::parse("sphere", preset).unwrap();
             for rot in [
                 IDENTITY,
-                crate::view::look_up([1.0, 0.3, 0.0], [0.0, 1.0, 0.0]).unwrap(),
+                crate::frame::view::look_up([1.0, 0.3, 0.0], [0.0, 1.0, 0.0]).unwrap(),
             ] {
                 let d = Dst::<f32>::new(sp, n, n, &rot, Outside::Gutter);
                 let plan = Plan::new(&s, &d, &rot, n);
@@ -1450,7 +1390,7 @@ mod tests {
                         ("sphere", "sphere", None) => assert_eq!(folds, [true, true]),
                         _ => {}
                     }
-                    let turned = crate::view::look_up([0.1, 0.3, -1.0], [0.0, 1.0, 0.0]);
+                    let turned = crate::frame::view::look_up([0.1, 0.3, -1.0], [0.0, 1.0, 0.0]);
                     let turned = turned.unwrap();
                     let t = Plan::new(&s, &Dst::<f32>::new(dm, w, h, &turned, outside), &turned, w);
                     assert_eq!(t.fold, [None, None], "{what}: turned");

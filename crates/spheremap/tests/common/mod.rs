@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests (`mod common;` in each).
 #![allow(dead_code)]
 
-use spheremap::image_io::Image;
+use spheremap::images::Image;
 use std::path::{Path, PathBuf};
 
 /// A file of the repository's `testdata/`.
@@ -13,7 +13,7 @@ pub fn testdata(name: &str) -> PathBuf {
 
 /// The bundled HDRI (Poly Haven's apartment, lat-long), from the copy compiled into the crate.
 pub fn apartment() -> Image {
-    spheremap::image_io::decode(
+    spheremap::images::codec::decode(
         Path::new("apartment.exr"),
         spheremap::demo::APARTMENT_EXR,
         &Default::default(),

@@ -1,0 +1,10 @@
+//! Layer 0, the base: errors, the float type the maths is generic over, quadrature, files in
+//! and out (the input check and atomic writes), small textual inputs and large buffers.
+
+pub mod buffer;
+pub mod cpu;
+pub mod error;
+pub mod files;
+pub mod parse;
+pub mod quadrature;
+pub mod real;

@@ -1,0 +1,110 @@
+//! Every list of names a user can pass, by kind, in one table, with the core's parser for each:
+//! the Python package's name lists and its argument checks are these, and so are the CLI's.
+
+use crate::base::error::{Error, Result};
+use crate::images::codec::NonFinite;
+use crate::images::cube_layout::Layout;
+use crate::images::tonemap::ToneMap;
+use crate::jobs::{photo, render};
+use crate::mappings::fisheye::LensModel;
+use crate::mappings::mapping::MAPPING_NAMES;
+use crate::mappings::matcap::MatcapVariant;
+use crate::mappings::texgen::NormalMode;
+use crate::resample::{Filter, Outside, Precision, Taps};
+use crate::Singular;
+
+/// The kinds of name, as [`list`] and [`check`] take them.
+pub const KINDS: [&str; 14] = [
+    "mapping",
+    "filter",
+    "taps",
+    "outside",
+    "precision",
+    "layout",
+    "fill",
+    "lens",
+    "render",
+    "normalize",
+    "singular",
+    "matcap",
+    "nonfinite",
+    "tonemap",
+];
+
+/// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
+/// for a kind not in [`KINDS`].
+pub fn list(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "mapping" => &MAPPING_NAMES,
+        "filter" => &Filter::NAMES,
+        "taps" => &Taps::NAMES,
+        "outside" => &Outside::NAMES,
+        "precision" => &Precision::NAMES,
+        "layout" => &Layout::NAMES,
+        "fill" => &photo::Fill::NAMES,
+        "lens" => &LensModel::NAMES,
+        "render" => &render::Mode::NAMES,
+        "normalize" => &NormalMode::NAMES,
+        "singular" => &Singular::NAMES,
+        "matcap" => &MatcapVariant::NAMES,
+        "nonfinite" => &NonFinite::NAMES,
+        "tonemap" => &ToneMap::NAMES,
+        _ => return None,
+    })
+}
+
+/// Checks `value` as a name of `kind` with the core's own parser (aliases included); the error
+/// names the argument `arg`.
+pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
+    let named = |r: Result<()>| {
+        r.map_err(|e| match e {
+            Error::InvalidParameter { reason, .. } => Error::param(arg, reason),
+            other => other,
+        })
+    };
+    named(match kind {
+        "mapping" => crate::Mapping::parse(value, None).map(drop),
+        "filter" => Filter::parse(value).map(drop),
+        "taps" => Taps::parse(value).map(drop),
+        "outside" => Outside::parse(value).map(drop),
+        "precision" => Precision::parse(value).map(drop),
+        "layout" => Layout::parse(value).map(drop),
+        "fill" => photo::Fill::parse(value).map(drop),
+        "lens" => LensModel::parse(value, [0.0; 4]).map(drop),
+        "render" => render::Mode::parse(value, MatcapVariant::default()).map(drop),
+        "normalize" => NormalMode::parse(value, arg).map(drop),
+        "singular" => Singular::parse(value, arg).map(drop),
+        "matcap" => MatcapVariant::parse(value, arg).map(drop),
+        "nonfinite" => NonFinite::parse(value).map(drop),
+        "tonemap" => ToneMap::parse(value).map(drop),
+        _ => Err(Error::param(
+            "kind",
+            format!(
+                "unknown kind of name {kind:?}; expected one of: {}",
+                KINDS.join(", ")
+            ),
+        )),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_listed_name_parses_and_others_are_refused() {
+        for kind in KINDS {
+            let names = list(kind).unwrap_or_else(|| panic!("{kind} has no list"));
+            assert!(!names.is_empty(), "{kind}");
+            for n in names {
+                check(kind, n, "x").unwrap_or_else(|e| panic!("{kind} {n}: {e}"));
+            }
+            let e = check(kind, "no-such-name", "the_arg")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("the_arg"), "{kind}: {e}");
+        }
+        assert!(list("colour").is_none());
+        assert!(check("colour", "red", "x").is_err());
+    }
+}

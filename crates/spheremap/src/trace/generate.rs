@@ -1,0 +1,471 @@
+//! Environment maps by firing rays: the classic `gen_sphere_map(width, height, pos, tex)` done
+//! properly.
+//!
+//! For every output texel the generator asks a [`RaySource`] — the classic `fire_ray(pos, ray)` —
+//! what the world shows from `pos` in a set of directions spread over the texel's footprint, and
+//! averages.  The source may be a closure, an environment map (six cube faces taken around
+//! `pos`, or any mapping the conversion engine reads), a ray-traced [`crate::trace::scene::Scene`], or
+//! (in the Python package) a Python callable that receives batches of rays as numpy arrays.
+//!
+//! ## What one texel is (the same rules as [`crate::resample`])
+//!
+//! * `samples = 1`: exactly one ray, through the texel centre.
+//! * `samples = S > 1`: rays on an n_x × n_y grid of strata over the reconstruction filter's
+//!   support (the 1-texel **box** by default, so a texel is the plain average over its own
+//!   footprint; tent and Gaussian as in `convert`), one jittered ray per stratum, the jitter a
+//!   hash of (seed, texel, stratum) — so a run is deterministic for a seed, whatever the number
+//!   of threads.  n_x·n_y ≥ S, and **more where the footprint is stretched**: the texel's edge
+//!   midpoints become directions, the angles across the texel in x and in y are compared with
+//!   the side a₀ = √|Δ_x × Δ_y| of the isotropic texel of the same solid angle, and each axis
+//!   gets ⌈√S · span/a₀⌉ strata (the sphere map's rim, where a texel is stretched radially by
+//!   1/(1 − ρ²), gets more rays; its centre gets S), at most `max_samples`.
+//! * Weights: filter weight × the mapping's solid-angle density (uniform for the equal-area
+//!   sphere map, so every ray of a box texel counts the same).
+//!
+//! ## Which texels are visited
+//!
+//! For the disc mappings (sphere, angular, dual paraboloid) each row's span is computed from
+//! the circle: the texels whose square meets the disc.  Inside that span, a sample that falls
+//! outside the disc (a rim texel's outer corner) follows the conversion engine's rule: with
+//! the gutter its ray goes in the radially mirrored direction; with `black` it adds weight and
+//! no light (the rim texel holds its covered fraction).  Texels wholly outside the disc fire no
+//! ray: with the gutter they are filled afterwards from the finished map at the radially
+//! mirrored point (the engine's gutter rule, applied to the map itself), else set to 0.
+//!
+//! ## The view
+//!
+//! `rotation` takes the map's own frame (the eye of a sphere map: looking down −Z, +Y up) to
+//! the world the rays are fired in ([`crate::frame::view`]: `look_up(look, up)`), and `pos` is the
+//! world point every ray starts from.
+
+use crate::base::error::{Error, Result};
+use crate::base::real::Real;
+use crate::images::Image;
+use crate::mappings::mapping::Mapping;
+use crate::resample::{
+    self, jitter, strata, Dst, EnvMap, Filter, Outside, Precision, Progress, Sampler,
+    DEFAULT_SAMPLES, IDENTITY, SAMPLE_CAP,
+};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// A ray source, `fire_ray(pos, ray)` batched: what the world shows along each ray.
+///
+/// `trace` gets ray origins and unit directions (world frame) and writes `channels()` values
+/// per ray into `out` (`out.len() == directions.len() * channels()`).  It is called from
+/// several threads at once, with batches of a few thousand rays (one output row).
+pub trait RaySource: Sync {
+    fn channels(&self) -> usize;
+    fn trace(&self, origins: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()>;
+}
+
+/// A per-ray closure as a [`RaySource`]: `f(origin, direction, out)`.
+pub struct FnSource<F> {
+    channels: usize,
+    f: F,
+}
+
+impl<F: Fn([f32; 3], [f32; 3], &mut [f32]) + Sync> FnSource<F> {
+    pub fn new(channels: usize, f: F) -> Self {
+        FnSource { channels, f }
+    }
+}
+
+impl<F: Fn([f32; 3], [f32; 3], &mut [f32]) + Sync> RaySource for FnSource<F> {
+    fn channels(&self) -> usize {
+        self.channels
+    }
+    fn trace(&self, origins: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
+        let c = self.channels;
+        for (i, (o, d)) in origins.iter().zip(directions).enumerate() {
+            (self.f)(*o, *d, &mut out[i * c..(i + 1) * c]);
+        }
+        Ok(())
+    }
+}
+
+/// An environment map as a [`RaySource`] (the two-step method: six cube-face images taken
+/// around `pos`, or any mapping): the map is at infinity, so origins are ignored and each ray
+/// is one bilinear lookup with the map's wrap rules.  `rotation` takes world directions to the
+/// map's frame.
+pub struct EnvSource<'a> {
+    sampler: Sampler<'a>,
+    rotation: [[f32; 3]; 3],
+}
+
+impl<'a> EnvSource<'a> {
+    pub fn new(env: &EnvMap<'a>, rotation: [[f64; 3]; 3]) -> Self {
+        EnvSource {
+            sampler: Sampler::new(env),
+            rotation: rotation.map(|r| r.map(|v| v as f32)),
+        }
+    }
+}
+
+impl RaySource for EnvSource<'_> {
+    fn channels(&self) -> usize {
+        self.sampler.channels()
+    }
+    fn trace(&self, _: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
+        let (c, r) = (self.sampler.channels(), &self.rotation);
+        for (d, o) in directions.iter().zip(out.chunks_exact_mut(c)) {
+            let v = [0, 1, 2].map(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]);
+            self.sampler.sample(v, o);
+        }
+        Ok(())
+    }
+}
+
+/// The most values a ray source may return per ray.
+pub const MAX_CHANNELS: usize = 8;
+
+/// Options of [`generate`].
+#[derive(Clone, Copy, Debug)]
+pub struct GenerateOptions {
+    /// Rays per texel: 1 = one ray through the centre; S > 1 = at least S, adaptive.
+    pub samples: u32,
+    /// The most rays one texel may take when adapting.
+    pub max_samples: u32,
+    pub filter: Filter,
+    pub outside: Outside,
+    /// Row-major rotation from the map's frame to the world (columns: the map's axes in world
+    /// coordinates).
+    pub rotation: [[f64; 3]; 3],
+    /// The world point all rays start from.
+    pub pos: [f32; 3],
+    pub seed: u64,
+    /// Arithmetic of the sample directions (rays are f32 either way).
+    pub precision: Precision,
+    /// Refuse a job whose estimated allocation is over this many bytes.
+    pub max_memory: u64,
+}
+
+impl Default for GenerateOptions {
+    fn default() -> Self {
+        GenerateOptions {
+            samples: DEFAULT_SAMPLES,
+            max_samples: 1024,
+            filter: Filter::Box,
+            outside: Outside::Gutter,
+            rotation: IDENTITY,
+            pos: [0.0; 3],
+            seed: 0,
+            precision: Precision::F32,
+            max_memory: crate::base::error::default_max_memory(),
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GenerateReport {
+    /// Rays fired in all.
+    pub rays: u64,
+    /// Texels that fired rays (the rest were filled: gutter or black).
+    pub texels: u64,
+    /// The most rays any texel took.
+    pub max_texel_samples: u32,
+}
+
+/// Makes a `width`×`height` canvas of `mapping` (for a cube: the F×6F face stack) by firing
+/// rays into `source`.
+pub fn generate(
+    mapping: Mapping,
+    width: usize,
+    height: usize,
+    source: &dyn RaySource,
+    opts: &GenerateOptions,
+    progress: Option<&Progress>,
+) -> Result<(Image, GenerateReport)> {
+    mapping
+        .size_of(width, height, "size")
+        .map_err(|e| Error::param("size", e.to_string()))?;
+    for (name, v) in [("samples", opts.samples), ("max_samples", opts.max_samples)] {
+        if v == 0 || v > SAMPLE_CAP {
+            return Err(Error::param(
+                name,
+                format!("{v} is out of range 1..={SAMPLE_CAP}"),
+            ));
+        }
+    }
+    let c = source.channels();
+    if !(1..=MAX_CHANNELS).contains(&c) {
+        return Err(Error::param(
+            "fire_ray",
+            format!("returns {c} channels; 1 to {MAX_CHANNELS} are supported"),
+        ));
+    }
+    if opts.pos.iter().any(|v| !v.is_finite()) {
+        return Err(Error::param("pos", "must be finite"));
+    }
+    resample::check_rotation(&opts.rotation)?;
+    // The output, its copy for the gutter, and an encoder's buffer.
+    crate::base::error::check_memory(
+        "size",
+        3 * (width as u128 * height as u128 * c as u128 * 4),
+        opts.max_memory,
+    )?;
+    let mut out = Image::new(width, height, c);
+    let report = match opts.precision {
+        Precision::F32 => run::<f32>(mapping, &mut out, source, opts, progress)?,
+        Precision::F64 => run::<f64>(mapping, &mut out, source, opts, progress)?,
+    };
+    if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+        return Err(Error::cancelled("the generation"));
+    }
+    if mapping.has_outside() {
+        fill_outside(mapping, &mut out, opts.outside, opts.samples == 1);
+    }
+    Ok((out, report))
+}
+
+/// The texel spans of row `y` that meet the map (the whole row for mappings without discs).
+/// Disc mappings: discs of diameter `h` centred at ((k + ½)h, ½h); a texel square [x, x+1] ×
+/// [y, y+1] meets the disc when its point nearest the centre is within the radius.
+pub fn row_spans(mapping: Mapping, w: usize, h: usize, y: usize) -> Vec<(usize, usize)> {
+    if !mapping.has_outside() {
+        return vec![(0, w)];
+    }
+    let r = 0.5 * h as f64;
+    let dy = (r.clamp(y as f64, y as f64 + 1.0) - r).abs();
+    if dy >= r {
+        return Vec::new();
+    }
+    let hw = (r * r - dy * dy).sqrt();
+    (0..w / h)
+        .map(|k| {
+            let cx = (k as f64 + 0.5) * h as f64;
+            let x0 = (cx - hw).floor().max(k as f64 * h as f64) as usize;
+            let x1 = ((cx + hw).ceil() as usize).min((k + 1) * h);
+            (x0, x1)
+        })
+        .collect()
+}
+
+/// Whether the texel centre lies on the map (inside the disc for disc mappings).
+pub(crate) fn centre_on_map(m: Mapping, w: usize, h: usize, x: usize, y: usize) -> bool {
+    m.uv_to_dir([(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64])
+        .is_some()
+}
+
+/// One row's worth of rays and where their colours go.
+#[derive(Default)]
+struct Batch {
+    origins: Vec<[f32; 3]>,
+    dirs: Vec<[f32; 3]>,
+    /// (texel index in the row, weight) per ray.
+    owner: Vec<(u32, f32)>,
+    colours: Vec<f32>,
+}
+
+fn run<T: Real>(
+    m: Mapping,
+    out: &mut Image,
+    source: &dyn RaySource,
+    opts: &GenerateOptions,
+    progress: Option<&Progress>,
+) -> Result<GenerateReport> {
+    let (w, h, c) = (out.width, out.height, out.channels);
+    let d = Dst::<T>::new(m, w, h, &opts.rotation, opts.outside);
+    if let Some(p) = progress {
+        p.total.store(h, Ordering::Relaxed);
+    }
+    let rays = AtomicU64::new(0);
+    let texels = AtomicU64::new(0);
+    let max_n = AtomicUsize::new(0);
+    let failure: Mutex<Option<Error>> = Mutex::new(None);
+    out.data
+        .par_chunks_mut(w * c)
+        .enumerate()
+        .for_each_init(Batch::default, |b, (y, row)| {
+            if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+                return;
+            }
+            b.origins.clear();
+            b.dirs.clear();
+            b.owner.clear();
+            // Per texel of the row: Σ weights (rays or not).
+            let mut wsum = vec![0f64; w];
+            let mut n_texels = 0u64;
+            let mut row_max = 0usize;
+            for (x0, x1) in row_spans(m, w, h, y) {
+                for x in x0..x1 {
+                    if opts.samples == 1 && !centre_on_map(m, w, h, x, y) {
+                        continue;
+                    }
+                    n_texels += 1;
+                    let n = texel_rays(&d, x, y, opts, b, &mut wsum[x]);
+                    row_max = row_max.max(n);
+                }
+            }
+            let k = b.dirs.len();
+            b.origins.resize(k, opts.pos);
+            b.colours.clear();
+            b.colours.resize(k * c, 0.0);
+            if k > 0 {
+                if let Err(e) = source.trace(&b.origins, &b.dirs, &mut b.colours) {
+                    let mut f = failure.lock().unwrap_or_else(|p| p.into_inner());
+                    f.get_or_insert(e);
+                    if let Some(p) = progress {
+                        p.cancel.store(true, Ordering::Relaxed);
+                    }
+                    return;
+                }
+            }
+            let mut acc = vec![0f64; w * c];
+            for (i, &(x, wt)) in b.owner.iter().enumerate() {
+                for ch in 0..c {
+                    acc[x as usize * c + ch] += wt as f64 * b.colours[i * c + ch] as f64;
+                }
+            }
+            for x in 0..w {
+                if wsum[x] > 0.0 {
+                    for ch in 0..c {
+                        row[x * c + ch] = (acc[x * c + ch] / wsum[x]) as f32;
+                    }
+                }
+            }
+            rays.fetch_add(k as u64, Ordering::Relaxed);
+            texels.fetch_add(n_texels, Ordering::Relaxed);
+            max_n.fetch_max(row_max, Ordering::Relaxed);
+            if let Some(p) = progress {
+                p.done.fetch_add(1, Ordering::Relaxed);
+            }
+        });
+    if let Some(e) = failure.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e);
+    }
+    Ok(GenerateReport {
+        rays: rays.into_inner(),
+        texels: texels.into_inner(),
+        max_texel_samples: max_n.into_inner() as u32,
+    })
+}
+
+/// Queues the rays of texel (x, y); adds the texel's total weight to `wsum`; returns the
+/// number of samples it took.
+fn texel_rays<T: Real>(
+    d: &Dst<T>,
+    x: usize,
+    y: usize,
+    opts: &GenerateOptions,
+    b: &mut Batch,
+    wsum: &mut f64,
+) -> usize {
+    let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+    let dir = |px: f64, py: f64| d.dir(T::from_f64(px), T::from_f64(py));
+    let mut push = |v: [T; 3], wt: f64| {
+        let v = v.map(|a| a.to_f64());
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        b.dirs.push(v.map(|a| (a / l) as f32));
+        b.owner.push((x as u32, wt as f32));
+    };
+    if opts.samples == 1 {
+        push(dir(cx, cy).0, 1.0);
+        *wsum += 1.0;
+        return 1;
+    }
+    let (nx, ny) = footprint_strata(d, cx, cy, opts);
+    let radius = opts.filter.radius();
+    let support = 2.0 * radius;
+    for j in 0..ny {
+        for i in 0..nx {
+            let (jx, jy) = jitter(opts.seed, x as u64, y as u64, (j * nx + i) as u64);
+            let ox = -radius + (i as f64 + jx) / nx as f64 * support;
+            let oy = -radius + (j as f64 + jy) / ny as f64 * support;
+            let (sx, sy) = (cx + ox, cy + oy);
+            let wt = opts.filter.weight(ox)
+                * opts.filter.weight(oy)
+                * d.density(T::from_f64(sx), T::from_f64(sy));
+            *wsum += wt;
+            let (v, on) = dir(sx, sy);
+            if !on && d.outside == Outside::Black {
+                continue;
+            }
+            push(v, wt);
+        }
+    }
+    nx * ny
+}
+
+/// The strata grid of a texel from its angular footprint (see the module docs).
+fn footprint_strata<T: Real>(
+    d: &Dst<T>,
+    cx: f64,
+    cy: f64,
+    opts: &GenerateOptions,
+) -> (usize, usize) {
+    let unit = |px: f64, py: f64| {
+        let v = d
+            .dir(T::from_f64(px), T::from_f64(py))
+            .0
+            .map(|a| a.to_f64());
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|a| a / l)
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let hx = sub(unit(cx + 0.5, cy), unit(cx - 0.5, cy));
+    let hy = sub(unit(cx, cy + 0.5), unit(cx, cy - 0.5));
+    let len = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let cr = [
+        hx[1] * hy[2] - hx[2] * hy[1],
+        hx[2] * hy[0] - hx[0] * hy[2],
+        hx[0] * hy[1] - hx[1] * hy[0],
+    ];
+    let a0 = len(cr).sqrt();
+    let base = (opts.samples as f64).sqrt().ceil();
+    let cap = opts.max_samples as usize;
+    let axis = |l: f64| {
+        let k = l / a0;
+        if k.is_finite() {
+            (base * k.max(1.0)).ceil().min(cap as f64) as usize
+        } else {
+            cap
+        }
+    };
+    strata(axis(len(hx)), axis(len(hy)), opts.samples as usize, cap)
+}
+
+/// Texels wholly off a disc mapping (never traced): the engine's gutter — the value at the
+/// radially mirrored canvas point, looked up bilinearly in the finished map — or 0.
+pub(crate) fn fill_outside(m: Mapping, out: &mut Image, outside: Outside, centres_only: bool) {
+    let (w, h, c) = (out.width, out.height, out.channels);
+    let traced: Vec<bool> = (0..h)
+        .flat_map(|y| {
+            let spans = row_spans(m, w, h, y);
+            (0..w).map(move |x| spans.iter().any(|&(a, b)| (a..b).contains(&x)))
+        })
+        .collect();
+    let copy = out.data.clone();
+    let env = EnvMap {
+        mapping: m,
+        width: w,
+        height: h,
+        channels: c,
+        data: &copy,
+    };
+    let sampler = Sampler::new(&env);
+    let d = Dst::<f64>::new(m, w, h, &IDENTITY, Outside::Gutter);
+    out.data
+        .par_chunks_mut(w * c)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..w {
+                // With one centre ray per texel, a texel whose centre is off the map fired
+                // nothing even inside the span.
+                let on = centre_on_map(m, w, h, x, y);
+                if on || (traced[y * w + x] && !centres_only) {
+                    continue;
+                }
+                let px = &mut row[x * c..(x + 1) * c];
+                match outside {
+                    Outside::Black => px.fill(0.0),
+                    Outside::Gutter => {
+                        let (v, _) = d.dir(x as f64 + 0.5, y as f64 + 0.5);
+                        sampler.sample(v.map(|a| a as f32), px);
+                    }
+                }
+            }
+        });
+}

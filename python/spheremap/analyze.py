@@ -1,0 +1,126 @@
+"""Sampling analytics of a mapping and per-vertex interpolation error of a mesh."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import os
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _spheremap as _ext
+from ._args import _Photo, _choice, _finite, _floats, _size_any, _vec3
+from .images import read_image
+from .names import MAPPINGS
+from .render import _mesh_arrays, render
+
+
+def _stats(a: np.ndarray) -> dict:
+    f = a[np.isfinite(a)]
+    if f.size == 0:
+        return {"min": float("nan"), "max": float("nan"), "mean": float("nan"), "count": 0}
+    return {"min": float(f.min()), "max": float(f.max()), "mean": float(f.mean()), "count": int(f.size)}
+
+
+def analyze(
+    map: _Photo | None = None,
+    *,
+    mapping: str = "sphere",
+    preset: str | None = None,
+    size: int = 256,
+    mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike] | None = None,
+    eye: npt.ArrayLike | None = None,
+    target: npt.ArrayLike | None = None,
+    up: npt.ArrayLike | None = None,
+    fovy: float = 40.0,
+    near: float | None = None,
+    far: float | None = None,
+    view_size: tuple[int, int] = (512, 512),
+    threshold: float = 1.0,
+) -> dict[str, Any]:
+    """Sampling analytics (``spheremap analyze``; definitions in the README).
+
+    map: an environment map (array or path) whose canvas is analysed as `mapping`; without it,
+        the `mapping` canvas of `size` N (1 to 8192).
+    Returns a dict: "solid_angle" (sr), "anisotropy", "resolution_deg" (the coarsest angular
+    step per texel), each (H, W) float64 with NaN off the map, and "stats" (min/max/mean of
+    each). With `mesh` (a path or (positions, normals or None, triangles)) and a camera as
+    render: "mesh" = {"triangle_error_deg" (M,), "in_view" (M,), "split" (M,) (the advised
+    split per triangle: edges in k, k*k pieces; max_split + 1 = cannot get under the
+    threshold), "over" (indices of triangles in view over `threshold` degrees),
+    "uniform_split", "triangles_after_adaptive", "unfixable", "pixel_error_deg" ((H, W), NaN
+    where no surface)}.
+    """
+    _choice(mapping, "mapping", MAPPINGS)
+    if map is not None:
+        a = read_image(map) if isinstance(map, (str, os.PathLike)) else _floats(map, "map")
+        if mapping == "cube" and a.ndim == 4:
+            h, w = 6 * a.shape[1], a.shape[2]
+        elif a.ndim in (2, 3):
+            h, w = a.shape[:2]
+        else:
+            raise ValueError(f"map: expected an image (H, W[, C]), got shape {a.shape}")
+    else:
+        w = h = None
+    sa, an, res = _ext.analyze_mapping(
+        mapping=mapping,
+        preset=preset,
+        width=w,
+        height=h,
+        size=None if map is not None else _size_any(size, "size"),
+    )
+    h, w = sa.shape
+    out = {
+        "mapping": mapping,
+        "width": w,
+        "height": h,
+        "solid_angle": sa,
+        "anisotropy": an,
+        "resolution_deg": res,
+        "stats": {"solid_angle": _stats(sa), "anisotropy": _stats(an), "resolution_deg": _stats(res)},
+    }
+    if mesh is not None:
+        p, nrm, t = _mesh_arrays(mesh)
+        try:
+            vw, vh = (int(v) for v in view_size)
+        except (TypeError, ValueError):
+            raise ValueError(f"view_size: expected (width, height), got {view_size!r}") from None
+        cam = dict(
+            eye=_vec3(eye, "eye"),
+            target=_vec3(target, "target"),
+            up=_vec3(up, "up"),
+            fovy=_finite(fovy, "fovy"),
+            near=None if near is None else _finite(near, "near"),
+            far=None if far is None else _finite(far, "far"),
+            width=_size_any(vw, "view_size"),
+            height=_size_any(vh, "view_size"),
+        )
+        err, in_view, split, k, after, unfixable = _ext.analyze_mesh(
+            positions=p, normals=nrm, triangles=t, threshold=_finite(threshold, "threshold"), **cam
+        )
+        heat = render(
+            (p, nrm, t),
+            mode="error",
+            eye=eye,
+            target=target,
+            up=up,
+            fovy=fovy,
+            near=near,
+            far=far,
+            size=(vw, vh),
+            aa=2,
+        )
+        px = np.where(heat[..., 1] > 0, heat[..., 0], np.nan)
+        out["mesh"] = {
+            "triangle_error_deg": err,
+            "in_view": in_view,
+            "split": split,
+            "over": np.nonzero(in_view & (err > threshold))[0],
+            "uniform_split": int(k),
+            "triangles_after_adaptive": int(after),
+            "unfixable": int(unfixable),
+            "max_split": _ext.MAX_SPLIT,
+            "pixel_error_deg": px,
+        }
+    return out

@@ -1,0 +1,24 @@
+"""The lists of names each option takes; the core defines each once (spheremap's Rust crate), these are its lists."""
+
+from __future__ import annotations
+
+from . import _spheremap as _ext
+
+# The lists of names are the core's (spheremap's Rust crate defines each once).
+NORMALIZE_MODES = tuple(_ext.names("normalize"))
+SINGULAR_MODES = tuple(_ext.names("singular"))
+MATCAP_VARIANTS = tuple(_ext.names("matcap"))
+#: Environment mappings (dir_to_uv, uv_to_dir, texel_solid_angles, convert).
+MAPPINGS = tuple(_ext.names("mapping"))
+#: Cube-map file layouts (see the README's diagram); "dice" = "hcross".
+CUBE_LAYOUTS = tuple(_ext.names("layout"))
+#: Reconstruction filters of convert.
+FILTERS = tuple(_ext.names("filter"))
+#: How convert's samples read the input's texels.
+TAPS = tuple(_ext.names("taps"))
+#: Fisheye lens models (from_fisheye; Scene.preview takes the first four).
+LENS_MODELS = tuple(_ext.names("lens"))
+#: Modes of render.
+RENDER_MODES = tuple(_ext.names("render"))
+#: What from_mirror_ball / from_fisheye put where no photo sees.
+PHOTO_FILLS = tuple(_ext.names("fill"))

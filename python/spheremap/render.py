@@ -1,0 +1,152 @@
+"""Meshes in, and the GL-exact rasterizer."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _spheremap as _ext
+from ._args import _Photo, _choice, _finite, _floats, _nonfinite, _size_any, _vec3
+from .convert import _cube_faces
+from .images import read_image
+from .names import MAPPINGS, MATCAP_VARIANTS, RENDER_MODES
+
+
+def load_mesh(
+    path: str | os.PathLike[str],
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.uint32]]:
+    """Reads an OBJ or glTF/GLB mesh -> (positions (N, 3) float32, normals (N, 3) float32,
+    triangles (M, 3) uint32): faces triangulated, glTF node transforms applied, the file's
+    vertex normals or else angle-weighted ones (see the README)."""
+    return _ext.load_mesh(os.fspath(path))
+
+
+def _mesh_arrays(mesh):
+    """A mesh argument (a path, or (positions, normals or None, triangles)) as the arrays the
+    extension takes."""
+    if isinstance(mesh, (str, os.PathLike)):
+        return load_mesh(mesh)
+    try:
+        p, n, t = mesh
+    except (TypeError, ValueError):
+        raise ValueError("mesh: expected a path or (positions, normals, triangles)") from None
+    p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
+    if n is not None:
+        n = np.ascontiguousarray(_floats(n, "normals", last=(3,), ndim=2), dtype=np.float32)
+    t = np.asarray(t)
+    if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
+        raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
+    return p, n, np.ascontiguousarray(t, dtype=np.uint32)
+
+
+def _env_image(env, env_format: str, linear: bool, layout: str | None = None) -> np.ndarray:
+    if isinstance(env, (str, os.PathLike)):
+        a = read_image(env, linear=linear)
+    else:
+        a = _floats(env, "env")
+    if env_format == "cube":
+        if layout is not None or (a.ndim == 3 and a.shape[1] * 6 != a.shape[0]):
+            a = _cube_faces(a, layout, "env")
+        if a.ndim == 4:
+            if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
+                raise ValueError(f"env: a cube map is (6, F, F, C), got shape {a.shape}")
+            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+    elif a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ValueError(f"env: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    a = _nonfinite(a, "error", "env")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def render(
+    mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike],
+    env: _Photo | None = None,
+    *,
+    mode: str = "per-pixel",
+    env_format: str | None = None,
+    env_preset: str | None = None,
+    matcap_variant: str = "classic",
+    eye: npt.ArrayLike | None = None,
+    target: npt.ArrayLike | None = None,
+    up: npt.ArrayLike | None = None,
+    fovy: float = 40.0,
+    near: float | None = None,
+    far: float | None = None,
+    size: tuple[int, int] = (512, 512),
+    background: npt.ArrayLike = (0.0, 0.0, 0.0),
+    aa: int = 1,
+    wrap: str = "clamp-to-edge",
+    linear: bool = False,
+    env_layout: str | None = None,
+) -> npt.NDArray[np.float32]:
+    """Draws a mesh with the CPU rasterizer (``spheremap render``; see the README).
+
+    mesh: a path (OBJ, glTF/GLB) or (positions (N, 3), normals (N, 3) or None, triangles (M, 3)).
+    env: the sphere map (per-vertex, per-pixel), MatCap image (matcap) or environment map in
+        `env_format` (per-pixel), as an array or a path; not needed for normals and error. A
+        cube map is (6, F, F, C) faces or one image in a layout (`env_layout`, one of
+        CUBE_LAYOUTS, or implied by its shape as in `convert`). env_format, env_preset and
+        env_layout default, for a path, to what spheremap noted in the file when it wrote it
+        (as the CLI's --env-format does), else to "sphere". A sphere map in another preset than
+        "gl" is resampled into the GL sphere map texgen addresses first.
+    mode: one of RENDER_MODES. per-vertex is OpenGL's fixed-function GL_SPHERE_MAP path
+        (texgen per vertex, (s, t) interpolated, GL_LINEAR); per-pixel the reflection vector per
+        pixel (a sphere map in eye space, other mappings in world space).
+    eye, target, up, fovy, near, far: gluLookAt + gluPerspective (defaults frame the mesh).
+    size: (width, height). aa: k x k samples per pixel. wrap: "clamp-to-edge" or "repeat".
+
+    Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
+    in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
+    """
+    _choice(mode, "mode", RENDER_MODES)
+    if env_format is not None:
+        _choice(env_format, "env_format", MAPPINGS)
+    if isinstance(env, (str, os.PathLike)):
+        env_format, env_preset, noted_layout = _ext.mapping_for(
+            path=os.fspath(env), mapping=env_format, preset=env_preset, default="sphere"
+        )
+        env_layout = env_layout if env_layout is not None else noted_layout
+    elif env_format is None:
+        env_format = "sphere"
+    _choice(matcap_variant, "matcap_variant", MATCAP_VARIANTS)
+    _choice(wrap, "wrap", ("clamp-to-edge", "repeat"))
+    p, n, t = _mesh_arrays(mesh)
+    if mode in ("per-vertex", "matcap") and env_format != "sphere":
+        raise ValueError(
+            f"env_format: mode {mode!r} looks up (s, t) in a sphere map or MatCap image; "
+            "convert the map to a sphere map first"
+        )
+    if env is None and mode not in ("normals", "error"):
+        raise ValueError(f"env: mode {mode!r} needs an environment map")
+    if env_layout is not None and env_format != "cube":
+        raise ValueError(f"env_layout: only for env_format='cube', not {env_format!r}")
+    e = None if env is None else _env_image(env, env_format, linear, env_layout)
+    try:
+        w, h = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise ValueError(f"size: expected (width, height), got {size!r}") from None
+    bg = _vec3(background, "background")
+    return _ext.render(
+        positions=p,
+        normals=n,
+        triangles=t,
+        env=e,
+        env_mapping=env_format,
+        env_preset=env_preset,
+        mode=mode,
+        matcap_variant=matcap_variant,
+        eye=_vec3(eye, "eye"),
+        target=_vec3(target, "target"),
+        up=_vec3(up, "up"),
+        fovy=_finite(fovy, "fovy"),
+        near=None if near is None else _finite(near, "near"),
+        far=None if far is None else _finite(far, "far"),
+        width=_size_any(w, "size"),
+        height=_size_any(h, "size"),
+        background=tuple(float(v) for v in bg),
+        aa=_size_any(aa, "aa"),
+        wrap=wrap,
+    )
