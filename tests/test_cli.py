@@ -224,7 +224,7 @@ def test_convert_cli_six_named_faces(tmp_path):
 def test_convert_cli_errors(tmp_path):
     hdri = "testdata/apartment.exr"
     cases = [
-        (["--from", "globe", "--to", "sphere"], "mapping: unknown mapping"),
+        (["--from", "globe", "--to", "sphere"], "--from: unknown mapping"),
         (["--from", "latlong", "--to", "sphere", "--samples", "0"], "samples:"),
         (["--from", "latlong", "--to", "cube", "--layout", "zigzag"], "layout:"),
         (["--from", "sphere", "--to", "latlong"], "a sphere map is square"),

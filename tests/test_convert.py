@@ -96,7 +96,7 @@ def test_errors_name_the_argument(hdri):
         (dict(size=0), "size:"),
         (dict(look=(0, 0, 0)), "look:"),
         (dict(look=(0, 1, 0), up=(0, 2, 0)), "up:"),
-        (dict(src_preset="nope"), "preset:"),
+        (dict(src_preset="nope"), "src_preset:"),
         (dict(look=(1, 0, 0), yaw=3), "look:"),
     ]
     for kw, prefix in cases:

@@ -13,14 +13,7 @@ from . import _spheremap as _ext
 from ._args import _Photo, _choice, _finite, _floats, _size_any, _vec3
 from .images import read_image
 from .names import MAPPINGS
-from .render import _mesh_arrays, render
-
-
-def _stats(a: np.ndarray) -> dict:
-    f = a[np.isfinite(a)]
-    if f.size == 0:
-        return {"min": float("nan"), "max": float("nan"), "mean": float("nan"), "count": 0}
-    return {"min": float(f.min()), "max": float(f.max()), "mean": float(f.mean()), "count": int(f.size)}
+from .render import _mesh_arrays
 
 
 def analyze(
@@ -44,8 +37,9 @@ def analyze(
     map: an environment map (array or path) whose canvas is analysed as `mapping`; without it,
         the `mapping` canvas of `size` N (1 to 8192).
     Returns a dict: "solid_angle" (sr), "anisotropy", "resolution_deg" (the coarsest angular
-    step per texel), each (H, W) float64 with NaN off the map, and "stats" (min/max/mean of
-    each). With `mesh` (a path or (positions, normals or None, triangles)) and a camera as
+    step per texel), each (H, W) float64 with NaN off the map, "stats" (min/max/mean and the
+    count of texels of each) and "summary": what ``spheremap analyze --json`` prints, the same
+    fields. With `mesh` (a path or (positions, normals or None, triangles)) and a camera as
     render: "mesh" = {"triangle_error_deg" (M,), "in_view" (M,), "split" (M,) (the advised
     split per triangle: edges in k, k*k pieces; max_split + 1 = cannot get under the
     threshold), "over" (indices of triangles in view over `threshold` degrees),
@@ -63,7 +57,7 @@ def analyze(
             raise ValueError(f"map: expected an image (H, W[, C]), got shape {a.shape}")
     else:
         w = h = None
-    sa, an, res = _ext.analyze_mapping(
+    (sa, an, res), summary = _ext.analyze_mapping(
         mapping=mapping,
         preset=preset,
         width=w,
@@ -78,7 +72,12 @@ def analyze(
         "solid_angle": sa,
         "anisotropy": an,
         "resolution_deg": res,
-        "stats": {"solid_angle": _stats(sa), "anisotropy": _stats(an), "resolution_deg": _stats(res)},
+        "stats": {
+            "solid_angle": summary["solid_angle_sr"],
+            "anisotropy": summary["anisotropy"],
+            "resolution_deg": summary["resolution_deg"],
+        },
+        "summary": summary,
     }
     if mesh is not None:
         p, nrm, t = _mesh_arrays(mesh)
@@ -96,31 +95,20 @@ def analyze(
             width=_size_any(vw, "view_size"),
             height=_size_any(vh, "view_size"),
         )
-        err, in_view, split, k, after, unfixable = _ext.analyze_mesh(
+        m = _ext.analyze_mesh(
             positions=p, normals=nrm, triangles=t, threshold=_finite(threshold, "threshold"), **cam
         )
-        heat = render(
-            (p, nrm, t),
-            mode="error",
-            eye=eye,
-            target=target,
-            up=up,
-            fovy=fovy,
-            near=near,
-            far=far,
-            size=(vw, vh),
-            aa=2,
-        )
-        px = np.where(heat[..., 1] > 0, heat[..., 0], np.nan)
+        err, in_view, heat, ms = m["triangle_error_deg"], m["in_view"], m["heat"], m["summary"]
         out["mesh"] = {
             "triangle_error_deg": err,
             "in_view": in_view,
-            "split": split,
+            "split": m["split"],
             "over": np.nonzero(in_view & (err > threshold))[0],
-            "uniform_split": int(k),
-            "triangles_after_adaptive": int(after),
-            "unfixable": int(unfixable),
-            "max_split": _ext.MAX_SPLIT,
-            "pixel_error_deg": px,
+            "uniform_split": ms["uniform_split"],
+            "triangles_after_adaptive": ms["triangles_after_adaptive"],
+            "unfixable": ms["unfixable"],
+            "max_split": ms["max_split"],
+            "pixel_error_deg": np.where(heat[..., 1] > 0, heat[..., 0], np.nan),
         }
+        summary["mesh"] = ms
     return out

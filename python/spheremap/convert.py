@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _choice, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _vec3
+from ._args import _choice, _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _vec3
 from .names import MAPPINGS
 
 
@@ -95,13 +95,6 @@ def convert(
     samples = _size_any(samples, "samples")
     max_samples = _size_any(max_samples, "max_samples")
     seed = _seed(seed)
-    if look is None and up is not None:
-        raise ValueError("up: needs look")
-    if look is not None and (yaw, pitch, roll) != (None, None, None):
-        raise ValueError("look: give look/up or yaw/pitch/roll, not both")
-    ypr = None
-    if (yaw, pitch, roll) != (None, None, None):
-        ypr = _vec3([yaw or 0.0, pitch or 0.0, roll or 0.0], "yaw")
     if out is not None:
         if not isinstance(out, np.ndarray) or out.dtype != np.float32:
             raise ValueError(
@@ -111,28 +104,30 @@ def convert(
             raise ValueError("out: must be C-contiguous and writeable")
         if np.shares_memory(out, a):
             raise ValueError("out: overlaps image")
-    res = _ext.convert(
-        image=np.ascontiguousarray(a, dtype=np.float32),
-        src=src,
-        dst=dst,
-        size=size,
-        samples=samples,
-        max_samples=max_samples,
-        filter=filter,
-        outside=outside,
-        seed=int(seed),
-        precision=precision,
-        src_preset=src_preset,
-        dst_preset=dst_preset,
-        look=_vec3(look, "look"),
-        up=_vec3(up, "up"),
-        ypr=ypr,
-        src_look=_vec3(src_look, "src_look"),
-        src_up=_vec3(src_up, "src_up"),
-        max_memory=max_memory,
-        out=out,
-        taps=_name("taps", taps, "taps"),
-    )
+    # The core's conversion request (spheremap::jobs::convert::ConvertJob): it checks the rest.
+    job = {
+        "from": src,
+        "from_preset": src_preset,
+        "from_look": _vec3(src_look, "src_look"),
+        "from_up": _vec3(src_up, "src_up"),
+        "to": dst,
+        "preset": dst_preset,
+        "size": size,
+        "look": _vec3(look, "look"),
+        "up": _vec3(up, "up"),
+        "yaw": None if yaw is None else _finite(yaw, "yaw"),
+        "pitch": None if pitch is None else _finite(pitch, "pitch"),
+        "roll": None if roll is None else _finite(roll, "roll"),
+        "samples": samples,
+        "max_samples": max_samples,
+        "filter": filter,
+        "taps": _name("taps", taps, "taps"),
+        "outside": outside,
+        "seed": int(seed),
+        "precision": precision,
+        "max_memory": max_memory,
+    }
+    res = _ext.convert(image=np.ascontiguousarray(a, dtype=np.float32), job=job, out=out)
     if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
         f = res.shape[1]
         res = res.reshape(6, f, f, res.shape[2])

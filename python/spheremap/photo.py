@@ -194,8 +194,8 @@ def from_mirror_ball(
             ) from None
         if r.ndim != 1 or len(r) not in (1, 3) or not np.all((r > 0) & np.isfinite(r)):
             raise ValueError(f"reflectance: expected one positive number or three, got {reflectance!r}")
-        b = np.broadcast_to(r, 3)
-        refl = (float(b[0]), float(b[1]), float(b[2]))
+        r3 = np.broadcast_to(r, 3)
+        refl = (float(r3[0]), float(r3[1]), float(r3[2]))
     fov = None if fov is None else _finite(fov, "fov")
     focal = None if focal is None else _finite(focal, "focal")
     sensor = None if sensor is None else _finite(sensor, "sensor")

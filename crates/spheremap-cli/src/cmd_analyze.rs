@@ -5,7 +5,7 @@ use crate::job::JobFlags;
 use anyhow::Context;
 use spheremap::images::codec::{read_image, write_image, ReadOptions};
 use spheremap::images::draw;
-use spheremap::jobs::analyze::{self, figure, stats, Stats};
+use spheremap::jobs::analyze::{self, figure};
 use spheremap::jobs::render::{self, Env, Mode, RenderOptions};
 use spheremap::mappings::mapping::Mapping;
 use spheremap::mesh::load_mesh;
@@ -16,7 +16,7 @@ pub struct Args {
     /// An environment map whose mapping (--mapping) and size are analysed.
     map: Option<String>,
     /// The mapping: sphere (default), latlong, cube, angular, paraboloid, octahedral.
-    #[arg(long, default_value = "sphere")]
+    #[arg(long, default_value = "sphere", value_parser = crate::names::core("mapping"))]
     mapping: String,
     /// Its preset.
     #[arg(long)]
@@ -42,10 +42,6 @@ pub struct Args {
     job: JobFlags,
 }
 
-fn stats_json(s: &Stats) -> serde_json::Value {
-    serde_json::json!({"min": s.min, "max": s.max, "mean": s.mean, "texels": s.count})
-}
-
 pub fn run(a: Args) -> anyhow::Result<()> {
     let mapping = Mapping::parse(&a.mapping, a.preset.as_deref()).context("--mapping/--preset")?;
     let inputs: Vec<&String> = a.map.iter().collect();
@@ -61,17 +57,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         None => analyze::canvas(mapping, "size", a.size)?,
     };
     let maps = analyze::mapping_maps(mapping, w, h)?;
+    let mut summary = maps.summary(mapping);
     let (sa, an, re) = (
-        stats(&maps.solid_angle),
-        stats(&maps.anisotropy),
-        stats(&maps.resolution_deg),
+        summary.solid_angle_sr,
+        summary.anisotropy,
+        summary.resolution_deg,
     );
     let mut panels = vec![figure::mapping_figure(&maps, mapping.name())];
-    let mut json = serde_json::json!({
-        "mapping": mapping.name(), "preset": mapping.preset_name(), "width": w, "height": h,
-        "solid_angle_sr": stats_json(&sa), "solid_angle_max_over_min": sa.max / sa.min,
-        "anisotropy": stats_json(&an), "resolution_deg": stats_json(&re),
-    });
     let mut lines = vec![format!(
         "{} {w}x{h}: texel solid angle {}..{} sr (max/min {:.3}), anisotropy up to {:.3}, \
          coarsest step {:.4}..{:.4} deg/texel",
@@ -89,56 +81,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .camera
             .camera(&mesh.positions, (a.view_size[0], a.view_size[1]))
             .with_context(|| path.clone())?;
-        let err = analyze::mesh_error(&mesh, &cam, a.threshold)?;
-        let opts = RenderOptions {
-            mode: Mode::Error,
-            aa: 2,
-            ..Default::default()
-        };
-        let (heat, _) = render::render(&mesh, &cam, Env::None, &opts)?;
-        // Pixel statistics over the covered pixels.
-        let mut px: Vec<f64> = heat
-            .data
-            .chunks_exact(2)
-            .filter(|p| p[1] > 0.0)
-            .map(|p| p[0] as f64)
-            .collect();
-        px.sort_by(f64::total_cmp);
-        let pct = |q: f64| {
-            px.get(((px.len().max(1) - 1) as f64 * q).round() as usize)
-                .copied()
-        };
-        let over = err.over();
-        let in_view = err.in_view.iter().filter(|v| **v).count();
-        let k = err.uniform_split();
-        let mut hist = std::collections::BTreeMap::new();
-        for (s, v) in err.split.iter().zip(&err.in_view) {
-            if *v && *s > 1 {
-                *hist.entry(s.to_string()).or_insert(0usize) += 1;
-            }
-        }
-        json["mesh"] = serde_json::json!({
-            "file": path, "triangles": mesh.triangles.len(), "in_view": in_view,
-            "threshold_deg": a.threshold, "over": over.len(),
-            "over_indices": over.iter().take(1000).collect::<Vec<_>>(),
-            "pixel_error_deg": {"mean": px.iter().sum::<f64>() / px.len().max(1) as f64,
-                                "p95": pct(0.95), "max": pct(1.0)},
-            "uniform_split": k,
-            "triangles_after_uniform": mesh.triangles.len() as u64 * (k as u64).pow(2),
-            "triangles_after_adaptive": err.triangles_after(),
-            "unfixable": err.unfixable(), "split_histogram": hist,
-            "max_split": analyze::MAX_SPLIT,
-        });
+        let (err, heat) = analyze::mesh_report(&mesh, &cam, a.threshold)?;
+        let m = err.summary(Some(path), &heat);
         lines.push(format!(
-            "{path}: {} of {in_view} triangles in view over {}°; split each edge in {k} \
+            "{path}: {} of {} triangles in view over {}°; split each edge in {} \
              ({} triangles) or adaptively ({} triangles); {} cannot get under it (they reflect \
              toward the sphere map's rim)",
-            over.len(),
+            m.over,
+            m.in_view,
             a.threshold,
-            mesh.triangles.len() as u64 * (k as u64).pow(2),
-            err.triangles_after(),
-            err.unfixable()
+            m.uniform_split,
+            m.triangles_after_uniform,
+            m.triangles_after_adaptive,
+            m.unfixable
         ));
+        summary.mesh = Some(m);
         let deg: Vec<f64> = heat
             .data
             .chunks_exact(2)
@@ -177,6 +134,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     write_image(Path::new(&a.output), &sheet, &a.job.write_options(false))?;
     if a.job.json {
+        let mut json = serde_json::to_value(&summary)?;
         json["output"] = a.output.clone().into();
         crate::out(&format!("{json}\n"));
     } else if !a.job.quiet {

@@ -28,13 +28,13 @@ pub struct Args {
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     up: Option<Vec<f64>>,
     /// Output mapping (default sphere: the GL sphere map of the view).
-    #[arg(long, default_value = "sphere")]
+    #[arg(long, default_value = "sphere", value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
     preset: Option<String>,
     /// Cube layout of the output when --to cube.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
     #[arg(long, default_value_t = 512)]
@@ -42,7 +42,7 @@ pub struct Args {
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,
     /// f32 (default) or f64 arithmetic for the ray directions.
-    #[arg(long, default_value = "f32")]
+    #[arg(long, default_value = "f32", value_parser = crate::names::core("precision"))]
     precision: String,
     /// Also ray-trace the six cube faces at --pos into this folder (px nx py ny pz nz .exr):
     /// the first step of the two-step route (then `spheremap convert 'DIR/{face}.exr' ...`).
@@ -104,8 +104,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pattern = dir.join("{face}.exr").display().to_string();
         written.extend(write_env(&pattern, cube, &faces, None, &IDENTITY, &wopts)?);
     }
-    summary(&a, dst, &out, &report, seconds, &written, scene);
-    Ok(())
+    summary(&a, dst, &out, &report, seconds, &written, scene)
 }
 
 fn run_generate(
@@ -134,24 +133,36 @@ fn summary(
     seconds: f64,
     written: &[String],
     scene: Option<&Scene>,
-) {
+) -> anyhow::Result<()> {
     let rays_per_texel = r.rays as f64 / r.texels.max(1) as f64;
     let (w, h) = (out.width, out.height);
     if a.job.json {
-        let mut v = serde_json::json!({
-            "scene": a.world.scene, "env": a.world.env, "output": written,
-            "to": dst.name(), "preset": dst.preset_name(),
-            "size": a.size, "width": w, "height": h,
-            "samples": a.sampling.samples, "filter": a.sampling.filter, "outside": a.sampling.outside,
-            "triangles": scene.map(|s| s.triangle_count()),
-            "degenerate_triangles": scene.map(|s| s.degenerate_count()),
-            "lights": scene.map(|s| s.lights.len()),
-            "rays": r.rays, "texels_traced": r.texels, "rays_per_texel": rays_per_texel,
-            "max_texel_samples": r.max_texel_samples,
-            "seconds": seconds, "rays_per_second": r.rays as f64 / seconds.max(1e-9),
-        });
-        a.job.add_losses(&mut v, out, &written[0], false);
-        crate::out(&format!("{v}\n"));
+        let losses = a.job.losses(out, &written[0], false);
+        let v = spheremap::trace::generate::GenerateSummary {
+            scene: a.world.scene.clone(),
+            env: a.world.env.clone(),
+            output: written.to_vec(),
+            to: dst.name(),
+            preset: dst.preset_name(),
+            size: a.size,
+            width: w,
+            height: h,
+            samples: a.sampling.samples,
+            filter: a.sampling.filter()?.name(),
+            outside: a.sampling.outside()?.name(),
+            triangles: scene.map(|s| s.triangle_count()),
+            degenerate_triangles: scene.map(|s| s.degenerate_count()),
+            lights: scene.map(|s| s.lights.len()),
+            rays: r.rays,
+            texels_traced: r.texels,
+            rays_per_texel,
+            max_texel_samples: r.max_texel_samples,
+            seconds,
+            rays_per_second: r.rays as f64 / seconds.max(1e-9),
+            clipped: losses.clipped,
+            clamped_half: losses.beyond_half,
+        };
+        crate::out(&format!("{}\n", serde_json::to_string(&v)?));
     } else if !a.job.quiet {
         if let Some(n) = scene.map(|s| s.degenerate_count()).filter(|&n| n > 0) {
             eprintln!("note: {n} degenerate (zero-area) triangles in the scene are ignored");
@@ -166,4 +177,5 @@ fn summary(
             r.rays as f64 / seconds.max(1e-9) / 1e6
         );
     }
+    Ok(())
 }

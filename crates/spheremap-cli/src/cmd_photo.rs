@@ -20,13 +20,13 @@ use std::time::Instant;
 #[derive(clap::Args, Debug)]
 pub struct MapOut {
     /// Output mapping (default sphere: the GL sphere map of the camera's view).
-    #[arg(long, default_value = "sphere")]
+    #[arg(long, default_value = "sphere", value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
     preset: Option<String>,
     /// Cube layout of the output when --to cube.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
     #[arg(long, default_value_t = 512)]
@@ -42,7 +42,7 @@ pub struct MapOut {
     up: Option<Vec<f64>>,
     /// What to put where no photo sees: none (0, default), smooth (pull-push interpolation
     /// from the seen texels), mean (their mean colour).
-    #[arg(long, default_value = "none")]
+    #[arg(long, default_value = "none", value_parser = crate::names::core("fill"))]
     fill: String,
     /// Write the confidence mask here (one channel, 0 = unseen, 1 = best sampled).
     #[arg(long)]
@@ -271,7 +271,7 @@ pub struct FisheyeArgs {
     /// The fisheye photo.
     image: String,
     /// Lens model: equidistant, equisolid, stereographic, orthographic, polynomial.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("lens"))]
     model: String,
     /// Field of view across the image circle, degrees.
     #[arg(long)]
@@ -345,32 +345,17 @@ fn summary(
     inputs: &[&str],
 ) {
     if out.job.json {
-        let shots: Vec<_> = r
-            .shots
-            .iter()
-            .map(|s| {
-                serde_json::json!({
-                    "circle": [s.circle.cx, s.circle.cy, s.circle.r],
-                    "fit_rms": s.fit_rms,
-                    "fit_rms_px": s.fit_rms.filter(|_| s.reflectance.is_none()),
-                    "fit_points": s.fit_points,
-                    "confidence": s.confidence, "reflectance": s.reflectance,
-                    "uncertainty_px": s.uncertainty,
-                    "distance_radii": s.distance.is_finite().then_some(s.distance),
-                    "blind_cone_deg": s.blind_deg,
-                })
-            })
-            .collect();
         let mut v = serde_json::json!({
             "inputs": inputs, "output": written, "models": models,
             "to": dst.name(), "preset": dst.preset_name(), "size": out.size,
             "samples": out.sampling.samples, "fill": out.fill,
-            "shots": shots,
-            "rotation": r.rotation, "rotation_deg": r.rotation_deg,
-            "alignment_rms": r.alignment_rms, "gain": r.gain,
-            "seen_fraction": r.seen_fraction, "samples_total": r.rays,
             "seconds": seconds,
         });
+        if let (Some(v), Ok(serde_json::Value::Object(s))) =
+            (v.as_object_mut(), serde_json::to_value(r.summary()))
+        {
+            v.extend(s);
+        }
         out.job.add_losses(&mut v, map, &written[0], out.linear);
         crate::out(&format!("{v}\n"));
     } else if !out.job.quiet {

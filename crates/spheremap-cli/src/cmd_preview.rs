@@ -29,7 +29,7 @@ pub struct Args {
     fov: f64,
     /// A fisheye lens instead: equidistant, equisolid, stereographic, orthographic (its image
     /// circle fills the shorter side; --fov is then the field across the circle).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("lens"))]
     lens: Option<String>,
     /// Image size in pixels.
     #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [640, 480])]

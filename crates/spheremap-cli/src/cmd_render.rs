@@ -9,7 +9,8 @@ use spheremap::images::format::Format;
 use spheremap::images::tonemap::{tone_map, ToneMap};
 use spheremap::images::Image;
 use spheremap::jobs::render::{
-    self, heat_colour, Env, EnvInput, GlCamera, Mode, RenderOptions, Wrap,
+    self, heat_colour, Env, EnvInput, GlCamera, Mode, PixelError, RenderOptions, RenderSummary,
+    Wrap,
 };
 use spheremap::mappings::matcap::MatcapVariant;
 use spheremap::mesh::load_mesh;
@@ -26,19 +27,19 @@ pub struct Args {
     env: Option<String>,
     /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
     /// spheremap recorded in the file when it wrote it, else sphere.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("mapping"))]
     env_format: Option<String>,
     /// Preset of --env's mapping.
     #[arg(long)]
     env_preset: Option<String>,
     /// Cube layout of --env (default: from its shape).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("layout"))]
     env_layout: Option<String>,
     /// per-vertex (GL_SPHERE_MAP texgen, as OpenGL), per-pixel, matcap, normals, error.
-    #[arg(long, default_value = "per-pixel")]
+    #[arg(long, default_value = "per-pixel", value_parser = crate::names::core("render"))]
     mode: String,
     /// MatCap variant for --mode matcap: classic, threejs, perspective.
-    #[arg(long, default_value = "classic")]
+    #[arg(long, default_value = "classic", value_parser = crate::names::core("matcap"))]
     matcap_variant: String,
     #[command(flatten)]
     camera: CameraArgs,
@@ -58,7 +59,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
     /// Tone-mapping operator for PNG/JPEG outputs: clamp (default), reinhard, aces.
-    #[arg(long, default_value = "clamp")]
+    #[arg(long, default_value = "clamp", value_parser = crate::names::core("tonemap"))]
     tonemap: String,
     /// Error mode: the angle (degrees) shown as the hottest colour in PNG/JPEG outputs
     /// (EXR holds the degrees themselves).
@@ -141,23 +142,30 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let (img, stats) = render::render(&mesh, &cam, env, &opts)?;
     let seconds = t0.elapsed().as_secs_f64();
-    let error_stats = (mode == Mode::Error).then(|| error_summary(&img));
+    let error_stats = (mode == Mode::Error).then(|| PixelError::of(&img));
     let linear_out = Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
     let out = finish(img, &a, &opts, op, linear_out);
     write_image(Path::new(&a.output), &out, &a.job.write_options(false))?;
     if a.job.json {
-        let mut v = serde_json::json!({
-            "output": a.output, "mode": a.mode, "width": cam.width, "height": cam.height,
-            "triangles_drawn": stats.triangles, "covered_pixels": stats.covered_pixels,
-            "modelview": cam.modelview, "projection": cam.projection, "seconds": seconds,
-        });
-        a.job.add_losses(&mut v, &out, &a.output, false);
-        if let Some((mean, p95, max)) = error_stats {
-            v["error_deg"] = serde_json::json!({"mean": mean, "p95": p95, "max": max});
-        }
-        crate::out(&format!("{v}\n"));
+        let losses = a.job.losses(&out, &a.output, false);
+        let v = RenderSummary {
+            output: a.output.clone(),
+            mode: a.mode.clone(),
+            width: cam.width,
+            height: cam.height,
+            triangles_drawn: stats.triangles,
+            covered_pixels: stats.covered_pixels,
+            modelview: cam.modelview,
+            projection: cam.projection,
+            seconds,
+            clipped: losses.clipped,
+            clamped_half: losses.beyond_half,
+            error_deg: error_stats,
+        };
+        crate::out(&format!("{}\n", serde_json::to_string(&v)?));
     } else if !a.job.quiet {
-        let extra = error_stats.map_or(String::new(), |(mean, p95, max)| {
+        let extra = error_stats.map_or(String::new(), |e| {
+            let (mean, p95, max) = (e.mean, e.p95.unwrap_or(0.0), e.max.unwrap_or(0.0));
             format!(
                 "; per-vertex vs per-pixel lookup angle: mean {mean:.3}°, 95 % {p95:.3}°, max {max:.3}° \
                  (PNG colour scale 0..{}°)",
@@ -248,22 +256,6 @@ fn turntable(
 }
 
 /// Mean, 95th percentile and maximum of the angle over the covered pixels.
-fn error_summary(img: &Image) -> (f64, f64, f64) {
-    let mut v: Vec<f32> = img
-        .data
-        .chunks_exact(2)
-        .filter(|p| p[1] > 0.0)
-        .map(|p| p[0])
-        .collect();
-    if v.is_empty() {
-        return (0.0, 0.0, 0.0);
-    }
-    v.sort_by(f32::total_cmp);
-    let mean = v.iter().map(|x| *x as f64).sum::<f64>() / v.len() as f64;
-    let p95 = v[((v.len() - 1) as f64 * 0.95).round() as usize] as f64;
-    (mean, p95, *v.last().unwrap() as f64)
-}
-
 /// (degrees, coverage) → heat colours (0 → dark, `max` and above → pale yellow) over the
 /// background by coverage.
 fn heat_image(img: &Image, max: f32, bg: [f32; 3]) -> Image {

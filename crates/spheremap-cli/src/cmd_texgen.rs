@@ -20,10 +20,10 @@ pub struct Args {
     column_major: bool,
     /// GL normal state: on = GL_NORMALIZE, off = neither (normal NOT normalized, as GL),
     /// rescale = GL_RESCALE_NORMAL.
-    #[arg(long, default_value = "on", value_parser = NormalMode::NAMES)]
+    #[arg(long, default_value = "on", value_parser = crate::names::core("normalize"))]
     normalize: String,
     /// Result where r = (0,0,-1): nan (current Mesa) or center (legacy Mesa, Blender Cycles).
-    #[arg(long, default_value = "nan", value_parser = Singular::NAMES)]
+    #[arg(long, default_value = "nan", value_parser = crate::names::core("singular"))]
     singular: String,
     /// Output: .csv (s,t per vertex), .npy (N,2 float32) or .obj (the mesh with vt = (s,t)).
     #[arg(short, long)]

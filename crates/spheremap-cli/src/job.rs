@@ -23,7 +23,7 @@ pub struct JobFlags {
     pub max_memory: Option<String>,
     /// NaN/Inf values in input images: error (default; names the count and the first pixel),
     /// zero (replace them with 0) or keep.
-    #[arg(long, default_value = "error")]
+    #[arg(long, default_value = "error", value_parser = crate::names::core("nonfinite"))]
     pub nonfinite: String,
     /// Allow the output to overwrite an input file.
     #[arg(long)]
@@ -78,11 +78,21 @@ impl JobFlags {
         path: &str,
         linear: bool,
     ) {
-        let l = spheremap::images::format::Format::from_extension(Path::new(path))
-            .map(|f| spheremap::images::codec::Losses::of(img, f, &self.write_options(linear)))
-            .unwrap_or_default();
+        let l = self.losses(img, path, linear);
         summary["clipped"] = l.clipped.into();
         summary["clamped_half"] = l.beyond_half.into();
+    }
+
+    /// What writing `img` to `path` loses ([`spheremap::images::codec::Losses`]).
+    pub fn losses(
+        &self,
+        img: &spheremap::images::Image,
+        path: &str,
+        linear: bool,
+    ) -> spheremap::images::codec::Losses {
+        spheremap::images::format::Format::from_extension(Path::new(path))
+            .map(|f| spheremap::images::codec::Losses::of(img, f, &self.write_options(linear)))
+            .unwrap_or_default()
     }
 
     /// `--max-memory` (absent: the core's default).
@@ -128,15 +138,6 @@ pub fn env_mapping(
     Option<spheremap::images::cube_layout::Layout>,
 )> {
     use anyhow::Context;
-    // No file (an empty path: the command has no --env) records nothing.
-    let recorded = match path {
-        "" => None,
-        p => spheremap::images::envmap::read_note(p)?,
-    };
-    let mapping =
-        spheremap::images::envmap::mapping_for(format, preset, recorded.as_ref(), Some(default))
-            .with_context(|| flag.to_string())?
-            .expect("a default mapping is given");
-    let layout = spheremap::images::envmap::layout_for(layout, recorded.as_ref(), mapping)?;
-    Ok((mapping, layout))
+    spheremap::images::envmap::env_mapping_of(path, format, preset, layout, default)
+        .with_context(|| flag.to_string())
 }

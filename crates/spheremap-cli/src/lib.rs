@@ -19,6 +19,7 @@ mod cmd_render;
 mod cmd_shader;
 mod cmd_texgen;
 mod job;
+mod names;
 pub mod progress;
 mod sampling_args;
 mod scene_args;
@@ -110,6 +111,17 @@ where
 {
     let cli = match Cli::try_parse_from(args) {
         Ok(cli) => cli,
+        Err(e) if e.kind() == clap::error::ErrorKind::ValueValidation => {
+            // A bad value the core refused (a name, by `names::core`): its one-line error.
+            let msg = e.to_string();
+            let msg = msg
+                .trim_start_matches("error: ")
+                .lines()
+                .next()
+                .unwrap_or("");
+            eprintln!("spheremap: {msg}");
+            return 2;
+        }
         Err(e) => {
             let _ = e.print();
             return e.exit_code();
@@ -171,6 +183,17 @@ fn one_line(e: &anyhow::Error) -> String {
         }
     }
     msg.replace('\n', " ")
+}
+
+/// A core error whose parameter is a request's field (`from_preset`), named as the flag that
+/// sets it (`--from-preset`).
+pub(crate) fn flag_error(e: spheremap::Error) -> anyhow::Error {
+    match e {
+        spheremap::Error::InvalidParameter { name, reason } if !name.starts_with('-') => {
+            anyhow::anyhow!("--{}: {reason}", name.replace('_', "-"))
+        }
+        other => other.into(),
+    }
 }
 
 /// "Ran fine, found a problem" (`info --check`): exit code 1, not 2.

@@ -15,11 +15,11 @@ pub struct SamplingArgs {
     #[arg(long, default_value_t = 1024)]
     pub max_samples: u32,
     /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
-    #[arg(long, default_value = "box")]
+    #[arg(long, default_value = "box", value_parser = crate::names::core("filter"))]
     pub filter: String,
     /// Outside a sphere/angular/paraboloid disc: gutter (mirror across the rim, no dark fringe
     /// under GPU filtering; default) or black.
-    #[arg(long, default_value = "gutter")]
+    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
     pub outside: String,
     /// Seed of the sample jitter (results are deterministic for a seed).
     #[arg(long, default_value_t = 0)]

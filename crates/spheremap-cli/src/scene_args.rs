@@ -27,13 +27,13 @@ pub struct SceneArgs {
     pub env: Option<String>,
     /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
     /// spheremap recorded in the file when it wrote it, else latlong.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("mapping"))]
     env_format: Option<String>,
     /// Preset of --env's mapping.
     #[arg(long)]
     env_preset: Option<String>,
     /// Cube layout of --env (default: from its shape).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::names::core("layout"))]
     env_layout: Option<String>,
     /// Constant environment colour (linear RGB) when there is no --env; default black.
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]

@@ -506,76 +506,51 @@ fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool>
 
 /// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
 /// Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
+/// Converts `image` as `job` says: `job` is a `ConvertJob` (the core's conversion request) as a
+/// dict of its fields; `image` holds the source ((H, W, C), a cube map as its face stack
+/// (6F, F, C)).  Into `out` when given ((H', W', C), or (6, N, N, C) for a cube), which is
+/// returned; else a new array.
 #[pyfunction]
-#[pyo3(signature = (image, src, dst, size, samples, max_samples, filter, outside, seed, precision,
-                    src_preset=None, dst_preset=None, look=None, up=None, ypr=None,
-                    src_look=None, src_up=None, max_memory=None, out=None, taps="bilinear"))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (image, job, out=None))]
 fn convert<'py>(
     py: Python<'py>,
     image: PyReadonlyArrayDyn<'py, f32>,
-    src: &str,
-    dst: &str,
-    size: Option<usize>,
-    samples: u32,
-    max_samples: u32,
-    filter: &str,
-    outside: &str,
-    seed: u64,
-    precision: &str,
-    src_preset: Option<&str>,
-    dst_preset: Option<&str>,
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    ypr: Option<[f64; 3]>,
-    src_look: Option<[f64; 3]>,
-    src_up: Option<[f64; 3]>,
-    max_memory: Option<u64>,
+    job: &Bound<'py, PyAny>,
     out: Option<Bound<'py, PyArrayDyn<f32>>>,
-    taps: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::resample::{self as rs, EnvMap, Progress, ResampleOptions};
-    let sm = parse_mapping(src, src_preset)?;
-    let dm = parse_mapping(dst, dst_preset)?;
+    use spheremap::jobs::convert::ConvertJob;
+    use spheremap::resample::Progress;
+    let job: ConvertJob =
+        pythonize::depythonize(job).map_err(|e| PyValueError::new_err(format!("job: {e}")))?;
     let shape = image.shape().to_vec();
-    let (h, w, c) = (shape[0], shape[1], shape[2]);
-    let data = contiguous(&image, "image")?;
-    let n_src = sm
-        .size_of(w, h, "image")
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let n = size.unwrap_or_else(|| spheremap::images::envmap::default_size(sm, n_src, dm));
-    spheremap::base::error::check_map_size("size", n).map_err(to_py)?;
-    let opts = ResampleOptions {
-        samples,
-        max_samples,
-        filter: rs::Filter::parse(filter).map_err(to_py)?,
-        taps: rs::Taps::parse(taps).map_err(to_py)?,
-        outside: rs::Outside::parse(outside).map_err(to_py)?,
-        rotation: spheremap::frame::view::conversion_rotation(look, up, ypr, src_look, src_up)
-            .map_err(to_py)?,
-        seed,
-        max_memory: max_memory.unwrap_or_else(spheremap::base::error::default_max_memory),
-        precision: rs::Precision::parse(precision).map_err(to_py)?,
+    let img = spheremap::images::Image {
+        height: shape[0],
+        width: shape[1],
+        channels: shape[2],
+        data: contiguous(&image, "image")?.to_vec(),
     };
-    let (dw, dh) = dm.canvas(n);
     let progress = Progress::default();
-    let env = EnvMap {
-        mapping: sm,
-        width: w,
-        height: h,
-        channels: c,
-        data,
-    };
-    let (env, opts) = (&env, &opts);
+    let named = |e: spheremap::Error| to_py(python_names(e));
     if let Some(arr) = out {
         // The caller's buffer: (H', W', C) float32, C-contiguous, writeable (for a cube also
         // (6, N, N, C)); the result is written into it and it is returned.
+        let r = job.resolve(None, "image").map_err(named)?;
+        let n = job
+            .size_for(
+                &r,
+                r.src
+                    .size_of(img.width, img.height, "image")
+                    .map_err(named)?,
+            )
+            .map_err(named)?;
+        let (dw, dh) = r.dst.canvas(n);
+        let c = img.channels;
         let shape = arr.shape().to_vec();
         let cube_shape = [6, dw, dw, c];
-        if shape != [dh, dw, c] && !(dm.name() == "cube" && shape == cube_shape) {
+        if shape != [dh, dw, c] && !(r.dst.name() == "cube" && shape == cube_shape) {
             return Err(PyValueError::new_err(format!(
                 "out: expected shape {:?}, got {shape:?}",
-                if dm.name() == "cube" {
+                if r.dst.name() == "cube" {
                     cube_shape.to_vec()
                 } else {
                     vec![dh, dw, c]
@@ -590,17 +565,40 @@ fn convert<'py>(
                 .as_slice_mut()
                 .map_err(|_| PyValueError::new_err("out: must be C-contiguous".to_string()))?;
             run_cancellable(py, &progress, "the conversion", |p| {
-                rs::resample_into(env, dm, dw, dh, opts, Some(p), buf)
+                job.run_image(&img, Some(p), Some(buf))
+                    .map_err(python_names)
             })?;
         }
         return Ok(arr.into_any());
     }
-    let (img, _report) = run_cancellable(py, &progress, "the conversion", |p| {
-        rs::resample(env, dm, dw, dh, opts, Some(p))
+    let (img, _, _) = run_cancellable(py, &progress, "the conversion", |p| {
+        job.run_image(&img, Some(p), None).map_err(python_names)
     })?;
+    let img = img.expect("no buffer given: a new image");
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([img.height, img.width, img.channels])?
         .into_any())
+}
+
+/// A conversion request's field names (the CLI's flags) as Python's `convert` spells its
+/// arguments.
+fn python_names(e: spheremap::Error) -> spheremap::Error {
+    match e {
+        spheremap::Error::InvalidParameter { name, reason } => {
+            let py_name = match name.as_str() {
+                "from" => "src",
+                "from_preset" => "src_preset",
+                "to" => "dst",
+                "preset" => "dst_preset",
+                "from_look" => "src_look",
+                "from_up" => "src_up",
+                "from_layout" => "src_layout",
+                other => other,
+            };
+            spheremap::Error::param(py_name, reason)
+        }
+        other => other,
+    }
 }
 
 /// Runs `work` on a worker thread with the GIL released, waking every 20 ms so Python sees
@@ -768,14 +766,10 @@ fn mapping_for(
     preset: Option<&str>,
     default: &str,
 ) -> PyResult<(&'static str, &'static str, Option<&'static str>)> {
-    let recorded = spheremap::images::envmap::read_note(path).map_err(to_py)?;
-    let m =
-        spheremap::images::envmap::mapping_for(mapping, preset, recorded.as_ref(), Some(default))
-            .map_err(to_py)?
-            .expect("a default is given");
-    let layout = spheremap::images::envmap::layout_for(None, recorded.as_ref(), m)
-        .map_err(to_py)?
-        .map(|l| l.name());
+    let (m, layout) =
+        spheremap::images::envmap::env_mapping_of(path, mapping, preset, None, default)
+            .map_err(to_py)?;
+    let layout = layout.map(|l| l.name());
     Ok((m.name(), m.preset_name(), layout))
 }
 

@@ -75,31 +75,7 @@ impl MapOptions {
 
 /// The report as a dict (the CLI's `--json` keys).
 fn report_dict<'py>(py: Python<'py>, r: &PhotoReport) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    let shots = pyo3::types::PyList::empty(py);
-    for s in &r.shots {
-        let sd = PyDict::new(py);
-        sd.set_item("circle", (s.circle.cx, s.circle.cy, s.circle.r))?;
-        sd.set_item("fit_rms_px", s.fit_rms)?;
-        sd.set_item("fit_points", s.fit_points)?;
-        sd.set_item("confidence", s.confidence)?;
-        sd.set_item("reflectance", s.reflectance)?;
-        sd.set_item("uncertainty_px", s.uncertainty)?;
-        sd.set_item(
-            "distance_radii",
-            s.distance.is_finite().then_some(s.distance),
-        )?;
-        sd.set_item("blind_cone_deg", s.blind_deg)?;
-        shots.append(sd)?;
-    }
-    d.set_item("shots", shots)?;
-    d.set_item("rotation", r.rotation)?;
-    d.set_item("rotation_deg", r.rotation_deg)?;
-    d.set_item("alignment_rms", r.alignment_rms)?;
-    d.set_item("gain", r.gain)?;
-    d.set_item("seen_fraction", r.seen_fraction)?;
-    d.set_item("samples_total", r.rays)?;
-    Ok(d)
+    Ok(pythonize::pythonize(py, &r.summary())?.cast_into::<PyDict>()?)
 }
 
 type PhotoResult<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>);

@@ -4,6 +4,7 @@ use super::{contiguous, parse_mapping, to_py};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use spheremap::jobs::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
 use spheremap::mappings::matcap::MatcapVariant;
 use spheremap::mesh::Mesh;
@@ -163,7 +164,8 @@ pub fn render<'py>(
 }
 
 /// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64,
-/// on a `width` x `height` canvas, or on the mapping's canvas of `size` N (the core's bounds).
+/// on a `width` x `height` canvas, or on the mapping's canvas of `size` N (the core's bounds),
+/// and their summary (the core's `AnalyzeSummary`, as `spheremap analyze --json` prints it).
 #[pyfunction]
 #[pyo3(signature = (mapping, preset, width=None, height=None, size=None))]
 pub fn analyze_mapping<'py>(
@@ -173,7 +175,7 @@ pub fn analyze_mapping<'py>(
     width: Option<usize>,
     height: Option<usize>,
     size: Option<usize>,
-) -> PyResult<MeshArrays<'py>> {
+) -> PyResult<(MeshArrays<'py>, Bound<'py, PyAny>)> {
     let m = parse_mapping(mapping, preset)?;
     let (width, height) = match (size, width, height) {
         (Some(n), _, _) => spheremap::jobs::analyze::canvas(m, "size", n).map_err(to_py)?,
@@ -183,29 +185,25 @@ pub fn analyze_mapping<'py>(
     let a = py
         .detach(|| spheremap::jobs::analyze::mapping_maps(m, width, height))
         .map_err(to_py)?;
+    let summary = pythonize::pythonize(py, &a.summary(m))?;
     let arr = |v: Vec<f64>| -> PyResult<Bound<'py, PyAny>> {
         Ok(PyArray1::from_vec(py, v)
             .reshape([height, width])?
             .into_any())
     };
     Ok((
-        arr(a.solid_angle)?,
-        arr(a.anisotropy)?,
-        arr(a.resolution_deg)?,
+        (
+            arr(a.solid_angle)?,
+            arr(a.anisotropy)?,
+            arr(a.resolution_deg)?,
+        ),
+        summary,
     ))
 }
 
-type MeshErrorArrays<'py> = (
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    u32,
-    u64,
-    usize,
-);
-
-/// Per-triangle error of a mesh and camera -> (error degrees (M,), in view (M,) bool, split (M,)
-/// u32, uniform split, triangles after the adaptive split, unfixable count).
+/// Per-triangle and per-pixel error of a mesh and camera (the core's `mesh_report`) -> a dict:
+/// "triangle_error_deg" (M,), "in_view" (M,) bool, "split" (M,) u32, "heat" (H, W, 2)
+/// (degrees, coverage) and "summary" (the core's `MeshSummary`).
 #[pyfunction]
 #[pyo3(signature = (positions, normals, triangles, eye, target, up, fovy, near, far, width,
                     height, threshold))]
@@ -224,7 +222,7 @@ pub fn analyze_mesh<'py>(
     width: usize,
     height: usize,
     threshold: f64,
-) -> PyResult<MeshErrorArrays<'py>> {
+) -> PyResult<Bound<'py, PyDict>> {
     let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
     let cam = GlCamera::framing(
         &mesh.positions,
@@ -237,16 +235,23 @@ pub fn analyze_mesh<'py>(
         (width, height),
     )
     .map_err(to_py)?;
-    let e = py
-        .detach(|| spheremap::jobs::analyze::mesh_error(&mesh, &cam, threshold))
+    let (e, heat) = py
+        .detach(|| spheremap::jobs::analyze::mesh_report(&mesh, &cam, threshold))
         .map_err(to_py)?;
-    let (k, after, unfixable) = (e.uniform_split(), e.triangles_after(), e.unfixable());
-    Ok((
-        PyArray1::from_vec(py, e.triangle_error_deg).into_any(),
-        PyArray1::from_vec(py, e.in_view).into_any(),
-        PyArray1::from_vec(py, e.split).into_any(),
-        k,
-        after,
-        unfixable,
-    ))
+    let d = PyDict::new(py);
+    d.set_item(
+        "summary",
+        pythonize::pythonize(py, &e.summary(None, &heat))?,
+    )?;
+    d.set_item(
+        "heat",
+        PyArray1::from_vec(py, heat.data).reshape([heat.height, heat.width, 2])?,
+    )?;
+    d.set_item(
+        "triangle_error_deg",
+        PyArray1::from_vec(py, e.triangle_error_deg),
+    )?;
+    d.set_item("in_view", PyArray1::from_vec(py, e.in_view))?;
+    d.set_item("split", PyArray1::from_vec(py, e.split))?;
+    Ok(d)
 }

@@ -1,6 +1,7 @@
 //! Environment maps in files: the naming of six cube faces (patterns and named files), how a
 //! conversion's positional paths split into input and output, and writes that leave nothing
 //! behind when any file fails.
+mod common;
 use spheremap::frame::view::IDENTITY;
 use spheremap::images::codec::{NonFinite, ReadOptions, WriteOptions};
 use spheremap::images::cube_layout::face_paths;
@@ -99,7 +100,7 @@ fn stack(f: usize) -> Image {
 
 #[test]
 fn six_named_faces_round_trip_and_a_failed_one_leaves_none() {
-    let dir = tempdir();
+    let dir = common::tempdir("envio");
     let cube = Mapping::parse("cube", None).unwrap();
     let names = ["right", "left", "top", "bottom", "front", "back"];
     let faces = EnvFiles::Faces {
@@ -183,17 +184,6 @@ fn a_nan_in_one_face_is_reported_against_that_faces_file() {
     assert!(e.starts_with("cross.exr:") && e.contains("y=18"), "{e}");
 }
 
-fn tempdir() -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "spheremap-envio-{}-{:?}",
-        std::process::id(),
-        std::thread::current().id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 /// Every map written through `write_env_files` records its mapping, preset and cube layout or
 /// face in the formats that have a place for it; the pixels are those of an untagged file.
 #[test]
@@ -202,7 +192,7 @@ fn written_maps_record_their_mapping_and_read_back_the_same() {
     use spheremap::images::cube_layout::Layout;
     use spheremap::images::format::Format;
     use spheremap::images::note::{self, MapNote};
-    let dir = tempdir();
+    let dir = common::tempdir("envio");
     let sky = Mapping::parse("sphere", Some("skylibs")).unwrap();
     let mut img = Image::new(16, 16, 3);
     for (i, v) in img.data.iter_mut().enumerate() {

@@ -457,7 +457,7 @@ pub fn write_image_with_note(
     path: &Path,
     img: &Image,
     opts: &WriteOptions,
-    tag: Option<&str>,
+    note: Option<&str>,
 ) -> Result<()> {
     let format = Format::from_extension(path).ok_or_else(|| {
         Error::param(
@@ -474,7 +474,7 @@ pub fn write_image_with_note(
     if img.width == 0 || img.height == 0 {
         return Err(Error::param("image", "empty image"));
     }
-    let bytes = encode_with_note(path, img, format, opts, tag)?;
+    let bytes = encode_with_note(path, img, format, opts, note)?;
     atomic_write(path, |f| {
         f.write_all(&bytes).map_err(|e| Error::io(path, e))
     })
@@ -492,7 +492,7 @@ pub fn encode_with_note(
     img: &Image,
     format: Format,
     opts: &WriteOptions,
-    tag: Option<&str>,
+    note: Option<&str>,
 ) -> Result<Vec<u8>> {
     let bad =
         |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
@@ -515,7 +515,7 @@ pub fn encode_with_note(
         }
     }
     match format {
-        Format::Exr => encode_exr(path, img, opts.half, tag, &mut buf)?,
+        Format::Exr => encode_exr(path, img, opts.half, note, &mut buf)?,
         Format::Pfm => encode_pfm(img, &mut buf),
         Format::Hdr => {
             let rgb = to_rgb(img);
@@ -588,7 +588,7 @@ pub fn encode_with_note(
         }
     }
     let bytes = buf.into_inner();
-    Ok(match tag {
+    Ok(match note {
         Some(t) if format != Format::Exr => crate::images::note::insert(format, bytes, t),
         _ => bytes,
     })
@@ -612,7 +612,7 @@ fn encode_exr(
     path: &Path,
     img: &Image,
     half: bool,
-    tag: Option<&str>,
+    note: Option<&str>,
     buf: &mut Cursor<Vec<u8>>,
 ) -> Result<()> {
     use exr::prelude::*;
@@ -639,7 +639,7 @@ fn encode_exr(
         .map(|k| AnyChannel::new(names[k], plane(k)))
         .collect();
     let mut attributes = LayerAttributes::default();
-    if let Some(t) = tag {
+    if let Some(t) = note {
         attributes.other.insert(
             Text::from(crate::images::note::KEY),
             AttributeValue::Text(Text::from(t)),

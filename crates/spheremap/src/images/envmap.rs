@@ -317,6 +317,26 @@ pub fn mapping_for(
     Mapping::parse(name, preset).map(Some)
 }
 
+/// An environment map file's mapping and cube layout: the names given, else what the file's
+/// note records, else `default` (with its own preset).  An empty `path` (no file) records
+/// nothing.  The rule `render --env`, `generate --env` and Python's `render(env=path)` follow.
+pub fn env_mapping_of(
+    path: &str,
+    name: Option<&str>,
+    preset: Option<&str>,
+    layout: Option<&str>,
+    default: &str,
+) -> Result<(Mapping, Option<Layout>)> {
+    let note = match path {
+        "" => None,
+        p => read_note(p)?,
+    };
+    let mapping = mapping_for(name, preset, note.as_ref(), Some(default))?
+        .expect("a default mapping is given");
+    let layout = layout_for(layout, note.as_ref(), mapping)?;
+    Ok((mapping, layout))
+}
+
 /// The cube layout to read a file in: the `layout` given, else the one its note `recorded`
 /// names when the note is of `mapping` (the mapping it is read as).
 pub fn layout_for(

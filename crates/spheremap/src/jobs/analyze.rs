@@ -33,7 +33,8 @@
 
 use crate::base::error::{Error, Result};
 use crate::frame::conventions::Singular;
-use crate::jobs::render::GlCamera;
+use crate::images::Image;
+use crate::jobs::render::{GlCamera, PixelError};
 use crate::mappings::mapping::Mapping;
 use crate::mappings::sphere::{dir_to_st, reflect, st_to_dir};
 use crate::mesh::Mesh;
@@ -50,12 +51,14 @@ pub struct MappingMaps {
     pub resolution_deg: Vec<f64>,
 }
 
-/// min, max, mean over the finite values.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// min, max, mean over the finite values, and how many there are (`texels` in reports; with
+/// none, min and max are ±∞ and mean NaN, written as null in JSON).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Stats {
     pub min: f64,
     pub max: f64,
     pub mean: f64,
+    #[serde(rename = "texels")]
     pub count: usize,
 }
 
@@ -190,6 +193,108 @@ impl MeshError {
             .filter(|(k, v)| **v && **k > MAX_SPLIT)
             .count()
     }
+}
+
+/// The report of `spheremap analyze --json` and the `summary` of Python's `analyze`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AnalyzeSummary {
+    pub mapping: &'static str,
+    pub preset: &'static str,
+    pub width: usize,
+    pub height: usize,
+    /// Texel solid angles (sr), their largest over smallest ratio, anisotropy, and the
+    /// coarsest angular step per texel (degrees).
+    pub solid_angle_sr: Stats,
+    pub solid_angle_max_over_min: f64,
+    pub anisotropy: Stats,
+    pub resolution_deg: Stats,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshSummary>,
+}
+
+/// A mesh's per-vertex error, summed up.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MeshSummary {
+    /// The mesh file, when it came from one.
+    pub file: Option<String>,
+    pub triangles: usize,
+    pub in_view: usize,
+    pub threshold_deg: f64,
+    /// How many in-view triangles are over the threshold, and the first 1000 of them.
+    pub over: usize,
+    pub over_indices: Vec<usize>,
+    /// The error over the covered pixels of the heat map.
+    pub pixel_error_deg: PixelError,
+    pub uniform_split: u32,
+    pub triangles_after_uniform: u64,
+    pub triangles_after_adaptive: u64,
+    pub unfixable: usize,
+    /// Advised splits above 1: how many triangles each.
+    pub split_histogram: std::collections::BTreeMap<String, usize>,
+    pub max_split: u32,
+}
+
+impl MappingMaps {
+    /// The summary of these maps of `mapping`.
+    pub fn summary(&self, mapping: Mapping) -> AnalyzeSummary {
+        let sa = stats(&self.solid_angle);
+        AnalyzeSummary {
+            mapping: mapping.name(),
+            preset: mapping.preset_name(),
+            width: self.width,
+            height: self.height,
+            solid_angle_sr: sa,
+            solid_angle_max_over_min: sa.max / sa.min,
+            anisotropy: stats(&self.anisotropy),
+            resolution_deg: stats(&self.resolution_deg),
+            mesh: None,
+        }
+    }
+}
+
+impl MeshError {
+    /// The summary, with the pixel statistics of `heat` (an error render: degrees and
+    /// coverage per pixel).
+    pub fn summary(&self, file: Option<&str>, heat: &Image) -> MeshSummary {
+        let over = self.over();
+        let k = self.uniform_split();
+        let mut hist = std::collections::BTreeMap::new();
+        for (s, v) in self.split.iter().zip(&self.in_view) {
+            if *v && *s > 1 {
+                *hist.entry(s.to_string()).or_insert(0usize) += 1;
+            }
+        }
+        let n = self.split.len();
+        MeshSummary {
+            file: file.map(String::from),
+            triangles: n,
+            in_view: self.in_view.iter().filter(|v| **v).count(),
+            threshold_deg: self.threshold_deg,
+            over: over.len(),
+            over_indices: over.into_iter().take(1000).collect(),
+            pixel_error_deg: PixelError::of(heat),
+            uniform_split: k,
+            triangles_after_uniform: n as u64 * (k as u64).pow(2),
+            triangles_after_adaptive: self.triangles_after(),
+            unfixable: self.unfixable(),
+            split_histogram: hist,
+            max_split: MAX_SPLIT,
+        }
+    }
+}
+
+/// A mesh's error through `cam`: per triangle ([`mesh_error`]) and per pixel (the error render,
+/// 2× supersampled: degrees and coverage).
+pub fn mesh_report(mesh: &Mesh, cam: &GlCamera, threshold_deg: f64) -> Result<(MeshError, Image)> {
+    use crate::jobs::render::{render, Env, Mode, RenderOptions};
+    let err = mesh_error(mesh, cam, threshold_deg)?;
+    let opts = RenderOptions {
+        mode: Mode::Error,
+        aa: 2,
+        ..Default::default()
+    };
+    let (heat, _) = render(mesh, cam, Env::None, &opts)?;
+    Ok((err, heat))
 }
 
 /// Eye-space vertex data of one triangle.

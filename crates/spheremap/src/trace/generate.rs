@@ -168,6 +168,36 @@ pub struct GenerateReport {
     pub max_texel_samples: u32,
 }
 
+/// The report of `spheremap generate --json`: what was traced, how, and how fast.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct GenerateSummary {
+    /// The scene file (or built-in) and the environment map the rays saw.
+    pub scene: Option<String>,
+    pub env: Option<String>,
+    pub output: Vec<String>,
+    pub to: &'static str,
+    pub preset: &'static str,
+    pub size: usize,
+    pub width: usize,
+    pub height: usize,
+    pub samples: u32,
+    pub filter: &'static str,
+    pub outside: &'static str,
+    /// The scene's triangles (zero-area ones are ignored) and lights.
+    pub triangles: Option<usize>,
+    pub degenerate_triangles: Option<usize>,
+    pub lights: Option<usize>,
+    pub rays: u64,
+    pub texels_traced: u64,
+    pub rays_per_texel: f64,
+    pub max_texel_samples: u32,
+    pub seconds: f64,
+    pub rays_per_second: f64,
+    /// Values the output format clipped, and values beyond the half range.
+    pub clipped: u64,
+    pub clamped_half: u64,
+}
+
 /// Makes a `width`×`height` canvas of `mapping` (for a cube: the F×6F face stack) by firing
 /// rays into `source`.
 pub fn generate(

@@ -167,6 +167,71 @@ pub struct PhotoReport {
     pub rays: u64,
 }
 
+/// A photo route's report as `spheremap from-photo --json` prints it and Python's
+/// `from_mirror_ball` / `from_fisheye` return it (their third value): one shape for both.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PhotoSummary {
+    pub shots: Vec<ShotSummary>,
+    /// Second shot: rotation from its view frame to the first one's (row-major), its angle,
+    /// the alignment's RMS log-luminance residual and the gain applied to it.
+    pub rotation: Option<Mat3>,
+    pub rotation_deg: Option<f64>,
+    pub alignment_rms: Option<f64>,
+    pub gain: Option<f64>,
+    /// Fraction of the output's texels that some photo sees.
+    pub seen_fraction: f64,
+    /// Samples (rays) taken in all.
+    pub samples_total: u64,
+}
+
+/// One mirror-ball shot in a [`PhotoSummary`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ShotSummary {
+    /// The ball's outline (cx, cy, r) in pixels.
+    pub circle: [f64; 3],
+    /// RMS of the circle fit (`None` when the circle was given); `fit_rms_px` is the same for
+    /// the edge fit, in pixels, and `None` for the rim model (whose residual is of luminance).
+    pub fit_rms: Option<f64>,
+    pub fit_rms_px: Option<f64>,
+    pub fit_points: usize,
+    pub confidence: Option<f64>,
+    pub reflectance: Option<f64>,
+    pub uncertainty_px: Option<f64>,
+    /// Ball distance in radii (`None` for the orthographic model) and the half-angle of the
+    /// unseen cone behind the ball.
+    pub distance_radii: Option<f64>,
+    pub blind_cone_deg: f64,
+}
+
+impl PhotoReport {
+    /// The report as users read it.
+    pub fn summary(&self) -> PhotoSummary {
+        PhotoSummary {
+            shots: self
+                .shots
+                .iter()
+                .map(|s| ShotSummary {
+                    circle: [s.circle.cx, s.circle.cy, s.circle.r],
+                    fit_rms: s.fit_rms,
+                    fit_rms_px: s.fit_rms.filter(|_| s.reflectance.is_none()),
+                    fit_points: s.fit_points,
+                    confidence: s.confidence,
+                    reflectance: s.reflectance,
+                    uncertainty_px: s.uncertainty,
+                    distance_radii: s.distance.is_finite().then_some(s.distance),
+                    blind_cone_deg: s.blind_deg,
+                })
+                .collect(),
+            rotation: self.rotation,
+            rotation_deg: self.rotation_deg,
+            alignment_rms: self.alignment_rms,
+            gain: self.gain,
+            seen_fraction: self.seen_fraction,
+            samples_total: self.rays,
+        }
+    }
+}
+
 /// A photo's lens: a located mirror ball or a fisheye.
 #[derive(Clone, Copy, Debug)]
 #[allow(clippy::large_enum_variant)] // one or two per job

@@ -422,6 +422,59 @@ pub struct RenderStats {
     pub covered_pixels: usize,
 }
 
+/// Mean, 95th percentile and largest lookup-angle error over the covered pixels of an error
+/// render (degrees; `p95` and `max` are `None` when no pixel is covered).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct PixelError {
+    pub mean: f64,
+    pub p95: Option<f64>,
+    pub max: Option<f64>,
+}
+
+impl PixelError {
+    /// The statistics of an error render `heat` (degrees, coverage per pixel).
+    pub fn of(heat: &Image) -> PixelError {
+        let mut px: Vec<f64> = heat
+            .data
+            .chunks_exact(2)
+            .filter(|p| p[1] > 0.0)
+            .map(|p| p[0] as f64)
+            .collect();
+        px.sort_by(f64::total_cmp);
+        let pct = |q: f64| {
+            px.get(((px.len().max(1) - 1) as f64 * q).round() as usize)
+                .copied()
+        };
+        PixelError {
+            mean: px.iter().sum::<f64>() / px.len().max(1) as f64,
+            p95: pct(0.95),
+            max: pct(1.0),
+        }
+    }
+}
+
+/// The report of `spheremap render --json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RenderSummary {
+    pub output: String,
+    pub mode: String,
+    pub width: usize,
+    pub height: usize,
+    /// Triangles drawn after clipping, and pixels with a covered sample.
+    pub triangles_drawn: usize,
+    pub covered_pixels: usize,
+    /// The camera's matrices (row-major).
+    pub modelview: [[f64; 4]; 4],
+    pub projection: [[f64; 4]; 4],
+    pub seconds: f64,
+    /// Values the output format clipped, and values beyond the half range.
+    pub clipped: u64,
+    pub clamped_half: u64,
+    /// The error mode's statistics.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_deg: Option<PixelError>,
+}
+
 /// Per-vertex data in eye space.
 pub(crate) struct Vertices {
     pub eye: Vec<[f64; 3]>,

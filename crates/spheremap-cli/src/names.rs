@@ -1,0 +1,83 @@
+//! The core's lists of names as clap value parsers: `--filter`, `--layout`, `--to`, ... take
+//! exactly what the core's parsers take (aliases included), their help, the man pages and the
+//! completion scripts list the core's names, and a bad name is the core's one-line error.
+
+use clap::builder::{PossibleValue, TypedValueParser};
+use clap::error::ErrorKind;
+
+/// A value checked by `spheremap::names::check(kind, …)`.
+#[derive(Clone, Copy, Debug)]
+pub struct CoreName(pub &'static str);
+
+/// The value parser of a flag taking a name of `kind` (see `spheremap::names::KINDS`).
+pub fn core(kind: &'static str) -> CoreName {
+    debug_assert!(spheremap::names::list(kind).is_some(), "{kind}");
+    CoreName(kind)
+}
+
+impl TypedValueParser for CoreName {
+    type Value = String;
+
+    fn parse_ref(
+        &self,
+        _cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<String, clap::Error> {
+        let flag = arg
+            .and_then(|a| a.get_long())
+            .map_or_else(|| self.0.to_string(), |l| format!("--{l}"));
+        let v = value.to_str().ok_or_else(|| {
+            clap::Error::raw(
+                ErrorKind::ValueValidation,
+                format!("{flag}: not valid UTF-8\n"),
+            )
+        })?;
+        spheremap::names::check(self.0, v, &flag)
+            .map(|()| v.to_string())
+            .map_err(|e| clap::Error::raw(ErrorKind::ValueValidation, format!("{e}\n")))
+    }
+
+    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
+        Some(Box::new(
+            spheremap::names::list(self.0)
+                .unwrap_or(&[])
+                .iter()
+                .map(|n| PossibleValue::new(*n)),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser, Debug)]
+    struct T {
+        #[arg(long, value_parser = core("filter"), default_value = "box")]
+        filter: String,
+    }
+
+    #[test]
+    fn core_names_and_aliases_parse_and_others_are_the_cores_error() {
+        assert_eq!(
+            T::try_parse_from(["t", "--filter", "tent"]).unwrap().filter,
+            "tent"
+        );
+        // An alias the core's parser takes.
+        assert_eq!(
+            T::try_parse_from(["t", "--filter", "triangle"])
+                .unwrap()
+                .filter,
+            "triangle"
+        );
+        let e = T::try_parse_from(["t", "--filter", "lanczos"]).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::ValueValidation);
+        assert!(e.to_string().contains("--filter: "), "{e}");
+        let help = <T as clap::CommandFactory>::command()
+            .render_long_help()
+            .to_string();
+        assert!(help.contains("gaussian"), "{help}");
+    }
+}
