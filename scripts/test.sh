@@ -24,6 +24,8 @@ python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" 
 
 echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q
+echo "== the core without its optional parts (the ray tracer, the photo routes)"
+cargo check -q -p spheremap --lib --no-default-features
 echo "== the conversion tests again on the portable code (as CPUs without AVX2 run it)"
 SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --test resample
 if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then

@@ -24,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod base;
+#[cfg(feature = "scene")]
 pub mod demo;
 pub mod frame;
 pub mod images;

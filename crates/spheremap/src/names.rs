@@ -5,7 +5,9 @@ use crate::base::error::{Error, Result};
 use crate::images::codec::NonFinite;
 use crate::images::cube_layout::Layout;
 use crate::images::tonemap::ToneMap;
-use crate::jobs::{photo, render};
+#[cfg(feature = "photo")]
+use crate::jobs::photo;
+use crate::jobs::render;
 use crate::mappings::fisheye::LensModel;
 use crate::mappings::mapping::MAPPING_NAMES;
 use crate::mappings::matcap::MatcapVariant;
@@ -13,7 +15,7 @@ use crate::mappings::texgen::NormalMode;
 use crate::resample::{Filter, Outside, Precision, Taps};
 use crate::Singular;
 
-/// The kinds of name, as [`list`] and [`check`] take them.
+/// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
 pub const KINDS: [&str; 14] = [
     "mapping",
     "filter",
@@ -41,6 +43,7 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "outside" => &Outside::NAMES,
         "precision" => &Precision::NAMES,
         "layout" => &Layout::NAMES,
+        #[cfg(feature = "photo")]
         "fill" => &photo::Fill::NAMES,
         "lens" => &LensModel::NAMES,
         "render" => &render::Mode::NAMES,
@@ -69,6 +72,7 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
         "outside" => Outside::parse(value).map(drop),
         "precision" => Precision::parse(value).map(drop),
         "layout" => Layout::parse(value).map(drop),
+        #[cfg(feature = "photo")]
         "fill" => photo::Fill::parse(value).map(drop),
         "lens" => LensModel::parse(value, [0.0; 4]).map(drop),
         "render" => render::Mode::parse(value, MatcapVariant::default()).map(drop),
@@ -94,6 +98,9 @@ mod tests {
     #[test]
     fn every_listed_name_parses_and_others_are_refused() {
         for kind in KINDS {
+            if cfg!(not(feature = "photo")) && kind == "fill" {
+                continue;
+            }
             let names = list(kind).unwrap_or_else(|| panic!("{kind} has no list"));
             assert!(!names.is_empty(), "{kind}");
             for n in names {

@@ -6,6 +6,7 @@
 pub mod analyze;
 pub mod chart;
 pub mod convert;
+#[cfg(feature = "photo")]
 pub mod photo;
 pub mod render;
 pub mod shader;

@@ -203,6 +203,8 @@ pub(crate) fn gltf_world_nodes(doc: &gltf::Document) -> Vec<(gltf::Node<'_>, gla
 pub(crate) struct GltfPrimitive {
     pub positions: Vec<[f32; 3]>,
     pub normals: Option<Vec<[f32; 3]>>,
+    /// Read by the scene loader (textured materials).
+    #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub uvs: Option<Vec<[f32; 2]>>,
     pub triangles: Vec<[u32; 3]>,
 }

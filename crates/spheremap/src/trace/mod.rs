@@ -4,4 +4,5 @@
 
 pub mod camera;
 pub mod generate;
+#[cfg(feature = "scene")]
 pub mod scene;
