@@ -10,10 +10,10 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _choice, _finite, _floats, _size_any, _vec3
+from ._args import _Photo, _choice, _finite, _floats, _size_any
 from .images import read_image
 from .names import MAPPINGS
-from .render import _mesh_arrays
+from .render import _camera, _mesh_arrays
 
 
 def analyze(
@@ -81,22 +81,9 @@ def analyze(
     }
     if mesh is not None:
         p, nrm, t = _mesh_arrays(mesh)
-        try:
-            vw, vh = (int(v) for v in view_size)
-        except (TypeError, ValueError):
-            raise ValueError(f"view_size: expected (width, height), got {view_size!r}") from None
-        cam = dict(
-            eye=_vec3(eye, "eye"),
-            target=_vec3(target, "target"),
-            up=_vec3(up, "up"),
-            fovy=_finite(fovy, "fovy"),
-            near=None if near is None else _finite(near, "near"),
-            far=None if far is None else _finite(far, "far"),
-            width=_size_any(vw, "view_size"),
-            height=_size_any(vh, "view_size"),
-        )
+        cam = _camera(eye, target, up, fovy, near, far, view_size, "view_size")
         m = _ext.analyze_mesh(
-            positions=p, normals=nrm, triangles=t, threshold=_finite(threshold, "threshold"), **cam
+            positions=p, normals=nrm, triangles=t, request=cam, threshold=_finite(threshold, "threshold")
         )
         err, in_view, heat, ms = m["triangle_error_deg"], m["in_view"], m["heat"], m["summary"]
         out["mesh"] = {

@@ -51,25 +51,21 @@ def _photo(x, name: str, linear: bool, nonfinite: str):
 def _map_out(
     to, preset, size, samples, max_samples, filter, outside, seed, look, up, fill, max_memory
 ) -> dict:
-    """The output options shared by the photo routes (the CLI's output flags)."""
+    """The output side shared by the photo routes (the CLI's output flags): the core's map
+    request (spheremap::trace::generate::MapRequest), which checks it."""
     _choice(to, "to", MAPPINGS)
-    _name("filter", filter, "filter")
-    _name("outside", outside, "outside")
     _name("fill", fill, "fill")
-    if look is None and up is not None:
-        raise ValueError("up: needs look")
     return dict(
         to=to,
         preset=preset,
         size=_size_any(size, "size"),
         samples=_size_any(samples, "samples"),
         max_samples=_size_any(max_samples, "max_samples"),
-        filter=filter,
-        outside=outside,
+        filter=_name("filter", filter, "filter"),
+        outside=_name("outside", outside, "outside"),
         seed=_seed(seed),
         look=_vec3(look, "look"),
         up=_vec3(up, "up"),
-        fill=fill,
         max_memory=_max_memory(max_memory),
     )
 
@@ -214,7 +210,8 @@ def from_mirror_ball(
         align=bool(align),
         reflectance=refl,
         camera_radius=_finite(camera_radius, "camera_radius"),
-        out=out,
+        request=out,
+        fill=fill,
     )
     return _cube_out(to, m), _cube_out(to, mask), info
 
@@ -275,6 +272,7 @@ def from_fisheye(
         fov=_finite(fov, "fov"),
         centre=c,
         radius=None if radius is None else _finite(radius, "radius"),
-        out=out,
+        request=out,
+        fill=fill,
     )
     return _cube_out(to, m), _cube_out(to, mask), info

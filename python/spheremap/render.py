@@ -124,11 +124,16 @@ def render(
     if env_layout is not None and env_format != "cube":
         raise ValueError(f"env_layout: only for env_format='cube', not {env_format!r}")
     e = None if env is None else _env_image(env, env_format, linear, env_layout)
-    try:
-        w, h = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise ValueError(f"size: expected (width, height), got {size!r}") from None
     bg = _vec3(background, "background")
+    # The core's render request (spheremap::jobs::render::RenderRequest): it checks the rest.
+    request = dict(
+        mode=mode,
+        matcap_variant=matcap_variant,
+        **_camera(eye, target, up, fovy, near, far, size, "size"),
+        background=tuple(float(v) for v in bg),
+        aa=_size_any(aa, "aa"),
+        wrap=wrap,
+    )
     return _ext.render(
         positions=p,
         normals=n,
@@ -136,17 +141,24 @@ def render(
         env=e,
         env_mapping=env_format,
         env_preset=env_preset,
-        mode=mode,
-        matcap_variant=matcap_variant,
+        request=request,
+    )
+
+
+def _camera(eye, target, up, fovy, near, far, size, size_name: str) -> dict:
+    """The camera fields of the core's render request, checked (as gluLookAt and
+    gluPerspective; `size` is (width, height), named `size_name` in errors)."""
+    try:
+        w, h = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise ValueError(f"{size_name}: expected (width, height), got {size!r}") from None
+    return dict(
         eye=_vec3(eye, "eye"),
         target=_vec3(target, "target"),
         up=_vec3(up, "up"),
         fovy=_finite(fovy, "fovy"),
         near=None if near is None else _finite(near, "near"),
         far=None if far is None else _finite(far, "far"),
-        width=_size_any(w, "size"),
-        height=_size_any(h, "size"),
-        background=tuple(float(v) for v in bg),
-        aa=_size_any(aa, "aa"),
-        wrap=wrap,
+        width=_size_any(w, size_name),
+        height=_size_any(h, size_name),
     )

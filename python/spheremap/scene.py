@@ -253,12 +253,11 @@ def generate(
     samples = _size_any(samples, "samples")
     max_samples = _size_any(max_samples, "max_samples")
     seed = _seed(seed)
-    if look is None and up is not None:
-        raise ValueError("up: needs look")
     p = _vec3(pos, "pos")
-    common = dict(
+    # The core's map request (spheremap::trace::generate::MapRequest): it checks the rest.
+    request = dict(
         size=size,
-        mapping=mapping,
+        to=mapping,
         preset=preset,
         pos=p,
         look=_vec3(look, "look"),
@@ -272,7 +271,7 @@ def generate(
         max_memory=_max_memory(max_memory),
     )
     if isinstance(fire_ray, Scene):
-        out = _ext.generate(source=fire_ray._inner, channels=3, **common)
+        out = _ext.generate(source=fire_ray._inner, channels=3, request=request)
     elif callable(fire_ray):
 
         def colours(o, d):
@@ -287,7 +286,7 @@ def generate(
             return np.ascontiguousarray(r)
 
         probe = colours(np.asarray([p], np.float32), np.asarray([[0.0, 0.0, 1.0]], np.float32))
-        out = _ext.generate(source=colours, channels=probe.shape[1], **common)
+        out = _ext.generate(source=colours, channels=probe.shape[1], request=request)
     else:
         raise TypeError(f"fire_ray: expected a spheremap.Scene or a callable, got {type(fire_ray).__name__}")
     if mapping == "cube":

@@ -2,7 +2,7 @@
 //! `gluPerspective` arguments, each defaulting to a framing of the mesh.
 
 use crate::job::vec3;
-use spheremap::jobs::render::GlCamera;
+use spheremap::jobs::render::RenderRequest;
 
 #[derive(clap::Args, Debug)]
 pub struct CameraArgs {
@@ -30,35 +30,19 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
-    /// The camera for `positions` and an image of `size`.
-    pub fn camera(
-        &self,
-        positions: &[[f32; 3]],
-        size: (usize, usize),
-    ) -> spheremap::Result<GlCamera> {
-        let (eye, target, up) = match &self.camera {
-            Some(spec) => {
-                let v = spec
-                    .strip_prefix("lookat:")
-                    .map(|r| spheremap::base::parse::parse_numbers(r, "camera"))
-                    .transpose()?
-                    .filter(|v| v.len() == 9)
-                    .ok_or_else(|| {
-                        spheremap::Error::param(
-                            "camera",
-                            format!("{spec:?}: expected lookat:EX,EY,EZ,TX,TY,TZ,UX,UY,UZ"),
-                        )
-                    })?;
-                (
-                    Some([v[0], v[1], v[2]]),
-                    Some([v[3], v[4], v[5]]),
-                    Some([v[6], v[7], v[8]]),
-                )
-            }
-            None => (vec3(&self.eye), vec3(&self.target), vec3(&self.up)),
-        };
-        GlCamera::framing(
-            positions, eye, target, up, self.fovy, self.near, self.far, size,
-        )
+    /// The camera part of the core's render request, for an image of `size`.
+    pub fn request(&self, size: (usize, usize)) -> RenderRequest {
+        RenderRequest {
+            eye: vec3(&self.eye),
+            target: vec3(&self.target),
+            up: vec3(&self.up),
+            camera: self.camera.clone(),
+            fovy: self.fovy,
+            near: self.near,
+            far: self.far,
+            width: size.0,
+            height: size.1,
+            ..Default::default()
+        }
     }
 }

@@ -79,7 +79,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let mesh = load_mesh(Path::new(path))?;
         let cam = a
             .camera
-            .camera(&mesh.positions, (a.view_size[0], a.view_size[1]))
+            .request((a.view_size[0], a.view_size[1]))
+            .camera(&mesh.positions)
             .with_context(|| path.clone())?;
         let (err, heat) = analyze::mesh_report(&mesh, &cam, a.threshold)?;
         let m = err.summary(Some(path), &heat);

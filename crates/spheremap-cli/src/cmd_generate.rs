@@ -3,13 +3,13 @@
 
 use crate::job::vec3;
 use anyhow::Context;
-use spheremap::frame::view;
-use spheremap::images::cube_layout::Layout;
 use spheremap::images::envmap::{env_paths, write_env, EnvFiles};
 use spheremap::images::Image;
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::{Precision, Progress, IDENTITY};
-use spheremap::trace::generate::{generate, GenerateOptions, GenerateReport, RaySource};
+use spheremap::resample::{Progress, IDENTITY};
+use spheremap::trace::generate::{
+    generate, GenerateOptions, GenerateReport, MapRequest, RaySource,
+};
 use spheremap::trace::scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -59,37 +59,38 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let dst = Mapping::parse(&a.to, a.preset.as_deref()).context("--to/--preset")?;
-    let layout = a.layout.as_deref().map(Layout::parse).transpose()?;
-    let precision = Precision::parse(&a.precision)?;
-    spheremap::base::error::check_map_size("size", a.size)?;
-    let rotation = view::conversion_rotation(vec3(&a.look), vec3(&a.up), None, None, None)?;
+    let request = MapRequest {
+        to: a.to.clone(),
+        preset: a.preset.clone(),
+        layout: a.layout.clone(),
+        size: a.size,
+        pos: vec3(&a.pos).unwrap_or([0.0; 3]),
+        look: vec3(&a.look),
+        up: vec3(&a.up),
+        samples: a.sampling.samples,
+        max_samples: a.sampling.max_samples,
+        filter: a.sampling.filter.clone(),
+        outside: a.sampling.outside.clone(),
+        seed: a.sampling.seed,
+        precision: a.precision.clone(),
+        max_memory: Some(a.job.max_memory()?),
+    };
+    let map = request.resolve().map_err(crate::flag_error)?;
+    let (dst, layout, opts) = (map.mapping, map.layout, map.options);
     EnvFiles::parse(&a.output).check_output(dst)?;
-    let pos = vec3(&a.pos).unwrap_or([0.0; 3]);
     let world = a
         .world
         .load(&a.job, a.sampling.seed, &env_paths(&a.output))?;
     let source = world.source();
     let source = source.as_ref();
     let scene = world.scene.as_ref();
-    let opts = GenerateOptions {
-        samples: a.sampling.samples,
-        max_samples: a.sampling.max_samples,
-        filter: a.sampling.filter()?,
-        outside: a.sampling.outside()?,
-        rotation,
-        pos,
-        seed: a.sampling.seed,
-        precision,
-        max_memory: a.job.max_memory()?,
-    };
     let wopts = a.job.write_options(false);
     let show = a.job.show_progress();
     let t0 = Instant::now();
-    let (w, h) = dst.canvas(a.size);
+    let (w, h) = (map.width, map.height);
     let (out, report) = run_generate(dst, w, h, source, &opts, show, "ray tracing")?;
     let seconds = t0.elapsed().as_secs_f64();
-    let mut written = write_env(&a.output, dst, &out, layout, &rotation, &wopts)?;
+    let mut written = write_env(&a.output, dst, &out, layout, &map.view, &wopts)?;
     if let Some(dir) = &a.faces_out {
         // The cube faces are made in the world frame (no view), as six cameras at `pos` would take them.
         let cube = Mapping::parse("cube", None)?;

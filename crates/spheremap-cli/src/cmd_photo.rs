@@ -3,16 +3,14 @@
 
 use crate::job::{vec3, JobFlags};
 use anyhow::{bail, Context};
-use spheremap::frame::view;
 use spheremap::images::codec::{check_nonfinite, read_image, ReadOptions};
-use spheremap::images::cube_layout::Layout;
 use spheremap::images::envmap::{write_env, EnvFiles};
 use spheremap::images::Image;
 use spheremap::jobs::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
 use spheremap::mappings::fisheye::{Lens, LensModel};
 use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::Progress;
-use spheremap::trace::generate::GenerateOptions;
+use spheremap::trace::generate::{MapRequest, ResolvedMap};
 use std::path::Path;
 use std::time::Instant;
 
@@ -58,31 +56,38 @@ pub struct MapOut {
 }
 
 impl MapOut {
+    /// The output map as the core's request, checked.
+    fn map(&self) -> anyhow::Result<ResolvedMap> {
+        let request = MapRequest {
+            to: self.to.clone(),
+            preset: self.preset.clone(),
+            layout: self.layout.clone(),
+            size: self.size,
+            look: vec3(&self.look),
+            up: vec3(&self.up),
+            samples: self.sampling.samples,
+            max_samples: self.sampling.max_samples,
+            filter: self.sampling.filter.clone(),
+            outside: self.sampling.outside.clone(),
+            seed: self.sampling.seed,
+            max_memory: Some(self.job.max_memory()?),
+            ..Default::default()
+        };
+        request.resolve().map_err(crate::flag_error)
+    }
+
     fn options(&self) -> anyhow::Result<(PhotoOptions, Mapping)> {
-        let dst = Mapping::parse(&self.to, self.preset.as_deref()).context("--to/--preset")?;
-        spheremap::base::error::check_map_size("size", self.size)?;
-        let (width, height) = dst.canvas(self.size);
-        let rotation =
-            view::conversion_rotation(vec3(&self.look), vec3(&self.up), None, None, None)?;
+        let map = self.map()?;
         Ok((
             PhotoOptions {
-                mapping: dst,
-                width,
-                height,
-                generate: GenerateOptions {
-                    samples: self.sampling.samples,
-                    max_samples: self.sampling.max_samples,
-                    filter: self.sampling.filter()?,
-                    outside: self.sampling.outside()?,
-                    rotation,
-                    seed: self.sampling.seed,
-                    max_memory: self.job.max_memory()?,
-                    ..Default::default()
-                },
+                mapping: map.mapping,
+                width: map.width,
+                height: map.height,
+                generate: map.options,
                 fill: Fill::parse(&self.fill)?,
                 ..Default::default()
             },
-            dst,
+            map.mapping,
         ))
     }
 
@@ -109,10 +114,9 @@ impl MapOut {
     }
 
     fn write(&self, dst: Mapping, map: &Image, mask: &Image) -> anyhow::Result<Vec<String>> {
-        let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
+        // The map's layout and its view, in the camera's frame.
+        let ResolvedMap { layout, view, .. } = self.map()?;
         let wopts = self.job.write_options(self.linear);
-        // The map's view, in the camera's frame (what `options` turned into the rotation).
-        let view = view::output_view(vec3(&self.look), vec3(&self.up), None)?;
         let mut written = write_env(&self.output, dst, map, layout, &view, &wopts)?;
         if let Some(m) = &self.mask {
             // The mask is data: written linear whatever the format.

@@ -9,10 +9,9 @@ use spheremap::images::format::Format;
 use spheremap::images::tonemap::{tone_map, ToneMap};
 use spheremap::images::Image;
 use spheremap::jobs::render::{
-    self, heat_colour, Env, EnvInput, GlCamera, Mode, PixelError, RenderOptions, RenderSummary,
-    Wrap,
+    self, heat_colour, Env, EnvInput, GlCamera, Mode, PixelError, RenderOptions, RenderRequest,
+    RenderSummary,
 };
-use spheremap::mappings::matcap::MatcapVariant;
 use spheremap::mesh::load_mesh;
 use std::path::Path;
 use std::time::Instant;
@@ -83,9 +82,16 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let variant = MatcapVariant::parse(&a.matcap_variant, "matcap-variant")?;
-    let mode = Mode::parse(&a.mode, variant)?;
-    let wrap = Wrap::parse(&a.wrap)?;
+    let request = RenderRequest {
+        mode: a.mode.clone(),
+        matcap_variant: a.matcap_variant.clone(),
+        background: [a.background[0], a.background[1], a.background[2]],
+        aa: a.aa,
+        wrap: a.wrap.clone(),
+        ..a.camera.request((a.size[0], a.size[1]))
+    };
+    let mode = request.mode().map_err(crate::flag_error)?;
+    let wrap = request.wrap().map_err(crate::flag_error)?;
     let op = ToneMap::parse(&a.tonemap)?;
     if !(a.error_max > 0.0 && a.error_max.is_finite()) {
         bail!("error-max: must be a positive number of degrees");
@@ -93,9 +99,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let inputs: Vec<&String> = std::iter::once(&a.mesh).chain(&a.env).collect();
     a.job.refuse_overwrite(&inputs, &[&a.output])?;
     let mesh = load_mesh(Path::new(&a.mesh))?;
-    let cam = a
-        .camera
-        .camera(&mesh.positions, (a.size[0], a.size[1]))
+    let cam = request
+        .camera(&mesh.positions)
         .with_context(|| a.mesh.clone())?;
     let (mapping, layout) = crate::job::env_mapping(
         a.env.as_deref().unwrap_or(""),
@@ -119,23 +124,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
     };
     let what = a.env.as_deref().unwrap_or("env");
-    // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
-    let gl = match &env_img {
-        Some(img) => spheremap::jobs::render::gl_sphere_for(mode, mapping, img, what)?,
-        None => None,
-    };
-    let (mapping, env_img) = match gl {
-        Some(g) => (spheremap::Mapping::parse("sphere", None)?, Some(g)),
-        None => (mapping, env_img),
-    };
+    let (mapping, env_img) = request.environment(mapping, env_img, what)?;
     let input = EnvInput::new(mapping, env_img.as_ref(), wrap, what)?;
     input.check(mode)?;
     let env = input.env();
-    let opts = RenderOptions {
-        mode,
-        background: [a.background[0], a.background[1], a.background[2]],
-        aa: a.aa,
-    };
+    let opts = request.options()?;
     if let Some(n) = a.turntable {
         return turntable(&a, n, &mesh, &cam, env, &opts, op);
     }

@@ -99,11 +99,7 @@ impl JobFlags {
     pub fn max_memory(&self) -> anyhow::Result<u64> {
         match &self.max_memory {
             None => Ok(spheremap::base::error::default_max_memory()),
-            Some(s) => spheremap::base::error::parse_bytes(s).ok_or_else(|| {
-                anyhow::anyhow!(
-                    "max-memory: cannot read {s:?}; expected bytes or a size like 512M, 8G"
-                )
-            }),
+            Some(s) => Ok(spheremap::base::error::parse_memory_limit("max-memory", s)?),
         }
     }
 

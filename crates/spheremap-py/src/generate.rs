@@ -9,7 +9,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use spheremap::resample::{self as rs, Progress};
-use spheremap::trace::generate::{GenerateOptions, RaySource};
+use spheremap::trace::generate::RaySource;
 use spheremap::trace::scene::{self, Environment, Light, Shading};
 use std::sync::Mutex;
 
@@ -260,96 +260,47 @@ impl RaySource for CallableSource {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn options(
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    pos: [f32; 3],
-    samples: u32,
-    max_samples: u32,
-    filter: &str,
-    outside: &str,
-    seed: u64,
-    precision: &str,
-    max_memory: Option<u64>,
-) -> PyResult<GenerateOptions> {
-    Ok(GenerateOptions {
-        samples,
-        max_samples,
-        filter: rs::Filter::parse(filter).map_err(to_py)?,
-        outside: rs::Outside::parse(outside).map_err(to_py)?,
-        rotation: spheremap::frame::view::conversion_rotation(look, up, None, None, None)
-            .map_err(to_py)?,
-        pos,
-        seed,
-        max_memory: max_memory.unwrap_or_else(spheremap::base::error::default_max_memory),
-        precision: rs::Precision::parse(precision).map_err(to_py)?,
-    })
-}
-
 fn run<'py>(
     py: Python<'py>,
-    mapping: &str,
-    preset: Option<&str>,
-    size: usize,
+    map: &spheremap::trace::generate::ResolvedMap,
     source: &dyn RaySource,
-    opts: &GenerateOptions,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let m = parse_mapping(mapping, preset)?;
-    spheremap::base::error::check_map_size("size", size).map_err(to_py)?;
-    let (w, h) = m.canvas(size);
     let progress = Progress::default();
     let (img, _) = run_cancellable(py, &progress, "the generation", |p| {
-        spheremap::trace::generate::generate(m, w, h, source, opts, Some(p))
+        spheremap::trace::generate::generate(
+            map.mapping,
+            map.width,
+            map.height,
+            source,
+            &map.options,
+            Some(p),
+        )
     })?;
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([img.height, img.width, img.channels])?
         .into_any())
 }
 
-/// Generates with `source`: a `Scene` (traced natively) or a callable with `channels` outputs.
+/// Generates with `source`: a `Scene` (traced natively) or a callable with `channels` outputs;
+/// `request` is the core's `MapRequest` as a dict of its fields.
 #[pyfunction]
-#[pyo3(signature = (source, channels, size, mapping, preset, pos, look, up, samples,
-                    max_samples, filter, outside, seed, precision, max_memory=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (source, channels, request))]
 pub fn generate<'py>(
     py: Python<'py>,
     source: Bound<'py, PyAny>,
     channels: usize,
-    size: usize,
-    mapping: &str,
-    preset: Option<&str>,
-    pos: [f32; 3],
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    samples: u32,
-    max_samples: u32,
-    filter: &str,
-    outside: &str,
-    seed: u64,
-    precision: &str,
-    max_memory: Option<u64>,
+    request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = options(
-        look,
-        up,
-        pos,
-        samples,
-        max_samples,
-        filter,
-        outside,
-        seed,
-        precision,
-        max_memory,
-    )?;
+    let map = map_request(request)?;
     if let Ok(scene) = source.cast::<Scene>() {
-        return run(py, mapping, preset, size, &scene.borrow().inner, &opts);
+        return run(py, &map, &scene.borrow().inner);
     }
     let callable = CallableSource {
         f: source.unbind(),
         channels,
         error: Mutex::new(None),
     };
-    let r = run(py, mapping, preset, size, &callable, &opts);
+    let r = run(py, &map, &callable);
     // The callable's own exception, not its message wrapped.
     if let Some(e) = callable
         .error
@@ -360,4 +311,13 @@ pub fn generate<'py>(
         return Err(e);
     }
     r
+}
+
+/// A dict of the core's `MapRequest` fields, checked by the core.
+pub(crate) fn map_request(
+    request: &Bound<'_, PyAny>,
+) -> PyResult<spheremap::trace::generate::ResolvedMap> {
+    let r: spheremap::trace::generate::MapRequest = pythonize::depythonize(request)
+        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    r.resolve().map_err(to_py)
 }

@@ -3,7 +3,7 @@
 //! dictionary out.  Argument checking with argument names is in `python/spheremap/__init__.py`.
 
 use super::generate::Scene;
-use super::{image_of, parse_mapping, run_cancellable, to_py};
+use super::{image_of, run_cancellable, to_py};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -11,9 +11,8 @@ use pyo3::types::PyDict;
 use spheremap::images::Image;
 use spheremap::jobs::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
 use spheremap::mappings::fisheye::{Lens, LensModel};
-use spheremap::resample::{self as rs, Progress};
+use spheremap::resample::Progress;
 use spheremap::trace::camera::{self, Camera, Projection};
-use spheremap::trace::generate::GenerateOptions;
 
 fn array<'py>(py: Python<'py>, img: Image) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_vec(py, img.data)
@@ -25,52 +24,18 @@ fn circle_of(c: Option<[f64; 3]>) -> Option<Circle> {
     c.map(|[cx, cy, r]| Circle { cx, cy, r })
 }
 
-/// The output side shared by both routes (the CLI's `MapOut`): a dict with these keys.
-#[derive(FromPyObject)]
-#[pyo3(from_item_all)]
-pub struct MapOptions {
-    to: String,
-    preset: Option<String>,
-    size: usize,
-    samples: u32,
-    max_samples: u32,
-    filter: String,
-    outside: String,
-    seed: u64,
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    fill: String,
-    max_memory: Option<u64>,
-}
-
-impl MapOptions {
-    fn options(&self) -> PyResult<PhotoOptions> {
-        let mapping = parse_mapping(&self.to, self.preset.as_deref())?;
-        spheremap::base::error::check_map_size("size", self.size).map_err(to_py)?;
-        let (width, height) = mapping.canvas(self.size);
-        Ok(PhotoOptions {
-            mapping,
-            width,
-            height,
-            generate: GenerateOptions {
-                samples: self.samples,
-                max_samples: self.max_samples,
-                filter: rs::Filter::parse(&self.filter).map_err(to_py)?,
-                outside: rs::Outside::parse(&self.outside).map_err(to_py)?,
-                rotation: spheremap::frame::view::conversion_rotation(
-                    self.look, self.up, None, None, None,
-                )
-                .map_err(to_py)?,
-                seed: self.seed,
-                max_memory: self
-                    .max_memory
-                    .unwrap_or_else(spheremap::base::error::default_max_memory),
-                ..Default::default()
-            },
-            fill: Fill::parse(&self.fill).map_err(to_py)?,
-            ..Default::default()
-        })
-    }
+/// The output side shared by both routes (the CLI's output flags): the core's `MapRequest` as
+/// a dict, and the fill.
+fn photo_options(request: &Bound<'_, PyAny>, fill: &str) -> PyResult<PhotoOptions> {
+    let map = super::generate::map_request(request)?;
+    Ok(PhotoOptions {
+        mapping: map.mapping,
+        width: map.width,
+        height: map.height,
+        generate: map.options,
+        fill: Fill::parse(fill).map_err(to_py)?,
+        ..Default::default()
+    })
 }
 
 /// The report as a dict (the CLI's `--json` keys).
@@ -111,7 +76,7 @@ fn ball_model(
 /// Mirror-ball photo(s) -> (map, mask, report).
 #[pyfunction]
 #[pyo3(signature = (image, exif, second, exif2, orthographic, fov, focal, sensor, circle, circle2,
-                    angle, align, reflectance, camera_radius, out))]
+                    angle, align, reflectance, camera_radius, request, fill))]
 #[allow(clippy::too_many_arguments)]
 pub fn from_mirror_ball<'py>(
     py: Python<'py>,
@@ -129,9 +94,10 @@ pub fn from_mirror_ball<'py>(
     align: bool,
     reflectance: [f32; 3],
     camera_radius: f64,
-    out: MapOptions,
+    request: &Bound<'py, PyAny>,
+    fill: &str,
 ) -> PyResult<PhotoResult<'py>> {
-    let mut opts = out.options()?;
+    let mut opts = photo_options(request, fill)?;
     opts.reflectance = reflectance;
     opts.camera_radius_deg = camera_radius;
     opts.angle_deg = angle;
@@ -182,7 +148,7 @@ pub fn from_mirror_ball<'py>(
 
 /// A fisheye photo -> (map, mask, report).
 #[pyfunction]
-#[pyo3(signature = (image, model, k, fov, centre, radius, out))]
+#[pyo3(signature = (image, model, k, fov, centre, radius, request, fill))]
 #[allow(clippy::too_many_arguments)]
 pub fn from_fisheye<'py>(
     py: Python<'py>,
@@ -192,9 +158,10 @@ pub fn from_fisheye<'py>(
     fov: f64,
     centre: Option<[f64; 2]>,
     radius: Option<f64>,
-    out: MapOptions,
+    request: &Bound<'py, PyAny>,
+    fill: &str,
 ) -> PyResult<PhotoResult<'py>> {
-    let opts = out.options()?;
+    let opts = photo_options(request, fill)?;
     let img = image_of(&image, "image")?;
     let model = LensModel::parse(model, k).map_err(to_py)?;
     let centre = centre.unwrap_or([0.5 * img.width as f64, 0.5 * img.height as f64]);

@@ -5,8 +5,7 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods}
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use spheremap::jobs::render::{EnvInput, GlCamera, Mode, RenderOptions, Wrap};
-use spheremap::mappings::matcap::MatcapVariant;
+use spheremap::jobs::render::{EnvInput, RenderRequest};
 use spheremap::mesh::Mesh;
 
 type MeshArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
@@ -90,9 +89,7 @@ fn mesh_of(
 
 /// Draws a mesh -> (H, W, 3) float32 (error mode: (H, W, 2) degrees and coverage).
 #[pyfunction]
-#[pyo3(signature = (positions, normals, triangles, env, env_mapping, env_preset, mode,
-                    matcap_variant, eye, target, up, fovy, near, far, width, height, background,
-                    aa, wrap))]
+#[pyo3(signature = (positions, normals, triangles, env, env_mapping, env_preset, request))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -102,65 +99,35 @@ pub fn render<'py>(
     env: Option<PyReadonlyArrayDyn<'py, f32>>,
     env_mapping: &str,
     env_preset: Option<&str>,
-    mode: &str,
-    matcap_variant: &str,
-    eye: Option<[f64; 3]>,
-    target: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    fovy: f64,
-    near: Option<f64>,
-    far: Option<f64>,
-    width: usize,
-    height: usize,
-    background: [f32; 3],
-    aa: u32,
-    wrap: &str,
+    request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let variant = MatcapVariant::parse(matcap_variant, "matcap_variant").map_err(to_py)?;
-    let mode = Mode::parse(mode, variant).map_err(to_py)?;
-    let wrap = Wrap::parse(wrap).map_err(to_py)?;
+    let request = render_request(request)?;
+    let mode = request.mode().map_err(to_py)?;
+    let wrap = request.wrap().map_err(to_py)?;
     let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
-    let cam = GlCamera::framing(
-        &mesh.positions,
-        eye,
-        target,
-        up,
-        fovy,
-        near,
-        far,
-        (width, height),
-    )
-    .map_err(to_py)?;
-    let mapping = parse_mapping(env_mapping, env_preset)?;
+    let cam = request.camera(&mesh.positions).map_err(to_py)?;
     let img = env
         .as_ref()
         .map(|e| super::image_of(e, "env"))
         .transpose()?;
-    // A sphere map in another preset than GL's, resampled into the GL one texgen addresses.
-    let gl = match &img {
-        Some(i) => {
-            spheremap::jobs::render::gl_sphere_for(mode, mapping, i, "env").map_err(to_py)?
-        }
-        None => None,
-    };
-    let (mapping, img) = match gl {
-        Some(g) => (parse_mapping("sphere", None)?, Some(g)),
-        None => (mapping, img),
-    };
+    let (mapping, img) = request
+        .environment(parse_mapping(env_mapping, env_preset)?, img, "env")
+        .map_err(to_py)?;
     let input = EnvInput::new(mapping, img.as_ref(), wrap, "env").map_err(to_py)?;
     input.check(mode).map_err(to_py)?;
     let env = input.env();
-    let opts = RenderOptions {
-        mode,
-        background,
-        aa,
-    };
+    let opts = request.options().map_err(to_py)?;
     let (out, _) = py
         .detach(|| spheremap::jobs::render::render(&mesh, &cam, env, &opts))
         .map_err(to_py)?;
     Ok(PyArray1::from_vec(py, out.data)
         .reshape([out.height, out.width, out.channels])?
         .into_any())
+}
+
+/// A dict of the core's `RenderRequest` fields.
+fn render_request(request: &Bound<'_, PyAny>) -> PyResult<RenderRequest> {
+    pythonize::depythonize(request).map_err(|e| PyValueError::new_err(format!("request: {e}")))
 }
 
 /// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64,
@@ -205,36 +172,19 @@ pub fn analyze_mapping<'py>(
 /// "triangle_error_deg" (M,), "in_view" (M,) bool, "split" (M,) u32, "heat" (H, W, 2)
 /// (degrees, coverage) and "summary" (the core's `MeshSummary`).
 #[pyfunction]
-#[pyo3(signature = (positions, normals, triangles, eye, target, up, fovy, near, far, width,
-                    height, threshold))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (positions, normals, triangles, request, threshold))]
 pub fn analyze_mesh<'py>(
     py: Python<'py>,
     positions: PyReadonlyArrayDyn<'py, f32>,
     normals: Option<PyReadonlyArrayDyn<'py, f32>>,
     triangles: PyReadonlyArrayDyn<'py, u32>,
-    eye: Option<[f64; 3]>,
-    target: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-    fovy: f64,
-    near: Option<f64>,
-    far: Option<f64>,
-    width: usize,
-    height: usize,
+    request: &Bound<'py, PyAny>,
     threshold: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
-    let cam = GlCamera::framing(
-        &mesh.positions,
-        eye,
-        target,
-        up,
-        fovy,
-        near,
-        far,
-        (width, height),
-    )
-    .map_err(to_py)?;
+    let cam = render_request(request)?
+        .camera(&mesh.positions)
+        .map_err(to_py)?;
     let (e, heat) = py
         .detach(|| spheremap::jobs::analyze::mesh_report(&mesh, &cam, threshold))
         .map_err(to_py)?;

@@ -99,6 +99,16 @@ pub fn default_max_memory() -> u64 {
         .unwrap_or(16 << 30)
 }
 
+/// A memory limit as users write it ("8G", "512M", bytes); the error names `what`.
+pub fn parse_memory_limit(what: &str, text: &str) -> Result<u64> {
+    parse_bytes(text).ok_or_else(|| {
+        Error::param(
+            what,
+            format!("cannot read {text:?}; expected bytes or a size like 512M, 8G"),
+        )
+    })
+}
+
 /// "8G", "512M", "1000000" → bytes.
 pub fn parse_bytes(s: &str) -> Option<u64> {
     let s = s.trim();

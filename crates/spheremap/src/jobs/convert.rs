@@ -23,7 +23,7 @@
 //!   cube faces of N/2: [`crate::images::envmap::default_size`]); checked against
 //!   [`crate::base::error::MAX_MAP_SIZE`].
 
-use crate::base::error::{check_map_size, default_max_memory, parse_bytes, Error, Result};
+use crate::base::error::{check_map_size, default_max_memory, Error, Result};
 use crate::frame::view::{self, Mat3};
 use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
 use crate::images::cube_layout::Layout;
@@ -245,15 +245,6 @@ impl ConvertJob {
         let from_layout = layout_for(self.from_layout.as_deref(), note, src)
             .map_err(|e| named(e, "from_layout"))?;
         let ypr = self.yaw_pitch_roll();
-        if self.look.is_some() && ypr.is_some() {
-            return Err(Error::param(
-                "look",
-                "give look/up or yaw/pitch/roll, not both",
-            ));
-        }
-        if self.look.is_none() && self.up.is_some() {
-            return Err(Error::param("up", "needs look"));
-        }
         // The source's view: given, else the note's when the note is what the source is read as.
         let note_applies = note.is_some_and(|t| {
             (t.mapping.name(), t.mapping.preset_name()) == (src.name(), src.preset_name())
@@ -443,16 +434,6 @@ impl ConvertJob {
             clipped: losses.clipped,
             clamped_half: losses.beyond_half,
             notice: r.notice,
-        })
-    }
-
-    /// Reads `--max-memory`-style text ("8G", "512M", bytes).
-    pub fn parse_max_memory(text: &str) -> Result<u64> {
-        parse_bytes(text).ok_or_else(|| {
-            Error::param(
-                "max-memory",
-                format!("cannot read {text:?}; expected bytes or a size like 512M, 8G"),
-            )
         })
     }
 }

@@ -168,6 +168,112 @@ pub struct GenerateReport {
     pub max_texel_samples: u32,
 }
 
+/// The map a ray-firing job makes, as users name it: `spheremap generate`, `from-photo` and
+/// `from-fisheye`, and Python's `generate`, `from_mirror_ball` and `from_fisheye` fill the same
+/// fields (serde-readable, unknown keys refused), and [`MapRequest::resolve`] checks them once.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MapRequest {
+    /// The output mapping and its preset.
+    pub to: String,
+    pub preset: Option<String>,
+    /// The cube layout of a cube map written as one image.
+    pub layout: Option<String>,
+    /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
+    pub size: usize,
+    /// The point the rays start from (world coordinates; the photo routes ignore it).
+    pub pos: [f32; 3],
+    /// The map's view: world directions of its eye's −Z and +Y (the photo routes: in the
+    /// camera's frame).
+    pub look: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+    /// Rays per texel (1: through the centre), the most a texel may take, the filter over the
+    /// footprint, what goes outside a disc, the jitter's seed, the directions' arithmetic.
+    pub samples: u32,
+    pub max_samples: u32,
+    pub filter: String,
+    pub outside: String,
+    pub seed: u64,
+    pub precision: String,
+    /// Refuse a job needing more bytes than this (`None`: the default limit).
+    pub max_memory: Option<u64>,
+}
+
+impl Default for MapRequest {
+    fn default() -> Self {
+        MapRequest {
+            to: "sphere".into(),
+            preset: None,
+            layout: None,
+            size: 512,
+            pos: [0.0; 3],
+            look: None,
+            up: None,
+            samples: DEFAULT_SAMPLES,
+            max_samples: 1024,
+            filter: "box".into(),
+            outside: "gutter".into(),
+            seed: 0,
+            precision: "f32".into(),
+            max_memory: None,
+        }
+    }
+}
+
+/// A [`MapRequest`] checked: the mapping, layout and canvas, the output's view (for its note)
+/// and the options of [`generate`].
+#[derive(Clone, Copy, Debug)]
+pub struct ResolvedMap {
+    pub mapping: Mapping,
+    pub layout: Option<crate::images::cube_layout::Layout>,
+    pub width: usize,
+    pub height: usize,
+    pub view: [[f64; 3]; 3],
+    pub options: GenerateOptions,
+}
+
+impl MapRequest {
+    /// Checks every field with the core's parsers and limits; errors name the field.
+    pub fn resolve(&self) -> Result<ResolvedMap> {
+        let mapping = Mapping::parse(&self.to, self.preset.as_deref()).map_err(|e| match e {
+            Error::InvalidParameter { name, reason } if name == "preset" => {
+                Error::param("preset", reason)
+            }
+            Error::InvalidParameter { reason, .. } => Error::param("to", reason),
+            other => other,
+        })?;
+        let layout = self
+            .layout
+            .as_deref()
+            .map(crate::images::cube_layout::Layout::parse)
+            .transpose()?;
+        crate::base::error::check_map_size("size", self.size)?;
+        let (width, height) = mapping.canvas(self.size);
+        Ok(ResolvedMap {
+            mapping,
+            layout,
+            width,
+            height,
+            view: crate::frame::view::output_view(self.look, self.up, None)?,
+            options: GenerateOptions {
+                samples: self.samples,
+                max_samples: self.max_samples,
+                filter: Filter::parse(&self.filter)?,
+                outside: Outside::parse(&self.outside)?,
+                rotation: crate::frame::view::conversion_rotation(
+                    self.look, self.up, None, None, None,
+                )?,
+                pos: self.pos,
+                seed: self.seed,
+                precision: Precision::parse(&self.precision)?,
+                max_memory: self
+                    .max_memory
+                    .unwrap_or_else(crate::base::error::default_max_memory),
+            },
+        })
+    }
+}
+
 /// The report of `spheremap generate --json`: what was traced, how, and how fast.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct GenerateSummary {

@@ -43,8 +43,10 @@
 //!   mean angle over the pixel's covered samples (0 where none) and the covered fraction.
 
 mod raster;
+mod request;
 mod shade;
 
+pub use request::RenderRequest;
 pub use shade::{heat_colour, Texture, Wrap};
 
 use crate::base::error::{Error, Result};
