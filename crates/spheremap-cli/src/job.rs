@@ -44,20 +44,19 @@ impl JobFlags {
         inputs: &[I],
         outputs: &[O],
     ) -> anyhow::Result<()> {
-        use spheremap::images::envmap::{env_paths, same_file};
         if self.force {
             return Ok(());
         }
-        let inputs: Vec<String> = inputs.iter().flat_map(|i| env_paths(i.as_ref())).collect();
-        for o in outputs.iter().flat_map(|o| env_paths(o.as_ref())) {
-            if inputs
+        Ok(spheremap::images::envmap::refuse_overwrite(
+            &inputs
                 .iter()
-                .any(|i| same_file(Path::new(i), Path::new(&o)))
-            {
-                anyhow::bail!("{o}: the output would overwrite the input (use --force to allow)");
-            }
-        }
-        Ok(())
+                .map(|i| i.as_ref().to_string())
+                .collect::<Vec<_>>(),
+            &outputs
+                .iter()
+                .map(|o| o.as_ref().to_string())
+                .collect::<Vec<_>>(),
+        )?)
     }
 
     pub fn write_options(&self, linear: bool) -> WriteOptions {

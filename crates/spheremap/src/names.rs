@@ -59,12 +59,7 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
 /// Checks `value` as a name of `kind` with the core's own parser (aliases included); the error
 /// names the argument `arg`.
 pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
-    let named = |r: Result<()>| {
-        r.map_err(|e| match e {
-            Error::InvalidParameter { reason, .. } => Error::param(arg, reason),
-            other => other,
-        })
-    };
+    let named = |r: Result<()>| r.map_err(|e| e.named(arg));
     named(match kind {
         "mapping" => crate::Mapping::parse(value, None).map(drop),
         "filter" => Filter::parse(value).map(drop),

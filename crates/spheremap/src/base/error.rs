@@ -38,6 +38,15 @@ pub enum Error {
 }
 
 impl Error {
+    /// The same error with its parameter named `name` (a parser's error, named as the caller
+    /// spells the argument); other errors unchanged.
+    pub fn named(self, name: &str) -> Self {
+        match self {
+            Error::InvalidParameter { reason, .. } => Error::param(name, reason),
+            other => other,
+        }
+    }
+
     pub fn param(name: impl Into<String>, reason: impl Into<String>) -> Self {
         Error::InvalidParameter {
             name: name.into(),

@@ -317,6 +317,24 @@ pub fn mapping_for(
     Mapping::parse(name, preset).map(Some)
 }
 
+/// Refuses outputs that are one of the inputs (`{face}` patterns on either side stand for
+/// their six files): an error naming the output.  Commands skip it when told to overwrite.
+pub fn refuse_overwrite(inputs: &[String], outputs: &[String]) -> Result<()> {
+    let inputs: Vec<String> = inputs.iter().flat_map(|i| env_paths(i)).collect();
+    for o in outputs.iter().flat_map(|o| env_paths(o)) {
+        if inputs
+            .iter()
+            .any(|i| same_file(Path::new(i), Path::new(&o)))
+        {
+            return Err(Error::data(
+                &o,
+                "the output would overwrite the input (use --force to allow)",
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// An environment map file's mapping and cube layout: the names given, else what the file's
 /// note records, else `default` (with its own preset).  An empty `path` (no file) records
 /// nothing.  The rule `render --env`, `generate --env` and Python's `render(env=path)` follow.

@@ -28,14 +28,14 @@ use crate::frame::view::{self, Mat3};
 use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
 use crate::images::cube_layout::Layout;
 use crate::images::envmap::{
-    check_nonfinite_env, default_size, env_paths, layout_for, mapping_for, read_env_layout,
-    read_note, same_file, split_paths, write_env_files,
+    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, read_note,
+    refuse_overwrite, split_paths, write_env_files,
 };
 use crate::images::format::Format;
 use crate::images::note::MapNote;
 use crate::images::Image;
 use crate::mappings::cube::FACE_NAMES;
-use crate::mappings::mapping::Mapping;
+use crate::mappings::mapping::{name_fields, Mapping};
 use crate::resample::{
     resample, resample_into, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
     ResampleReport, Taps, DEFAULT_SAMPLES,
@@ -208,7 +208,7 @@ impl ConvertJob {
             note,
             None,
         )
-        .map_err(|e| side(e, "from", "from_preset"))?
+        .map_err(|e| name_fields(e, "from", "from_preset"))?
         .ok_or_else(|| {
             Error::param(
                 "from",
@@ -233,17 +233,16 @@ impl ConvertJob {
             });
         let same = self.to.is_none();
         let dst = match &self.to {
-            Some(to) => {
-                Mapping::parse(to, self.preset.as_deref()).map_err(|e| side(e, "to", "preset"))?
-            }
+            Some(to) => Mapping::parse(to, self.preset.as_deref())
+                .map_err(|e| name_fields(e, "to", "preset"))?,
             None => match self.preset.as_deref() {
-                Some(p) => Mapping::parse(src.name(), Some(p)).map_err(|e| named(e, "preset"))?,
+                Some(p) => Mapping::parse(src.name(), Some(p)).map_err(|e| e.named("preset"))?,
                 None => src,
             },
         };
         let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
         let from_layout = layout_for(self.from_layout.as_deref(), note, src)
-            .map_err(|e| named(e, "from_layout"))?;
+            .map_err(|e| e.named("from_layout"))?;
         let ypr = self.yaw_pitch_roll();
         // The source's view: given, else the note's when the note is what the source is read as.
         let note_applies = note.is_some_and(|t| {
@@ -382,15 +381,7 @@ impl ConvertJob {
             }
         }
         if !self.force {
-            let ins: Vec<String> = input.paths().iter().flat_map(|i| env_paths(i)).collect();
-            for o in output.paths().iter().flat_map(|o| env_paths(o)) {
-                if ins.iter().any(|i| same_file(Path::new(i), Path::new(&o))) {
-                    return Err(Error::data(
-                        &o,
-                        "the output would overwrite the input (use --force to allow)",
-                    ));
-                }
-            }
+            refuse_overwrite(&input.paths(), &output.paths())?;
         }
         output.check_output(r.dst)?;
         let ropts = ReadOptions {
@@ -435,25 +426,5 @@ impl ConvertJob {
             clamped_half: losses.beyond_half,
             notice: r.notice,
         })
-    }
-}
-
-/// A mapping parser's error named as the request's field: `mapping` (an unknown mapping) for
-/// the mapping's field, `preset` for the preset's.
-fn side(e: Error, mapping: &str, preset: &str) -> Error {
-    match e {
-        Error::InvalidParameter { name, reason } if name == "preset" => {
-            Error::param(preset, reason)
-        }
-        Error::InvalidParameter { reason, .. } => Error::param(mapping, reason),
-        other => other,
-    }
-}
-
-/// `e` with its parameter named `name` (an error of a parser that names its own argument).
-fn named(e: Error, name: &str) -> Error {
-    match e {
-        Error::InvalidParameter { reason, .. } => Error::param(name, reason),
-        other => other,
     }
 }

@@ -269,6 +269,15 @@ fn transpose_mul<T: Real>(m: &[[f64; 3]; 3], d: [T; 3]) -> [T; 3] {
     [c(0), c(1), c(2)]
 }
 
+/// A mapping parser's error named as the caller's fields: an unknown preset as `preset`, any
+/// other as `mapping` (the parsers name them "preset" and "mapping").
+pub fn name_fields(e: Error, mapping: &str, preset: &str) -> Error {
+    match e {
+        Error::InvalidParameter { ref name, .. } if name == "preset" => e.named(preset),
+        other => other.named(mapping),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -235,13 +235,8 @@ pub struct ResolvedMap {
 impl MapRequest {
     /// Checks every field with the core's parsers and limits; errors name the field.
     pub fn resolve(&self) -> Result<ResolvedMap> {
-        let mapping = Mapping::parse(&self.to, self.preset.as_deref()).map_err(|e| match e {
-            Error::InvalidParameter { name, reason } if name == "preset" => {
-                Error::param("preset", reason)
-            }
-            Error::InvalidParameter { reason, .. } => Error::param("to", reason),
-            other => other,
-        })?;
+        let mapping = Mapping::parse(&self.to, self.preset.as_deref())
+            .map_err(|e| crate::mappings::mapping::name_fields(e, "to", "preset"))?;
         let layout = self
             .layout
             .as_deref()
