@@ -160,6 +160,25 @@ def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:
     return a
 
 
+def _env_array(a: np.ndarray, mapping: str, name: str, layout: str | None = None) -> np.ndarray:
+    """An environment map array as the native side takes it: (H, W, C) float32, C-contiguous,
+    a cube map as its face stack (6F, F, C) — given as faces (6, F, F[, C]), a stack, or one
+    image in a layout — and no NaN/Inf (errors name `name`)."""
+    if mapping == "cube":
+        if layout is not None or (a.ndim == 3 and a.shape[1] * 6 != a.shape[0]):
+            a = _cube_faces(a, layout, name)
+        if a.ndim == 4:
+            if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
+                raise ValueError(f"{name}: a cube map is (6, F, F, C), got shape {a.shape}")
+            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+    elif a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+        raise ValueError(f"{name}: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+    a = _nonfinite(a, "error", name)
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
 def cube_from_layout(image: npt.ArrayLike, layout: str) -> npt.NDArray[np.float32]:
     """A cube-map image in `layout` (one of CUBE_LAYOUTS) -> (6, F, F, C) faces in GL order and
     GL face orientation (the crosses and "horizon" hold views from inside; see the README)."""

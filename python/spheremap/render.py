@@ -8,8 +8,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _choice, _finite, _floats, _nonfinite, _size_any, _vec3
-from .convert import _cube_faces
+from ._args import _Photo, _choice, _finite, _floats, _size_any, _vec3
+from .convert import _env_array
 from .images import read_image
 from .names import MAPPINGS, MATCAP_VARIANTS, RENDER_MODES
 
@@ -42,23 +42,8 @@ def _mesh_arrays(mesh):
 
 
 def _env_image(env, env_format: str, linear: bool, layout: str | None = None) -> np.ndarray:
-    if isinstance(env, (str, os.PathLike)):
-        a = read_image(env, linear=linear)
-    else:
-        a = _floats(env, "env")
-    if env_format == "cube":
-        if layout is not None or (a.ndim == 3 and a.shape[1] * 6 != a.shape[0]):
-            a = _cube_faces(a, layout, "env")
-        if a.ndim == 4:
-            if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
-                raise ValueError(f"env: a cube map is (6, F, F, C), got shape {a.shape}")
-            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
-    elif a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-        raise ValueError(f"env: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
-    a = _nonfinite(a, "error", "env")
-    return np.ascontiguousarray(a, dtype=np.float32)
+    a = read_image(env, linear=linear) if isinstance(env, (str, os.PathLike)) else _floats(env, "env")
+    return _env_array(a, env_format, "env", layout)
 
 
 def render(

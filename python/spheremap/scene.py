@@ -10,7 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _choice, _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _vec3
+from ._args import _choice, _finite, _floats, _max_memory, _name, _seed, _size_any, _vec3
+from .convert import _env_array
 from .names import LENS_MODELS, MAPPINGS
 
 
@@ -131,21 +132,8 @@ class Scene:
         self, image: npt.ArrayLike, mapping: str = "latlong", *, preset: str | None = None
     ) -> None:
         _choice(mapping, "mapping", MAPPINGS)
-        a = _floats(image, "environment")
-        if mapping == "cube":
-            if a.ndim == 3:
-                a = a[..., None]
-            if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2]:
-                raise ValueError(f"environment: a cube map is (6, F, F, C), got shape {a.shape}")
-            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
-        elif a.ndim == 2:
-            a = a[:, :, None]
-        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-            raise ValueError(f"environment: expected (H, W, C) with C in 1..4, got shape {a.shape}")
-        a = _nonfinite(a, "error", "environment")
-        self._inner.set_environment(
-            image=np.ascontiguousarray(a, dtype=np.float32), mapping=mapping, preset=preset
-        )
+        a = _env_array(_floats(image, "environment"), mapping, "environment")
+        self._inner.set_environment(image=a, mapping=mapping, preset=preset)
 
     def add_point_light(self, position: npt.ArrayLike, intensity: npt.ArrayLike) -> None:
         self._inner.add_point_light(
