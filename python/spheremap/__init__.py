@@ -43,8 +43,12 @@ from .scene import Scene, generate
 from .photo import find_ball, from_fisheye, from_mirror_ball
 from .render import load_mesh, render
 from .analyze import analyze
+from .lighting import bake_matcap, dfg_lut, irradiance_sh
 
 __all__ = [
+    "bake_matcap",
+    "irradiance_sh",
+    "dfg_lut",
     "__version__",
     "Error",
     "DataError",

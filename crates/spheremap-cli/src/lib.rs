@@ -13,6 +13,7 @@ mod cmd_convert;
 mod cmd_demo;
 mod cmd_generate;
 mod cmd_info;
+mod cmd_lighting;
 mod cmd_photo;
 mod cmd_preview;
 mod cmd_render;
@@ -72,6 +73,15 @@ enum Command {
     /// Print a shader snippet (GLSL, WGSL, HLSL) for per-vertex texgen, per-pixel sphere-map
     /// lookup or MatCap, in spheremap's conventions; compiled and executed by the tests.
     Shader(cmd_shader::Args),
+    /// Bake a physically exact MatCap from an environment map: the lit sphere of a Lambert or
+    /// GGX material seen by an orthographic viewer (usable by render --mode matcap and three.js
+    /// MeshMatcapMaterial).
+    BakeMatcap(Box<cmd_lighting::BakeArgs>),
+    /// Order-2 spherical harmonics of an environment map and the irradiance they imply, in
+    /// three.js and Filament conventions; optionally the full irradiance map.
+    Irradiance(Box<cmd_lighting::IrradianceArgs>),
+    /// The split-sum DFG lookup table (Karis 2013) of spheremap's GGX.
+    Dfg(Box<cmd_lighting::DfgArgs>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
     /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
@@ -153,6 +163,9 @@ where
         Command::Render(a) => cmd_render::run(*a),
         Command::Analyze(a) => cmd_analyze::run(*a),
         Command::Shader(a) => cmd_shader::run(a),
+        Command::BakeMatcap(a) => cmd_lighting::run_bake(*a),
+        Command::Irradiance(a) => cmd_lighting::run_irradiance(*a),
+        Command::Dfg(a) => cmd_lighting::run_dfg(*a),
         Command::Completions(a) => completions(a),
     });
     std::panic::set_hook(previous_hook);

@@ -580,6 +580,97 @@ fn convert<'py>(
         .into_any())
 }
 
+/// Bakes a MatCap: `request` is a `MatcapRequest` (the core's bake request) as a dict of its
+/// fields; `image` the environment ((H, W, C), a cube map as its face stack).  -> (N, N, C).
+#[pyfunction]
+#[pyo3(signature = (image, request))]
+fn bake_matcap<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    request: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use spheremap::lighting::MatcapRequest;
+    use spheremap::resample::Progress;
+    let req: MatcapRequest = pythonize::depythonize(request)
+        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let img = image_of(&image, "env")?;
+    let progress = Progress::default();
+    let (out, _) = run_cancellable(py, &progress, "the bake", |p| {
+        req.run_image(&img, Some(p)).map_err(lighting_names)
+    })?;
+    Ok(PyArray1::from_vec(py, out.data)
+        .reshape([out.height, out.width, out.channels])?
+        .into_any())
+}
+
+/// The SH9 report of `spheremap irradiance --json` for an environment array, as a dict;
+/// `request` is an `EnvRequest` as a dict, `window` None, "auto" or a size in bands.
+#[pyfunction]
+#[pyo3(signature = (image, request, window))]
+fn irradiance_sh<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    request: &Bound<'py, PyAny>,
+    window: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use spheremap::lighting::{sh, EnvRequest};
+    let req: EnvRequest = pythonize::depythonize(request)
+        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let window = match window {
+        None => sh::Window::None,
+        Some(w) if w.extract::<String>().is_ok_and(|s| s == "auto") => sh::Window::Auto,
+        Some(w) => match w.extract::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => sh::Window::Size(v),
+            _ => {
+                return Err(PyValueError::new_err(
+                    "window: expected None, \"auto\" or a positive number of bands",
+                ))
+            }
+        },
+    };
+    let img = image_of(&image, "env")?;
+    let r = req
+        .resolve(None, "env")
+        .map_err(|e| to_py(lighting_names(e)))?;
+    let env = spheremap::resample::EnvMap::new(r.mapping, &img, "env").map_err(to_py)?;
+    let report = py
+        .detach(|| sh::IrradianceReport::of(&env, &r.world_to_env, window, "env"))
+        .map_err(to_py)?;
+    Ok(pythonize::pythonize(py, &report)
+        .map_err(|e| PyValueError::new_err(format!("report: {e}")))?
+        .into_any())
+}
+
+/// The split-sum DFG table (N, N, 3) float32: A, B, A + B.
+#[pyfunction]
+#[pyo3(signature = (size))]
+fn dfg_lut<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
+    let img = py
+        .detach(|| spheremap::lighting::dfg::table(size))
+        .map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([size, size, 3])?
+        .into_any())
+}
+
+/// A lighting request's field names as Python's functions spell their arguments.
+fn lighting_names(e: spheremap::Error) -> spheremap::Error {
+    match e {
+        spheremap::Error::InvalidParameter { name, reason } => {
+            let py_name = match name.as_str() {
+                "env_format" => "src",
+                "env_preset" => "src_preset",
+                "env_layout" => "src_layout",
+                "env_look" => "src_look",
+                "env_up" => "src_up",
+                other => other,
+            };
+            spheremap::Error::param(py_name, reason)
+        }
+        other => other,
+    }
+}
+
 /// A conversion request's field names (the CLI's flags) as Python's `convert` spells its
 /// arguments.
 fn python_names(e: spheremap::Error) -> spheremap::Error {
@@ -885,6 +976,9 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mapping_for, m)?)?;
     m.add_function(wrap_pyfunction!(cube_layout_of, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
+    m.add_function(wrap_pyfunction!(bake_matcap, m)?)?;
+    m.add_function(wrap_pyfunction!(irradiance_sh, m)?)?;
+    m.add_function(wrap_pyfunction!(dfg_lut, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;

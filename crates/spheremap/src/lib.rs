@@ -10,7 +10,7 @@
 //! | layer | modules |
 //! |---|---|
 //! | 7 top | [`demo`], [`names`] (every list of names and its parser) |
-//! | 6 jobs | [`jobs`]: photo, render, analyze, chart, shader |
+//! | 6 jobs, lighting | [`jobs`]: convert, photo, render, analyze, chart, shader; [`lighting`]: materials, MatCap bakes, spherical harmonics, the DFG table |
 //! | 5 tracing | [`trace`]: generate, scene, camera |
 //! | 4 resampling | [`resample`]: filters, strata, the CPU dispatch, conversions |
 //! | 3 images and meshes | [`images`]: the `Image` type, codecs, the map note, cube layouts, environment files; [`mesh`] |
@@ -29,6 +29,7 @@ pub mod demo;
 pub mod frame;
 pub mod images;
 pub mod jobs;
+pub mod lighting;
 pub mod mappings;
 pub mod mesh;
 pub mod names;

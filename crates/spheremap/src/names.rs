@@ -16,7 +16,7 @@ use crate::resample::{Filter, Outside, Precision, Taps};
 use crate::Singular;
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
-pub const KINDS: [&str; 14] = [
+pub const KINDS: [&str; 15] = [
     "mapping",
     "filter",
     "taps",
@@ -31,6 +31,7 @@ pub const KINDS: [&str; 14] = [
     "matcap",
     "nonfinite",
     "tonemap",
+    "material",
 ];
 
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
@@ -52,6 +53,7 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "matcap" => &MatcapVariant::NAMES,
         "nonfinite" => &NonFinite::NAMES,
         "tonemap" => &ToneMap::NAMES,
+        "material" => &crate::lighting::brdf::Material::NAMES,
         _ => return None,
     })
 }
@@ -76,6 +78,7 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
         "matcap" => MatcapVariant::parse(value, arg).map(drop),
         "nonfinite" => NonFinite::parse(value).map(drop),
         "tonemap" => ToneMap::parse(value).map(drop),
+        "material" => crate::lighting::brdf::Material::parse(value, 0.5).map(drop),
         _ => Err(Error::param(
             "kind",
             format!(

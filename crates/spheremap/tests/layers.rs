@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The layers, bottom up: each top-level module of the crate and its height.
-const LAYERS: [(&str, usize); 10] = [
+const LAYERS: [(&str, usize); 11] = [
     ("base", 0),
     ("frame", 1),
     ("mappings", 2),
@@ -15,6 +15,7 @@ const LAYERS: [(&str, usize); 10] = [
     ("resample", 4),
     ("trace", 5),
     ("jobs", 6),
+    ("lighting", 6),
     ("demo", 7),
     ("names", 7),
 ];

@@ -73,3 +73,52 @@ const GL8: [(f64, f64); 8] = [
     (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
     (0.960_289_856_497_536_2, 0.101_228_536_290_376_26),
 ];
+
+/// Gauss–Legendre nodes and weights on [−1, 1] for `n` points (Newton's method on Pₙ, f64).
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        let mut z = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, z);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let p = if n == 0 {
+                1.0
+            } else if n == 1 {
+                z
+            } else {
+                p1
+            };
+            let pm = if n == 1 { 1.0 } else { p0 };
+            dp = n as f64 * (z * p - pm) / (z * z - 1.0);
+            let dz = p / dp;
+            z -= dz;
+            if dz.abs() < 1e-15 {
+                break;
+            }
+        }
+        x[i] = -z;
+        x[n - 1 - i] = z;
+        w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
+        w[n - 1 - i] = w[i];
+    }
+    (x, w)
+}
+
+#[cfg(test)]
+mod gauss_tests {
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let (x, w) = super::gauss_legendre(8);
+        // ∫ x^14 over [−1, 1] = 2/15; 8 points are exact to degree 15.
+        let s: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(14)).sum();
+        assert!((s - 2.0 / 15.0).abs() < 1e-14, "{s}");
+        assert!((w.iter().sum::<f64>() - 2.0).abs() < 1e-14);
+    }
+}

@@ -1,0 +1,296 @@
+//! `spheremap bake-matcap`, `irradiance` and `dfg`: lighting from a map (thin layer over
+//! `spheremap::lighting`).
+
+use crate::job::vec3;
+use anyhow::Context;
+use spheremap::images::envmap::{
+    check_nonfinite_env, read_env_layout, read_note, write_env, EnvFiles,
+};
+use spheremap::lighting::{dfg, sh, MatcapRequest};
+use spheremap::mappings::mapping::Mapping;
+use spheremap::resample::{EnvMap, Progress};
+
+/// The environment a lighting command reads.
+#[derive(clap::Args, Debug)]
+pub struct EnvArgs {
+    /// The environment map: an image (EXR, HDR, PFM, PNG, JPEG, WebP) or six cube faces as a
+    /// pattern ('sky_{face}.exr').
+    env: String,
+    /// Its mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
+    /// spheremap recorded in it, else latlong.
+    #[arg(long, value_parser = crate::names::core("mapping"))]
+    env_format: Option<String>,
+    /// Preset of its mapping.
+    #[arg(long)]
+    env_preset: Option<String>,
+    /// Cube layout of a cube map in one image (default: from its shape).
+    #[arg(long, value_parser = crate::names::core("layout"))]
+    env_layout: Option<String>,
+    /// The view it was made for, when it is not the world's (a turned sphere map); default:
+    /// the one it records.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    env_look: Option<Vec<f64>>,
+    /// Up of --env-look.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    env_up: Option<Vec<f64>>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct BakeArgs {
+    #[command(flatten)]
+    env: EnvArgs,
+    /// The material: lambert (albedo/π) or ggx (GGX, height-correlated Smith, Fresnel 1).
+    #[arg(long, default_value = "ggx", value_parser = crate::names::core("material"))]
+    material: String,
+    /// GGX perceptual roughness 0..1 (α = roughness², as glTF, Blender and Filament); 0 is the
+    /// mirror (the sphere map of the view).
+    #[arg(long, default_value_t = 0.5)]
+    roughness: f64,
+    /// Linear RGB albedo (default 0.8 0.8 0.8 for lambert, 1 1 1 for ggx).
+    #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
+    albedo: Option<Vec<f64>>,
+    /// The MatCap's view: world direction of the eye's -Z (with --up); default 0 0 -1.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    look: Option<Vec<f64>>,
+    /// World direction of the eye's +Y (with --look; default 0 1 0).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// Output size N (N×N).
+    #[arg(long, default_value_t = 256)]
+    size: usize,
+    /// Spatial samples per texel (1: the texel centre; S > 1: at least S, more at the rim).
+    #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
+    samples: u32,
+    /// The most samples a rim texel may take.
+    #[arg(long, default_value_t = 1024)]
+    max_samples: u32,
+    /// Seed of the sample jitter.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Outside the disc: gutter (default) or black.
+    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
+    outside: String,
+    /// Output file (.exr .hdr .pfm .png .jpg).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: crate::job::JobFlags,
+}
+
+pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
+    let request = MatcapRequest {
+        material: a.material.clone(),
+        roughness: a.roughness,
+        albedo: vec3(&a.albedo),
+        size: a.size,
+        look: vec3(&a.look),
+        up: vec3(&a.up),
+        samples: a.samples,
+        max_samples: a.max_samples,
+        seed: a.seed,
+        outside: a.outside.clone(),
+        env_format: a.env.env_format.clone(),
+        env_preset: a.env.env_preset.clone(),
+        env_layout: a.env.env_layout.clone(),
+        env_look: vec3(&a.env.env_look),
+        env_up: vec3(&a.env.env_up),
+        nonfinite: a.job.nonfinite.clone(),
+        max_memory: Some(a.job.max_memory()?),
+    };
+    let wopts = a.job.write_options(false);
+    let progress = Progress::default();
+    let (report, notice) = std::thread::scope(|s| {
+        let work = s.spawn(|| {
+            request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(&progress))
+        });
+        crate::progress::watch(&progress, &work, a.job.show_progress(), "baking");
+        work.join().expect("the bake thread panicked")
+    })
+    .map_err(crate::flag_error)?;
+    if let Some(n) = notice.filter(|_| !a.job.quiet) {
+        eprintln!("note: {n}");
+    }
+    if a.job.json {
+        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
+    } else if !a.job.quiet {
+        eprintln!(
+            "{} -> {} ({} roughness {}, {}x{}): {} integrals ({:?}), {:.3} s",
+            report.input,
+            report.output.join(", "),
+            report.material,
+            report.roughness,
+            report.size,
+            report.size,
+            report.integrals,
+            report.method,
+            report.seconds
+        );
+    }
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+pub struct IrradianceArgs {
+    #[command(flatten)]
+    env: EnvArgs,
+    /// Filament's ringing window: a size in bands (the band-l factor is (sin x / x)^4,
+    /// x = pi l / W), or auto (the largest that leaves no negative irradiance).
+    #[arg(long, allow_hyphen_values = true)]
+    window: Option<String>,
+    /// Print the report as JSON on stdout (three.js and Filament coefficients).
+    #[arg(long)]
+    json: bool,
+    /// Also write Filament's sh.txt (pre-scaled for its shader) here.
+    #[arg(long)]
+    sh_txt: Option<String>,
+    /// Also write the irradiance map (the full integral, no SH truncation) here.
+    #[arg(short = 'o', long)]
+    output: Option<String>,
+    /// Mapping of the irradiance map.
+    #[arg(long, default_value = "cube", value_parser = crate::names::core("mapping"))]
+    to: String,
+    /// Cube layout of the irradiance map when --to cube.
+    #[arg(long, value_parser = crate::names::core("layout"))]
+    layout: Option<String>,
+    /// Size N of the irradiance map (cube faces N×N; latlong 2N×N).
+    #[arg(long, default_value_t = 32)]
+    size: usize,
+    /// Samples per texel of the irradiance map.
+    #[arg(long, default_value_t = 1)]
+    samples: u32,
+    /// NaN/Inf in the map: error (default), zero or keep.
+    #[arg(long, default_value = "error", value_parser = crate::names::core("nonfinite"))]
+    nonfinite: String,
+    /// Allow an output to overwrite the input.
+    #[arg(long)]
+    force: bool,
+    /// No summary on stderr.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
+    let t0 = std::time::Instant::now();
+    let files = EnvFiles::parse(&a.env.env);
+    let note = read_note(files.first())?;
+    let job = spheremap::lighting::EnvRequest {
+        env_format: a.env.env_format.clone(),
+        env_preset: a.env.env_preset.clone(),
+        env_layout: a.env.env_layout.clone(),
+        env_look: vec3(&a.env.env_look),
+        env_up: vec3(&a.env.env_up),
+        nonfinite: a.nonfinite.clone(),
+    };
+    let r = job
+        .resolve(note.as_ref(), &a.env.env)
+        .map_err(crate::flag_error)?;
+    let window = match a.window.as_deref() {
+        None => sh::Window::None,
+        Some("auto") => sh::Window::Auto,
+        Some(w) => sh::Window::Size(
+            w.parse::<f64>()
+                .ok()
+                .filter(|w| w.is_finite() && *w > 0.0)
+                .with_context(|| format!("--window: {w:?} is not auto or a positive number"))?,
+        ),
+    };
+    let mut outputs: Vec<String> = a.sh_txt.iter().cloned().collect();
+    if let Some(o) = &a.output {
+        outputs.extend(EnvFiles::parse(o).paths());
+    }
+    if !a.force {
+        spheremap::images::envmap::refuse_overwrite(&files.paths(), &outputs)?;
+    }
+    let to = Mapping::parse(&a.to, None)?;
+    if let Some(o) = &a.output {
+        EnvFiles::parse(o).check_output(to)?;
+    }
+    let layout = a
+        .layout
+        .as_deref()
+        .map(spheremap::images::cube_layout::Layout::parse)
+        .transpose()?;
+    let (mut img, _) = read_env_layout(
+        &files,
+        r.mapping,
+        r.layout,
+        &spheremap::images::codec::ReadOptions::default(),
+    )?;
+    check_nonfinite_env(&mut img, &files, r.nonfinite)?;
+    let env = EnvMap::new(r.mapping, &img, files.first())?;
+    let mut report = sh::IrradianceReport::of(&env, &r.world_to_env, window, &files.label())?;
+    if let Some(p) = &a.sh_txt {
+        spheremap::base::files::write_text(std::path::Path::new(p), &report.filament.sh_txt)?;
+        report.output.push(p.clone());
+    }
+    if let Some(o) = &a.output {
+        let (w, h) = to.canvas(a.size);
+        spheremap::base::error::check_map_size("size", a.size).map_err(crate::flag_error)?;
+        let map = spheremap::lighting::irradiance_map(&env, &r.world_to_env, to, w, h, a.samples)
+            .map_err(crate::flag_error)?;
+        let written = write_env(
+            o,
+            to,
+            &map,
+            layout,
+            &spheremap::resample::IDENTITY,
+            &Default::default(),
+        )?;
+        report.output.extend(written);
+    }
+    report.seconds = t0.elapsed().as_secs_f64();
+    if a.json {
+        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
+    } else if !a.quiet {
+        eprintln!(
+            "{}: SH9 radiance coefficients (three.js SphericalHarmonics3):",
+            report.input
+        );
+        for (i, c) in report.coefficients.iter().enumerate() {
+            eprintln!("  {i}: {:12.6} {:12.6} {:12.6}", c[0], c[1], c[2]);
+        }
+        if let Some(w) = report.window {
+            eprintln!("  window: {w:.3} bands");
+        }
+        for o in &report.output {
+            eprintln!("  wrote {o}");
+        }
+    }
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DfgArgs {
+    /// Table size N (N×N): column i is n·v = (i+½)/N, row j (row 0 first) roughness (j+½)/N.
+    #[arg(long, default_value_t = dfg::DEFAULT_SIZE)]
+    size: usize,
+    /// Output file (.exr .pfm .hdr; channels A, B, A+B).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: crate::job::JobFlags,
+}
+
+pub fn run_dfg(a: DfgArgs) -> anyhow::Result<()> {
+    let t0 = std::time::Instant::now();
+    let img = dfg::table(a.size).map_err(crate::flag_error)?;
+    spheremap::images::codec::write_image(
+        std::path::Path::new(&a.output),
+        &img,
+        &a.job.write_options(true),
+    )?;
+    if a.job.json {
+        let v = serde_json::json!({
+            "output": a.output, "size": a.size, "seconds": t0.elapsed().as_secs_f64()
+        });
+        crate::out(&format!("{v}\n"));
+    } else if !a.job.quiet {
+        eprintln!(
+            "-> {} ({n}x{n} split-sum DFG: A, B, A+B), {:.3} s",
+            a.output,
+            t0.elapsed().as_secs_f64(),
+            n = a.size,
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,474 @@
+//! The environment as a tree of cube-map texel blocks, for integrating a BRDF lobe against it
+//! exactly and fast.
+//!
+//! The environment is resampled (footprint-filtered, energy-preserving: [`crate::resample`])
+//! into a world-frame cube of face F₀ (a power of two matching the source's resolution), and
+//! the faces' texels are grouped 2×2 into a pyramid up to one node per face.  Each node holds
+//!
+//! * its **residual power** Σ (L − L̄) dω over its texels, L̄ the map's mean radiance,
+//! * its **representative direction**, the luminance-weighted centroid of its texels (a sun
+//!   inside a large node is evaluated where the sun is),
+//! * its bounding cone (axis and angular radius).
+//!
+//! An integral ∫ g(l) L(l) dω is then L̄ ∫ g dω (known in closed form or tabulated: the
+//! material's directional albedo) plus Σ g(dᵢ) Rᵢ over a **cut** of the tree: a node is opened
+//! while it is wide compared with the scale on which g varies near it (the lobe's width α
+//! near its peak, a fraction of the angle to the peak farther out, a fixed scale for the
+//! cosine), and where it straddles the horizon of the normal.  A constant environment has no
+//! residual, so it integrates to the albedo exactly (the white furnace).
+
+use super::brdf::{self, Material};
+use crate::base::error::Result;
+use crate::mappings::mapping::Mapping;
+use crate::resample::EnvMap;
+use rayon::prelude::*;
+
+/// How finely a cut resolves the lobe (the tolerances, tuned against brute force).
+#[derive(Clone, Copy, Debug)]
+pub struct CutRule {
+    /// A node is opened while its estimated error exceeds `tol` × the integral's scale
+    /// (L̄ × the lobe's albedo).
+    pub tol: f64,
+    /// Far from the peak the lobe varies on `far` × the angle to the peak.
+    pub far: f64,
+    /// The largest scale (radians): the cosine's and the broad lobes'.
+    pub broad: f64,
+}
+
+impl Default for CutRule {
+    fn default() -> Self {
+        CutRule {
+            tol: 1e-5,
+            far: 0.25,
+            broad: 0.5,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Node {
+    /// Σ L dω and Σ dω: the node's power and solid angle.
+    power: [f32; 3],
+    omega: f32,
+    /// The Ω-weighted centroid (unit): where L̄'s share is evaluated.
+    odir: [f32; 3],
+    /// |Σ (L − L̄) dω| and the variation inside the node, Σ |L − L̄_node| dω, of the luminance.
+    abs_res: f32,
+    var: f32,
+    /// The luminance-weighted centroid (unit): where the power is evaluated.
+    dir: [f32; 3],
+    /// Bounding cone: axis (unit), the sine of the radius, the radius.
+    axis: [f32; 3],
+    sin_r: f32,
+    rad: f32,
+}
+
+struct Level {
+    /// Texels per face edge.
+    m: usize,
+    nodes: Vec<Node>,
+}
+
+/// The environment tree (see the module's notes).
+pub struct EnvTree {
+    /// Finest first.
+    levels: Vec<Level>,
+    /// L̄ per channel (the map's mean radiance over the sphere).
+    pub mean: [f64; 3],
+    /// 1 (grey) or 3 (RGB) channels of light.
+    pub channels: usize,
+    /// The cube's face size F₀.
+    pub face: usize,
+}
+
+/// The world-frame cube face a map of `w`×`h` texels is resolved by: the power of two at or above
+/// √(w·h/6), within 8..=`cap`.
+pub fn face_for(w: usize, h: usize, cap: usize) -> usize {
+    let f = ((w as f64 * h as f64) / 6.0).sqrt();
+    (f.max(8.0) as usize)
+        .next_power_of_two()
+        .clamp(8, cap.max(8))
+}
+
+/// How many points per texel axis stand for a texel of a `w`×`h` map of `m` in a tree of face
+/// `face`: enough that they are at most half a leaf apart (1 to 4).
+fn sub_points(m: Mapping, w: usize, h: usize, face: usize) -> usize {
+    let texel = (4.0 * std::f64::consts::PI / (w as f64 * h as f64)).sqrt();
+    let _ = m;
+    let leaf = std::f64::consts::FRAC_PI_2 / face as f64;
+    ((2.0 * texel / leaf).ceil() as usize).clamp(1, 4)
+}
+
+/// The cube face that resolves `material`'s lobe (the power of two at or above
+/// `FACE_PER_ALPHA`/α), at least 64.
+pub const FACE_PER_ALPHA: f64 = 16.0;
+
+/// The cube face that resolves `material`'s lobe (see [`FACE_PER_ALPHA`]).
+pub fn face_needed(material: Material) -> usize {
+    match material {
+        Material::Lambert => 64,
+        Material::Ggx { alpha } => ((FACE_PER_ALPHA / alpha.max(1e-9)).min(1e6) as usize)
+            .next_power_of_two()
+            .max(64),
+    }
+}
+
+/// The light channels of a map with `c` channels: RGB of RGB(A), else the first (grey).
+pub fn light_channels(c: usize) -> usize {
+    if c >= 3 {
+        3
+    } else {
+        1
+    }
+}
+
+impl EnvTree {
+    /// Builds the tree of `env` with leaves on a world-frame cube of face `face`;
+    /// `world_to_env` takes world directions to the map's frame.  Every texel of the map is
+    /// put, with its exact solid angle, into the leaf its centre's direction falls in: the
+    /// tree sums exactly what a brute-force sum over the map's texels sums.
+    pub fn build(env: &EnvMap, world_to_env: [[f64; 3]; 3], face: usize) -> Result<EnvTree> {
+        let cube = Mapping::parse("cube", None)?;
+        let (w, h, ch) = (env.width, env.height, env.channels);
+        let c = light_channels(ch);
+        let m = env.mapping;
+        let r = world_to_env;
+        let lum = |l: [f64; 3]| {
+            if c == 3 {
+                0.2126 * l[0] + 0.7152 * l[1] + 0.0722 * l[2]
+            } else {
+                l[0]
+            }
+        };
+        let mut acc = vec![Acc::default(); 6 * face * face];
+        // Each texel is k×k points (the map's bilinear radiance over its area): k grows until
+        // the points are about half a leaf apart, so texels larger than the leaves fill them.
+        let k = sub_points(m, w, h, face);
+        let (wk, hk) = (w * k, h * k);
+        let sampler = &crate::resample::Sampler::new(env);
+        let block = (32 / k).max(1);
+        for y0 in (0..h).step_by(block) {
+            let parts: Vec<(usize, Acc)> = (y0 * k..((y0 + block).min(h)) * k)
+                .into_par_iter()
+                .flat_map_iter(|ys| {
+                    (0..wk).filter_map(move |xs| {
+                        let dw = m.texel_solid_angle(xs, ys, wk, hk);
+                        if !(dw > 0.0) {
+                            return None;
+                        }
+                        let uv = [(xs as f64 + 0.5) / wk as f64, (ys as f64 + 0.5) / hk as f64];
+                        let d = m.uv_to_dir(uv)?;
+                        // The radiance there: the texel itself, or between texels the bilinear
+                        // lookup every other spheremap path makes.
+                        let mut px = [0f32; 8];
+                        if k == 1 {
+                            px[..ch].copy_from_slice(&env.data[(ys * w + xs) * ch..][..ch]);
+                        } else {
+                            sampler.sample(d.map(|v| v as f32), &mut px);
+                        }
+                        // Map frame → world: the transpose of world → map.
+                        let d = brdf::normalize([
+                            r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
+                            r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
+                            r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
+                        ]);
+                        let [u, v] = cube.dir_to_uv(d);
+                        let i = ((u * face as f64) as usize).min(face - 1);
+                        let j = ((v * (6 * face) as f64) as usize).min(6 * face - 1);
+                        let p = &px;
+                        let l = if c == 3 {
+                            [p[0] as f64, p[1] as f64, p[2] as f64]
+                        } else {
+                            [p[0] as f64, 0.0, 0.0]
+                        };
+                        let wt = (lum(l).max(0.0) + 1e-30) * dw;
+                        Some((
+                            j * face + i,
+                            Acc {
+                                res: l.map(|v| v * dw),
+                                wd: [d[0] * wt, d[1] * wt, d[2] * wt],
+                                od: [d[0] * dw, d[1] * dw, d[2] * dw],
+                                omega: dw,
+                                lum: lum(l) * dw,
+                                var: 0.0,
+                            },
+                        ))
+                    })
+                })
+                .collect();
+            for (k, a) in parts {
+                let t = &mut acc[k];
+                for q in 0..3 {
+                    t.res[q] += a.res[q];
+                    t.wd[q] += a.wd[q];
+                    t.od[q] += a.od[q];
+                }
+                t.omega += a.omega;
+                t.lum += a.lum;
+            }
+        }
+        let total = acc.iter().fold([0.0; 4], |s, a| {
+            [
+                s[0] + a.res[0],
+                s[1] + a.res[1],
+                s[2] + a.res[2],
+                s[3] + a.omega,
+            ]
+        });
+        if !total.iter().all(|v| v.is_finite()) || !(total[3] > 0.0) {
+            return Err(crate::Error::param(
+                "env",
+                "its radiance does not sum to a finite value (Inf or NaN in the map)",
+            ));
+        }
+        let mean = [0, 1, 2].map(|k| total[k] / total[3]);
+        let mean_lum = lum(mean);
+        // Leaves are indexed face·m² + j·m + i, which is the stack's row-major order.
+        let mut levels = Vec::new();
+        let mut m = face;
+        loop {
+            levels.push(Level {
+                m,
+                nodes: finish(&acc, m, &cube, mean_lum),
+            });
+            if m == 1 {
+                break;
+            }
+            let half = m / 2;
+            acc = (0..6 * half * half)
+                .into_par_iter()
+                .map(|k| {
+                    let (f, j, i) = (k / (half * half), (k / half) % half, k % half);
+                    let kids = [(0, 0), (0, 1), (1, 0), (1, 1)]
+                        .map(|(dj, di)| &acc[f * m * m + (2 * j + dj) * m + 2 * i + di]);
+                    let mut r = Acc::default();
+                    for ch in kids {
+                        for q in 0..3 {
+                            r.res[q] += ch.res[q];
+                            r.wd[q] += ch.wd[q];
+                            r.od[q] += ch.od[q];
+                        }
+                        r.omega += ch.omega;
+                        r.lum += ch.lum;
+                        r.var += ch.var;
+                    }
+                    // The variation between the children's means adds to theirs.
+                    if r.omega > 0.0 {
+                        let mean = r.lum / r.omega;
+                        r.var += kids
+                            .iter()
+                            .map(|c| (c.lum - c.omega * mean).abs())
+                            .sum::<f64>();
+                    }
+                    r
+                })
+                .collect();
+            m = half;
+        }
+        Ok(EnvTree {
+            levels,
+            mean,
+            channels: c,
+            face,
+        })
+    }
+
+    /// The luminance of L̄ (its only channel for a grey map).
+    pub fn mean_luminance(&self) -> f64 {
+        let m = self.mean;
+        if self.channels == 3 {
+            0.2126 * m[0] + 0.7152 * m[1] + 0.0722 * m[2]
+        } else {
+            m[0]
+        }
+    }
+
+    /// ∫ g(l) (L(l) − L̄) dω for the lobe `q` (add L̄ × the lobe's albedo for ∫ g L dω).
+    pub fn residual(&self, q: &Lobe) -> [f64; 3] {
+        // Start where faces are 4×4 (or the finest level if coarser).
+        let start = self.levels.iter().position(|l| l.m <= 4).unwrap_or(0);
+        let mut stack: [(u8, u32); 512] = [(0, 0); 512];
+        let mut top = 0;
+        let n0 = self.levels[start].nodes.len();
+        for k in (0..n0).rev() {
+            stack[top] = (start as u8, k as u32);
+            top += 1;
+        }
+        let mut acc = [0.0f64; 3];
+        while top > 0 {
+            top -= 1;
+            let (lv, k) = stack[top];
+            let level = &self.levels[lv as usize];
+            let node = &level.nodes[k as usize];
+            let axis = node.axis.map(|v| v as f64);
+            let c = brdf::dot(axis, q.n);
+            let (sin_r, rad) = (node.sin_r as f64, node.rad as f64);
+            if node.rad < 1.5 && c <= -sin_r {
+                continue; // wholly below the horizon
+            }
+            let dir = node.dir.map(|v| v as f64);
+            let g = q.eval(dir);
+            if lv > 0 && top + 4 <= stack.len() {
+                let err = q.error(axis, rad, c.abs() < sin_r, g, node);
+                if err > q.budget {
+                    let (m, child) = (level.m, &self.levels[lv as usize - 1]);
+                    let k = k as usize;
+                    let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+                    let cm = child.m;
+                    for (dj, di) in [(1, 1), (1, 0), (0, 1), (0, 0)] {
+                        stack[top] = (
+                            lv - 1,
+                            (f * cm * cm + (2 * j + dj) * cm + 2 * i + di) as u32,
+                        );
+                        top += 1;
+                    }
+                    continue;
+                }
+            }
+            // Σ g (L − L̄) dω, each part at its own centroid (first-order exact).
+            let go = if node.odir == node.dir {
+                g
+            } else {
+                q.eval(node.odir.map(|v| v as f64))
+            };
+            if g != 0.0 || go != 0.0 {
+                let om = node.omega as f64;
+                for ch in 0..self.channels {
+                    acc[ch] += g * node.power[ch] as f64 - go * self.mean[ch] * om;
+                }
+            }
+        }
+        acc
+    }
+}
+
+/// A node's sums while the tree is built (f64).
+#[derive(Clone, Copy, Debug, Default)]
+struct Acc {
+    res: [f64; 3],
+    wd: [f64; 3],
+    od: [f64; 3],
+    omega: f64,
+    lum: f64,
+    var: f64,
+}
+
+/// Nodes of a level from their accumulated sums.
+fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
+    let (w, h) = (1.0, 6.0);
+    acc.par_iter()
+        .enumerate()
+        .map(|(k, a)| {
+            let (res, wd, od) = (&a.res, &a.wd, &a.od);
+            let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+            let mf = m as f64;
+            let eps = 1e-9;
+            let uv = |a: f64, b: f64| {
+                let u = (a / mf).clamp(eps, 1.0 - eps);
+                let v = (f as f64 + (b / mf).clamp(eps, 1.0 - eps)) / h;
+                brdf::normalize(cube.uv_to_dir([u / w, v]).expect("on the cube"))
+            };
+            let axis = uv(i as f64 + 0.5, j as f64 + 0.5);
+            let mut rad: f64 = 0.0;
+            for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+                let d = uv(i as f64 + a, j as f64 + b);
+                rad = rad.max(brdf::dot(axis, d).clamp(-1.0, 1.0).acos());
+            }
+            let l = brdf::dot(*wd, *wd).sqrt();
+            let dir = if l > 0.0 {
+                [wd[0] / l, wd[1] / l, wd[2] / l]
+            } else {
+                axis
+            };
+            Node {
+                power: res.map(|v| v as f32),
+                omega: a.omega as f32,
+                odir: {
+                    let l = brdf::dot(*od, *od).sqrt();
+                    if l > 0.0 {
+                        [od[0] / l, od[1] / l, od[2] / l].map(|v| v as f32)
+                    } else {
+                        axis.map(|v| v as f32)
+                    }
+                },
+                abs_res: (a.lum - mean_lum * a.omega).abs() as f32,
+                var: a.var as f32,
+                dir: dir.map(|v| v as f32),
+                axis: axis.map(|v| v as f32),
+                sin_r: rad.sin() as f32,
+                rad: rad as f32,
+            }
+        })
+        .collect()
+}
+
+/// One lobe to integrate: a material seen from `v` at normal `n` (world frame, unit), with the
+/// cut rule and the error a node may leave.
+pub struct Lobe {
+    pub material: Material,
+    pub n: [f64; 3],
+    pub v: [f64; 3],
+    /// The mirror direction (the GGX lobe's peak; the normal for Lambert).
+    peak: [f64; 3],
+    rule: CutRule,
+    /// A node whose estimated error is over this is opened.
+    budget: f64,
+}
+
+impl Lobe {
+    /// `scale` is the size of the integral (L̄'s luminance × the lobe's albedo): nodes are
+    /// opened while their error estimate exceeds `rule.tol` × it.
+    pub fn new(material: Material, n: [f64; 3], v: [f64; 3], rule: CutRule, scale: f64) -> Lobe {
+        let nv = brdf::dot(n, v);
+        let peak = match material {
+            Material::Lambert => n,
+            Material::Ggx { .. } => [0, 1, 2].map(|k| 2.0 * nv * n[k] - v[k]),
+        };
+        Lobe {
+            material,
+            n,
+            v,
+            peak,
+            rule,
+            budget: rule.tol * scale.abs().max(1e-30),
+        }
+    }
+
+    #[inline]
+    pub fn eval(&self, l: [f64; 3]) -> f64 {
+        brdf::eval_cos(self.material, self.n, self.v, l)
+    }
+
+    /// The error of evaluating a node (cone `axis`, radius `rad`) at its representative
+    /// direction, where the lobe is `g`: the node's inner variation × the lobe's change across
+    /// it (first order) plus its residual × the lobe's curvature (second order); the lobe's
+    /// largest value in the node is taken where the node comes nearest the peak.
+    #[inline]
+    fn error(&self, axis: [f64; 3], rad: f64, straddles: bool, g: f64, node: &Node) -> f64 {
+        let cos_t = brdf::dot(axis, self.peak).clamp(-1.0, 1.0);
+        let theta = cos_t.acos();
+        let near = (theta - rad).max(0.0);
+        let g_max = if near == 0.0 {
+            self.eval(self.peak).max(g)
+        } else {
+            // The node's point nearest the peak: the axis turned toward it by `rad`.
+            let s = theta.sin().max(1e-12);
+            let (a, b) = ((theta - rad).sin() / s, rad.sin() / s);
+            let d = [0, 1, 2].map(|k| a * axis[k] + b * self.peak[k]);
+            self.eval(d).max(g)
+        };
+        if g_max == 0.0 {
+            return 0.0;
+        }
+        let scale = match self.material {
+            Material::Lambert => self.rule.broad,
+            Material::Ggx { alpha } => alpha.max(self.rule.far * near).min(self.rule.broad),
+        };
+        let x = if straddles {
+            1.0
+        } else {
+            (rad / scale).min(1.0)
+        };
+        g_max * (node.var as f64 * x + node.abs_res as f64 * x * x)
+    }
+}

@@ -1,0 +1,444 @@
+//! Physically exact MatCaps: the light a lone convex sphere of a material reflects toward an
+//! orthographic viewer, baked from an environment map.
+//!
+//! ## The MatCap layout (a contract)
+//!
+//! An N×N image, row 0 at the top; texel (i, j) has centre s = (i+½)/N, t = 1 − (j+½)/N;
+//! x = 2s − 1, y = 2t − 1; inside the disc the view-space normal is n = (x, y, √(1 − x² − y²)).
+//! The viewer is orthographic, v = (0, 0, 1); view space is +X right, +Y up, the eye looking
+//! down −Z; `look` / `up` are the world directions of the eye's −Z and +Y (default −Z, +Y).
+//! This is the layout of the GL sphere map of the same view (default preset): the texel whose
+//! normal is n shows, in a sphere map, the reflection r = 2(n·v)n − v.
+//!
+//! ## The value of a texel
+//!
+//! L_o(n, v) = ∫ f(l, v) L(l) max(0, n·l) dω_l, no occlusion, averaged over the texel's
+//! footprint with the sample rules of every spheremap output (`samples`, the box filter, the
+//! gutter outside the disc): the bake is [`crate::trace::generate`] of a sphere map whose
+//! "ray" in direction r returns L_o at n = normalize(r + v).
+//!
+//! Each integral is computed on the environment's tree ([`super::envtree`]): L̄·E(n·v) (the
+//! material's directional albedo times the mean radiance) plus the residual over a cut fine
+//! enough for the lobe.  A GGX lobe narrower than a few of the tree's finest texels is instead
+//! integrated by 256 visible-normal samples (Heitz 2018) with bilinear lookups in the source
+//! map, with the same L̄·E control variate.  Roughness 0 is the mirror: the bake is then the
+//! conversion to the sphere map of the view (`convert --to sphere`), times the albedo.
+
+use super::brdf::{self, Albedo, Material};
+use super::envtree::{self, CutRule, EnvTree, Lobe};
+use crate::base::error::{Error, Result};
+use crate::frame::view::{self, Mat3};
+use crate::images::Image;
+use crate::mappings::mapping::Mapping;
+use crate::resample::{EnvMap, Progress, Sampler};
+use crate::trace::generate::{generate, GenerateOptions, RaySource};
+
+/// The finest cube face the tree is built at.
+pub const TREE_FACE_CAP: usize = 512;
+/// Visible-normal samples per integral for lobes narrower than the tree resolves.
+pub const VNDF_SAMPLES: usize = 256;
+
+/// What to bake (the resolved options of [`MatcapRequest`](super::MatcapRequest)).
+#[derive(Clone, Copy, Debug)]
+pub struct Bake {
+    pub material: Material,
+    pub albedo: [f64; 3],
+    /// Output size N.
+    pub size: usize,
+    /// Eye frame → world (columns: the eye's axes in world coordinates).
+    pub view: Mat3,
+    /// World → the environment map's frame.
+    pub world_to_env: Mat3,
+    /// Spatial samples, as everywhere (1: the texel centre).
+    pub samples: u32,
+    pub max_samples: u32,
+    pub seed: u64,
+    pub outside: crate::resample::Outside,
+    pub max_memory: u64,
+    pub rule: CutRule,
+    /// Integrate on a grid of normals and interpolate ([`NormalTable`]): `None` when it costs
+    /// fewer integrals than the samples do.
+    pub normal_table: Option<bool>,
+}
+
+/// How a bake integrated its lobes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The environment's tree.
+    Tree,
+    /// Visible-normal sampling with bilinear lookups (narrow GGX lobes).
+    Vndf,
+    /// Roughness 0: the sphere map of the view.
+    Mirror,
+}
+
+/// What a bake did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeReport {
+    pub method: Method,
+    /// The tree's cube face (0 for the mirror).
+    pub tree_face: usize,
+    /// Lighting integrals computed (one per spatial sample).
+    pub integrals: u64,
+    pub max_texel_samples: u32,
+}
+
+/// The channels a MatCap of a `c`-channel environment lit with `albedo` has: RGB, or grey
+/// when both are grey.
+pub fn output_channels(c: usize, albedo: [f64; 3]) -> usize {
+    if envtree::light_channels(c) == 1 && albedo[0] == albedo[1] && albedo[1] == albedo[2] {
+        1
+    } else {
+        3
+    }
+}
+
+/// Bakes the MatCap of `env` (see the module's notes).
+pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Image, BakeReport)> {
+    crate::base::error::check_map_size("size", b.size)?;
+    let sphere = Mapping::parse("sphere", None)?;
+    let out_c = output_channels(env.channels, b.albedo);
+    let gen = GenerateOptions {
+        samples: b.samples,
+        max_samples: b.max_samples,
+        filter: crate::resample::Filter::Box,
+        outside: b.outside,
+        rotation: b.view,
+        pos: [0.0; 3],
+        seed: b.seed,
+        precision: crate::resample::Precision::F32,
+        max_memory: b.max_memory,
+    };
+    let v = [b.view[0][2], b.view[1][2], b.view[2][2]];
+    if b.material == (Material::Ggx { alpha: 0.0 }) {
+        // The mirror: exactly the conversion to the sphere map of the view.
+        let opts = crate::resample::ResampleOptions {
+            samples: b.samples,
+            max_samples: b.max_samples,
+            outside: b.outside,
+            rotation: view::mul(&b.world_to_env, &b.view),
+            seed: b.seed,
+            max_memory: b.max_memory,
+            ..Default::default()
+        };
+        let (map, r) = crate::resample::resample(env, sphere, b.size, b.size, &opts, progress)?;
+        let lc = envtree::light_channels(map.channels);
+        let mut img = Image::new(b.size, b.size, out_c);
+        for (o, p) in img
+            .data
+            .chunks_exact_mut(out_c)
+            .zip(map.data.chunks_exact(map.channels))
+        {
+            let value = [0, 1, 2].map(|k| p[k.min(map.channels - 1)] as f64);
+            put(o, value, lc, b.albedo);
+        }
+        let report = BakeReport {
+            method: Method::Mirror,
+            tree_face: 0,
+            integrals: r.lookups,
+            max_texel_samples: r.max_texel_samples,
+        };
+        return Ok((img, report));
+    }
+    // The tree at the resolution the lobe needs, up to the source's; a GGX lobe finer than
+    // that is sampled.
+    let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
+    let need = envtree::face_needed(b.material);
+    let method = if need > TREE_FACE_CAP.max(src_face) {
+        Method::Vndf
+    } else {
+        Method::Tree
+    };
+    let face = need.min(TREE_FACE_CAP.max(src_face));
+    let tree = EnvTree::build(env, b.world_to_env, face)?;
+    let mut source = MatcapSource {
+        tree: &tree,
+        albedo_table: Albedo::new(b.material),
+        material: b.material,
+        albedo: b.albedo,
+        v,
+        channels: out_c,
+        vndf: (method == Method::Vndf).then(|| (Sampler::new(env), b.world_to_env)),
+        rule: b.rule,
+        table: None,
+        view: b.view,
+    };
+    let m = NormalTable::size_for(b.material);
+    let direct = (b.size * b.size) as f64 * 1.3 * b.samples.max(1) as f64;
+    let mut integrals = 0;
+    if b.normal_table.unwrap_or((m * m) as f64 <= direct) {
+        let t = NormalTable::build(&source, m, progress);
+        integrals = t.integrals;
+        source.table = Some(t);
+    }
+    let (img, r) = generate(sphere, b.size, b.size, &source, &gen, progress)?;
+    let mut rep = report(method, face, r);
+    if source.table.is_some() {
+        rep.integrals = integrals;
+    }
+    Ok((img, rep))
+}
+
+/// L_o on a grid of view-space normals, for bicubic lookups: the hemisphere as the
+/// equidistant disc (a, b) = θ/(π/2) · (cos φ, sin φ) (θ the angle to the viewer), M×M points
+/// from −1 to 1 plus two on each side (beyond the rim, the line through it: 2 G(1) − G(2 − ρ)).  The
+/// grid spacing is an eighth of the lobe's width (α for GGX), so a Catmull–Rom lookup is
+/// within a few 1e-4 of the integral; each grid value is an integral like any other.
+struct NormalTable {
+    m: usize,
+    /// (m + 4)² values, row-major.
+    data: Vec<[f32; 3]>,
+    integrals: u64,
+}
+
+impl NormalTable {
+    const PAD: usize = 2;
+
+    /// The grid size for a material: 8π/α + 1 points across (65 to 1025).
+    fn size_for(m: Material) -> usize {
+        let width = match m {
+            Material::Lambert => 1.0,
+            Material::Ggx { alpha } => alpha.min(1.0),
+        };
+        ((8.0 * std::f64::consts::PI / width).ceil() as usize + 1).clamp(65, 1025)
+    }
+
+    fn build(src: &MatcapSource, m: usize, progress: Option<&Progress>) -> NormalTable {
+        use rayon::prelude::*;
+        let side = m + 2 * Self::PAD;
+        let h = 2.0 / (m - 1) as f64;
+        let view = &src.view;
+        let data: Vec<[f32; 3]> = (0..side)
+            .into_par_iter()
+            .flat_map_iter(|j| {
+                let cancelled =
+                    progress.is_some_and(|p| p.cancel.load(std::sync::atomic::Ordering::Relaxed));
+                (0..side).map(move |i| {
+                    if cancelled {
+                        return [0.0; 3];
+                    }
+                    let a = -1.0 + (i as f64 - Self::PAD as f64) * h;
+                    let b = -1.0 + (j as f64 - Self::PAD as f64) * h;
+                    let rho = a.hypot(b);
+                    let (ca, sa) = if rho > 0.0 {
+                        (a / rho, b / rho)
+                    } else {
+                        (1.0, 0.0)
+                    };
+                    let at = |rho: f64| {
+                        let theta = rho * std::f64::consts::FRAC_PI_2;
+                        let ne = [theta.sin() * ca, theta.sin() * sa, theta.cos()];
+                        let n = [0, 1, 2]
+                            .map(|k| view[k][0] * ne[0] + view[k][1] * ne[1] + view[k][2] * ne[2]);
+                        let nv = brdf::dot(n, src.v);
+                        let r = [0, 1, 2].map(|k| 2.0 * nv * n[k] - src.v[k]);
+                        src.radiance(n, r)
+                    };
+                    let v = if rho <= 1.0 {
+                        at(rho)
+                    } else {
+                        // Beyond the rim, the line through the rim: 2 G(1) − G(2 − ρ).
+                        let (g1, g2) = (at(1.0), at((2.0 - rho).max(0.0)));
+                        [0, 1, 2].map(|k| 2.0 * g1[k] - g2[k])
+                    };
+                    v.map(|v| v as f32)
+                })
+            })
+            .collect();
+        NormalTable {
+            m,
+            data,
+            integrals: (side * side) as u64,
+        }
+    }
+
+    /// Catmull–Rom at view-space normal `ne` (unit, ne.z ≥ 0).
+    fn lookup(&self, ne: [f64; 3]) -> [f64; 3] {
+        let theta = ne[2]
+            .clamp(-1.0, 1.0)
+            .acos()
+            .min(std::f64::consts::FRAC_PI_2);
+        let s = (ne[0] * ne[0] + ne[1] * ne[1]).sqrt();
+        let (ca, sa) = if s > 0.0 {
+            (ne[0] / s, ne[1] / s)
+        } else {
+            (1.0, 0.0)
+        };
+        let rho = theta / std::f64::consts::FRAC_PI_2;
+        let h = 2.0 / (self.m - 1) as f64;
+        let fx = (rho * ca + 1.0) / h + Self::PAD as f64;
+        let fy = (rho * sa + 1.0) / h + Self::PAD as f64;
+        let side = self.m + 2 * Self::PAD;
+        let (ix, iy) = (fx.floor() as isize, fy.floor() as isize);
+        let (tx, ty) = (fx - ix as f64, fy - iy as f64);
+        let w = |t: f64| {
+            [
+                0.5 * (-t + 2.0 * t * t - t * t * t),
+                0.5 * (2.0 - 5.0 * t * t + 3.0 * t * t * t),
+                0.5 * (t + 4.0 * t * t - 3.0 * t * t * t),
+                0.5 * (-t * t + t * t * t),
+            ]
+        };
+        let (wx, wy) = (w(tx), w(ty));
+        let mut out = [0.0; 3];
+        for (dj, wj) in wy.iter().enumerate() {
+            let y = (iy - 1 + dj as isize).clamp(0, side as isize - 1) as usize;
+            for (di, wi) in wx.iter().enumerate() {
+                let x = (ix - 1 + di as isize).clamp(0, side as isize - 1) as usize;
+                let v = &self.data[y * side + x];
+                for k in 0..3 {
+                    out[k] += wi * wj * v[k] as f64;
+                }
+            }
+        }
+        out
+    }
+}
+
+fn report(method: Method, face: usize, r: crate::trace::generate::GenerateReport) -> BakeReport {
+    BakeReport {
+        method,
+        tree_face: face,
+        integrals: r.rays,
+        max_texel_samples: r.max_texel_samples,
+    }
+}
+
+/// The normal whose mirror direction for viewer `v` is `r`: normalize(r + v) (at r = −v, the
+/// rim, a normal perpendicular to v).
+#[inline]
+pub fn normal_of(r: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+    let s = [r[0] + v[0], r[1] + v[1], r[2] + v[2]];
+    let l = brdf::dot(s, s).sqrt();
+    if l > 1e-12 {
+        [s[0] / l, s[1] / l, s[2] / l]
+    } else {
+        brdf::tangent_frame(v).0
+    }
+}
+
+fn put(out: &mut [f32], value: [f64; 3], light_c: usize, albedo: [f64; 3]) {
+    if out.len() == 1 {
+        out[0] = (value[0] * albedo[0]) as f32;
+    } else {
+        for k in 0..3 {
+            let v = if light_c == 3 { value[k] } else { value[0] };
+            out[k] = (v * albedo[k]) as f32;
+        }
+    }
+}
+
+/// The lit sphere: direction r → L_o at n = normalize(r + v).
+struct MatcapSource<'a> {
+    tree: &'a EnvTree,
+    albedo_table: Albedo,
+    material: Material,
+    albedo: [f64; 3],
+    v: [f64; 3],
+    channels: usize,
+    /// Narrow lobes: the source map and world → its frame.
+    vndf: Option<(Sampler<'a>, Mat3)>,
+    rule: CutRule,
+    /// The integrals on a grid of normals, when the bake uses one.
+    table: Option<NormalTable>,
+    /// Eye → world.
+    view: Mat3,
+}
+
+impl MatcapSource<'_> {
+    /// L_o at normal `n` (before the albedo).
+    fn radiance(&self, n: [f64; 3], r: [f64; 3]) -> [f64; 3] {
+        let mu = brdf::dot(n, self.v).clamp(0.0, 1.0);
+        let e = self.albedo_table.at(mu);
+        let mean = self.tree.mean;
+        let res = match (&self.vndf, self.material) {
+            (Some((sampler, rot)), Material::Ggx { alpha }) => {
+                vndf_residual(sampler, rot, alpha, n, self.v, mean, r)
+            }
+            _ => self.tree.residual(&Lobe::new(
+                self.material,
+                n,
+                self.v,
+                self.rule,
+                self.tree.mean_luminance() * e,
+            )),
+        };
+        [0, 1, 2].map(|k| mean[k] * e + res[k])
+    }
+}
+
+impl RaySource for MatcapSource<'_> {
+    fn channels(&self) -> usize {
+        self.channels
+    }
+    fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
+        for (d, o) in dirs.iter().zip(out.chunks_exact_mut(self.channels)) {
+            let r = brdf::normalize(d.map(|v| v as f64));
+            let n = normal_of(r, self.v);
+            let value = match &self.table {
+                Some(t) => {
+                    // World → eye: the view's transpose.
+                    let vw = &self.view;
+                    t.lookup([0, 1, 2].map(|k| vw[0][k] * n[0] + vw[1][k] * n[1] + vw[2][k] * n[2]))
+                }
+                None => self.radiance(n, r),
+            };
+            put(o, value, self.tree.channels, self.albedo);
+        }
+        Ok(())
+    }
+}
+
+/// Σ (L(lᵢ) − L̄) G₂/G₁(v) / N over N visible-normal samples: the residual of a narrow GGX
+/// lobe.  The points are a Hammersley set, turned per integral by a hash of `key`.
+fn vndf_residual(
+    sampler: &Sampler,
+    rot: &Mat3,
+    alpha: f64,
+    n: [f64; 3],
+    v: [f64; 3],
+    mean: [f64; 3],
+    key: [f64; 3],
+) -> [f64; 3] {
+    let (t, b) = brdf::tangent_frame(n);
+    let vl = [brdf::dot(v, t), brdf::dot(v, b), brdf::dot(v, n).max(1e-6)];
+    let lambda_v = brdf::smith_lambda(alpha, vl[2]);
+    let lc = envtree::light_channels(sampler.channels());
+    let h = key.iter().fold(0x9E37_79B9u32, |h, &k| {
+        (h ^ (k as f32).to_bits()).wrapping_mul(0x85EB_CA6B)
+    });
+    let shift = (h >> 8) as f64 / (1u32 << 24) as f64;
+    let mut acc = [0.0f64; 3];
+    let mut px = [0f32; 4];
+    for i in 0..VNDF_SAMPLES {
+        let u1 = (i as f64 + 0.5) / VNDF_SAMPLES as f64;
+        let u2 = ((i as u32).reverse_bits() as f64 / 4294967296.0 + shift).fract();
+        let m = brdf::sample_vndf(alpha, vl, u1, u2);
+        let vh = brdf::dot(vl, m);
+        let ll = [0, 1, 2].map(|k| 2.0 * vh * m[k] - vl[k]);
+        if !(ll[2] > 0.0) {
+            continue;
+        }
+        let w = (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, ll[2]));
+        let l = [0, 1, 2].map(|k| ll[0] * t[k] + ll[1] * b[k] + ll[2] * n[k]);
+        let e = [0, 1, 2].map(|i| (rot[i][0] * l[0] + rot[i][1] * l[1] + rot[i][2] * l[2]) as f32);
+        sampler.sample(e, &mut px);
+        for k in 0..lc {
+            acc[k] += (px[k] as f64 - mean[k]) * w;
+        }
+    }
+    acc.map(|a| a / VNDF_SAMPLES as f64)
+}
+
+/// Checks an albedo: three finite values ≥ 0.
+pub fn check_albedo(a: [f64; 3]) -> Result<[f64; 3]> {
+    if a.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        Ok(a)
+    } else {
+        Err(Error::param(
+            "albedo",
+            format!("{a:?}: three finite values of at least 0 are expected"),
+        ))
+    }
+}

@@ -1,0 +1,364 @@
+//! Layer 6, lighting (beside [`crate::jobs`], whose conversion rules it reads environments by): what a map does to a material lit by it.
+//!
+//! * [`brdf`]: the materials (Lambert, GGX with height-correlated Smith G₂ and Fresnel 1),
+//!   their directional albedo, the visible-normal sampler;
+//! * [`envtree`]: the environment as a tree of cube texel blocks, for exact lobe integrals;
+//! * [`matcap`]: physically exact MatCaps (the lit sphere of a material seen by an
+//!   orthographic viewer), and [`MatcapRequest`], the bake as users name it;
+//! * [`sh`]: order-2 spherical harmonics of a map and the irradiance they imply, in the
+//!   conventions of three.js and Filament;
+//! * [`dfg`]: the split-sum DFG lookup table of the same GGX.
+
+pub mod brdf;
+pub mod dfg;
+pub mod envtree;
+pub mod matcap;
+pub mod sh;
+
+use crate::base::error::{default_max_memory, Error, Result};
+use crate::images::codec::ReadOptions;
+use crate::images::envmap::{
+    check_nonfinite_env, read_env_layout, read_note, refuse_overwrite, EnvFiles,
+};
+use crate::images::note::MapNote;
+use crate::images::Image;
+use crate::jobs::convert::ConvertJob;
+use crate::resample::{EnvMap, Outside, Progress, DEFAULT_SAMPLES};
+use brdf::Material;
+
+/// The environment a lighting job reads, as users name it: its mapping, preset and cube layout
+/// (default: its note, else lat-long), its view when it is not the world's (default: its
+/// note's) and what to do with NaN/Inf.  [`EnvRequest::resolve`] applies `convert`'s source
+/// rules.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvRequest {
+    pub env_format: Option<String>,
+    pub env_preset: Option<String>,
+    pub env_layout: Option<String>,
+    pub env_look: Option<[f64; 3]>,
+    pub env_up: Option<[f64; 3]>,
+    pub nonfinite: String,
+}
+
+/// An [`EnvRequest`] checked against its file.
+#[derive(Clone, Debug)]
+pub struct ResolvedEnv {
+    pub mapping: crate::mappings::mapping::Mapping,
+    pub layout: Option<crate::images::cube_layout::Layout>,
+    /// World → the map's frame.
+    pub world_to_env: crate::frame::view::Mat3,
+    pub env_look: Option<[f64; 3]>,
+    pub env_up: Option<[f64; 3]>,
+    pub nonfinite: crate::images::codec::NonFinite,
+    pub notice: Option<String>,
+}
+
+impl EnvRequest {
+    /// Resolves the fields for a map that records `note` (`None`: an array, or a file without
+    /// one); errors name the field.
+    pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<ResolvedEnv> {
+        let job = ConvertJob {
+            from: self
+                .env_format
+                .clone()
+                .or_else(|| note.is_none().then(|| "latlong".to_string())),
+            from_preset: self.env_preset.clone(),
+            from_layout: self.env_layout.clone(),
+            from_look: self.env_look,
+            from_up: self.env_up,
+            to: Some("sphere".into()),
+            nonfinite: if self.nonfinite.is_empty() {
+                "error".into()
+            } else {
+                self.nonfinite.clone()
+            },
+            ..Default::default()
+        };
+        let r = job.resolve(note, input).map_err(rename_env_fields)?;
+        let world_to_env =
+            crate::frame::view::conversion_rotation(None, None, None, r.from_look, r.from_up)?;
+        Ok(ResolvedEnv {
+            mapping: r.src,
+            layout: r.from_layout,
+            world_to_env,
+            env_look: r.from_look,
+            env_up: r.from_up,
+            nonfinite: r.nonfinite,
+            notice: r.notice,
+        })
+    }
+}
+
+/// The irradiance map of `env` (E(n) = ∫ L(l) max(0, n·l) dω, the full integral on the
+/// environment's tree, no spherical-harmonics truncation) as a `width`×`height` canvas of
+/// `mapping` in the world frame, `samples` normals per texel.
+pub fn irradiance_map(
+    env: &EnvMap,
+    world_to_env: &crate::frame::view::Mat3,
+    mapping: crate::mappings::mapping::Mapping,
+    width: usize,
+    height: usize,
+    samples: u32,
+) -> Result<Image> {
+    let face = envtree::face_needed(Material::Lambert);
+    let tree = envtree::EnvTree::build(env, *world_to_env, face)?;
+    let source = IrradianceSource { tree: &tree };
+    let opts = crate::trace::generate::GenerateOptions {
+        samples,
+        ..Default::default()
+    };
+    let (img, _) = crate::trace::generate::generate(mapping, width, height, &source, &opts, None)?;
+    Ok(img)
+}
+
+struct IrradianceSource<'a> {
+    tree: &'a envtree::EnvTree,
+}
+
+impl crate::trace::generate::RaySource for IrradianceSource<'_> {
+    fn channels(&self) -> usize {
+        self.tree.channels
+    }
+    fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
+        let c = self.tree.channels;
+        let rule = envtree::CutRule::default();
+        let scale = self.tree.mean_luminance();
+        for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
+            let n = brdf::normalize(d.map(|v| v as f64));
+            let lobe = envtree::Lobe::new(Material::Lambert, n, n, rule, scale);
+            let res = self.tree.residual(&lobe);
+            for k in 0..c {
+                o[k] = (std::f64::consts::PI * (self.tree.mean[k] + res[k])) as f32;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A MatCap bake as users name it: `spheremap bake-matcap` and Python's `bake_matcap` fill the
+/// same fields (serde-readable, unknown keys refused); [`MatcapRequest::resolve`] checks them.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MatcapRequest {
+    /// `lambert` or `ggx`.
+    pub material: String,
+    /// GGX perceptual roughness in 0..=1 (α = roughness²); 0 is the mirror.
+    pub roughness: f64,
+    /// Linear RGB albedo; default 0.8 grey for Lambert, white for GGX.
+    pub albedo: Option<[f64; 3]>,
+    /// Output size N (N×N).
+    pub size: usize,
+    /// The MatCap's view: world directions of the eye's −Z and +Y.
+    pub look: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+    /// Spatial samples per texel (1: the centre), the most a texel may take, the jitter's seed,
+    /// what goes outside the disc (`gutter` or `black`).
+    pub samples: u32,
+    pub max_samples: u32,
+    pub seed: u64,
+    pub outside: String,
+    /// The environment's mapping, preset and cube layout (default: its note, else lat-long),
+    /// and its view when it is not the world's (default: its note's).
+    pub env_format: Option<String>,
+    pub env_preset: Option<String>,
+    pub env_layout: Option<String>,
+    pub env_look: Option<[f64; 3]>,
+    pub env_up: Option<[f64; 3]>,
+    /// NaN/Inf in the environment: error, zero or keep.
+    pub nonfinite: String,
+    /// Refuse a job needing more bytes than this (`None`: the default limit).
+    pub max_memory: Option<u64>,
+}
+
+impl Default for MatcapRequest {
+    fn default() -> Self {
+        MatcapRequest {
+            material: "ggx".into(),
+            roughness: 0.5,
+            albedo: None,
+            size: 256,
+            look: None,
+            up: None,
+            samples: DEFAULT_SAMPLES,
+            max_samples: 1024,
+            seed: 0,
+            outside: "gutter".into(),
+            env_format: None,
+            env_preset: None,
+            env_layout: None,
+            env_look: None,
+            env_up: None,
+            nonfinite: "error".into(),
+            max_memory: None,
+        }
+    }
+}
+
+/// A [`MatcapRequest`] checked against its environment.
+#[derive(Clone, Debug)]
+pub struct ResolvedMatcap {
+    /// The environment's mapping and cube layout.
+    pub env: crate::mappings::mapping::Mapping,
+    pub env_layout: Option<crate::images::cube_layout::Layout>,
+    pub bake: matcap::Bake,
+    pub nonfinite: crate::images::codec::NonFinite,
+    pub notice: Option<String>,
+}
+
+/// The report of `spheremap bake-matcap --json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MatcapReport {
+    pub input: String,
+    pub output: Vec<String>,
+    pub material: &'static str,
+    pub roughness: f64,
+    pub albedo: [f64; 3],
+    pub size: usize,
+    pub channels: usize,
+    pub samples: u32,
+    /// How the lobes were integrated: `tree`, `vndf` or `mirror`.
+    pub method: matcap::Method,
+    /// The environment tree's cube face (0 for the mirror).
+    pub tree_face: usize,
+    /// Lighting integrals computed (one per spatial sample).
+    pub integrals: u64,
+    pub max_texel_samples: u32,
+    pub seconds: f64,
+}
+
+impl MatcapRequest {
+    /// The environment's fields.
+    pub fn env_request(&self) -> EnvRequest {
+        EnvRequest {
+            env_format: self.env_format.clone(),
+            env_preset: self.env_preset.clone(),
+            env_layout: self.env_layout.clone(),
+            env_look: self.env_look,
+            env_up: self.env_up,
+            nonfinite: self.nonfinite.clone(),
+        }
+    }
+
+    /// Checks every field; errors name the field.  `note` is what the environment's file
+    /// records (`None` for an array), `input` names it.
+    pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<ResolvedMatcap> {
+        let r = self.env_request().resolve(note, input)?;
+        let material = Material::parse(&self.material, self.roughness)?;
+        if material == Material::Lambert && !(0.0..=1.0).contains(&self.roughness) {
+            return Err(Error::param(
+                "roughness",
+                format!("{} is out of range 0..=1", self.roughness),
+            ));
+        }
+        let albedo = matcap::check_albedo(self.albedo.unwrap_or(material.default_albedo()))?;
+        crate::base::error::check_map_size("size", self.size)?;
+        for (name, v) in [("samples", self.samples), ("max_samples", self.max_samples)] {
+            if v == 0 || v > crate::resample::SAMPLE_CAP {
+                return Err(Error::param(
+                    name,
+                    format!("{v} is out of range 1..={}", crate::resample::SAMPLE_CAP),
+                ));
+            }
+        }
+        let view = crate::frame::view::output_view(self.look, self.up, None)?;
+        let world_to_env = r.world_to_env;
+        Ok(ResolvedMatcap {
+            env: r.mapping,
+            env_layout: r.layout,
+            bake: matcap::Bake {
+                material,
+                albedo,
+                size: self.size,
+                view,
+                world_to_env,
+                samples: self.samples,
+                max_samples: self.max_samples,
+                seed: self.seed,
+                outside: Outside::parse(&self.outside)?,
+                max_memory: self.max_memory.unwrap_or_else(default_max_memory),
+                rule: envtree::CutRule::default(),
+                normal_table: None,
+            },
+            nonfinite: r.nonfinite,
+            notice: r.notice,
+        })
+    }
+
+    /// Bakes from an environment in memory (a cube map as its F×6F face stack).
+    pub fn run_image(
+        &self,
+        image: &Image,
+        progress: Option<&Progress>,
+    ) -> Result<(Image, matcap::BakeReport)> {
+        let r = self.resolve(None, "env")?;
+        let env = EnvMap::new(r.env, image, "env")?;
+        matcap::bake(&env, &r.bake, progress)
+    }
+
+    /// Reads the environment `input` (one image, a face pattern), bakes, and writes `output`
+    /// atomically with a sphere-map note of the view (the MatCap of a mirror is the sphere map;
+    /// of any material, the map of its reflected light addressed by reflection).
+    pub fn run_files(
+        &self,
+        input: &str,
+        output: &str,
+        write: &crate::images::codec::WriteOptions,
+        force: bool,
+        progress: Option<&Progress>,
+    ) -> Result<(MatcapReport, Option<String>)> {
+        let t0 = std::time::Instant::now();
+        let files = EnvFiles::parse(input);
+        let note = read_note(files.first())?;
+        let r = self.resolve(note.as_ref(), input)?;
+        let out = EnvFiles::parse(output);
+        if !force {
+            refuse_overwrite(&files.paths(), &out.paths())?;
+        }
+        let sphere = crate::mappings::mapping::Mapping::parse("sphere", None)?;
+        out.check_output(sphere)?;
+        let (mut img, _) = read_env_layout(&files, r.env, r.env_layout, &ReadOptions::default())?;
+        check_nonfinite_env(&mut img, &files, r.nonfinite)?;
+        let env = EnvMap::new(r.env, &img, files.first())?;
+        let (map, rep) = matcap::bake(&env, &r.bake, progress)?;
+        let written =
+            crate::images::envmap::write_env_files(&out, sphere, &map, None, &r.bake.view, write)?;
+        Ok((
+            MatcapReport {
+                input: files.label(),
+                output: written,
+                material: r.bake.material.name(),
+                roughness: self.roughness,
+                albedo: r.bake.albedo,
+                size: self.size,
+                channels: map.channels,
+                samples: self.samples,
+                method: rep.method,
+                tree_face: rep.tree_face,
+                integrals: rep.integrals,
+                max_texel_samples: rep.max_texel_samples,
+                seconds: t0.elapsed().as_secs_f64(),
+            },
+            r.notice,
+        ))
+    }
+}
+
+/// A conversion's source fields renamed to the bake's (`from` → `env_format`, …).
+fn rename_env_fields(e: Error) -> Error {
+    let field = |f: &str| match f {
+        "from" => Some("env_format"),
+        "from_preset" => Some("env_preset"),
+        "from_layout" => Some("env_layout"),
+        "from_look" => Some("env_look"),
+        "from_up" => Some("env_up"),
+        _ => None,
+    };
+    match &e {
+        Error::InvalidParameter { name, .. } => match field(name) {
+            Some(f) => e.named(f),
+            None => e,
+        },
+        _ => e,
+    }
+}
