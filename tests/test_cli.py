@@ -21,13 +21,17 @@ def test_demo_writes_chart_and_teapot(tmp_path):
     assert r.returncode == 0, r.stderr
     for f in ["direction_chart.png", "direction_chart.exr", "teapot_spheremap.obj", "teapot_spheremap.mtl", "teapot_texgen.csv",
               "apartment_sphere.exr", "apartment_sphere.png", "raytraced_sphere.exr", "raytraced_sphere.png",
-              "teapot_contact_sheet.png"]:
+              "teapot_contact_sheet.png", "apartment_matcap_ggx_0.5.exr", "apartment_matcap_ggx_0.5.png"]:
         assert (tmp_path / "d" / f).stat().st_size > 0
     # The demo's sphere map is the bundled HDRI seen from the demo camera (look = target - eye).
     demo = sm.read_image(tmp_path / "d" / "apartment_sphere.exr")
     hdri = sm.read_image("testdata/apartment.exr")
     want = sm.convert(hdri, "latlong", "sphere", size=128, look=(0, -12, -40), up=(0, 1, 0))
     np.testing.assert_allclose(demo, want, rtol=1e-3, atol=1e-3)
+    # The MatCap is bake_matcap's of the same HDRI for the same view.
+    baked = sm.read_image(tmp_path / "d" / "apartment_matcap_ggx_0.5.exr")
+    want = sm.bake_matcap(hdri, material="ggx", roughness=0.5, size=128, look=(0, -12, -40), up=(0, 1, 0))
+    np.testing.assert_allclose(baked, want, rtol=1e-3, atol=1e-3)
     # The ray-traced built-in scene is what generate() makes of it.
     traced = sm.read_image(tmp_path / "d" / "raytraced_sphere.exr")
     want = sm.generate(128, sm.Scene.builtin("demo"), pos=(0, 1, 0), samples=16)

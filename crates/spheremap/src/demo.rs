@@ -6,7 +6,8 @@
 //! bundled CC0 HDRI (Poly Haven's apartment, 512×256 lat-long) converted into the sphere map of
 //! that viewer (EXR, linear; PNG, sRGB) with the default footprint filter and gutter; the
 //! teapot drawn with that sphere map per vertex (as OpenGL) and per pixel, with the error heat
-//! map, in one contact sheet.
+//! map, in one contact sheet; a physically exact MatCap of the HDRI (GGX, roughness 0.5) for
+//! the same viewer.
 
 use crate::base::error::{Error, Result};
 use crate::base::files;
@@ -94,6 +95,31 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         let p = outdir.join(name);
         let path = p.display().to_string();
         crate::images::envmap::write_env(&path, sphere, &map, None, &view, &Default::default())?;
+        files.push(p);
+    }
+    // A physically exact MatCap of the HDRI for the same viewer: GGX of roughness 0.5.
+    let bake = crate::lighting::matcap::Bake {
+        material: crate::lighting::brdf::Material::Ggx { alpha: 0.25 },
+        albedo: [1.0; 3],
+        size: chart_size,
+        view,
+        world_to_env: crate::frame::view::IDENTITY,
+        samples: crate::resample::DEFAULT_SAMPLES,
+        max_samples: 1024,
+        seed: 0,
+        outside: crate::resample::Outside::Gutter,
+        max_memory: crate::base::error::default_max_memory(),
+        rule: Default::default(),
+        normal_table: None,
+    };
+    let (matcap, _) = crate::lighting::matcap::bake(&src, &bake, None)?;
+    for name in [
+        "apartment_matcap_ggx_0.5.exr",
+        "apartment_matcap_ggx_0.5.png",
+    ] {
+        let p = outdir.join(name);
+        let path = p.display().to_string();
+        crate::images::envmap::write_env(&path, sphere, &matcap, None, &view, &Default::default())?;
         files.push(p);
     }
     // The teapot drawn with that sphere map by the rasterizer, from the demo camera: OpenGL's
