@@ -273,6 +273,13 @@ impl EnvTree {
         })
     }
 
+    /// The memory a tree of face `face` takes while it is built (the leaves' sums and every
+    /// level's nodes), in bytes.
+    pub fn bytes(face: usize) -> u128 {
+        let leaves = 6 * face as u128 * face as u128;
+        leaves * (std::mem::size_of::<Acc>() as u128 + 2 * std::mem::size_of::<Node>() as u128)
+    }
+
     /// The luminance of L̄ (its only channel for a grey map).
     pub fn mean_luminance(&self) -> f64 {
         let m = self.mean;

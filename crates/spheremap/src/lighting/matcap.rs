@@ -79,7 +79,8 @@ pub struct BakeReport {
     pub method: Method,
     /// The tree's cube face (0 for the mirror).
     pub tree_face: usize,
-    /// Lighting integrals computed (one per spatial sample).
+    /// Lighting integrals computed (one per spatial sample, or one per point of the grid of
+    /// normals when the bake uses one).
     pub integrals: u64,
     pub max_texel_samples: u32,
 }
@@ -151,6 +152,7 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         Method::Tree
     };
     let face = need.min(TREE_FACE_CAP.max(src_face));
+    crate::base::error::check_memory("env", envtree::EnvTree::bytes(face), b.max_memory)?;
     let tree = EnvTree::build(env, b.world_to_env, face)?;
     let mut source = MatcapSource {
         tree: &tree,

@@ -1,4 +1,5 @@
-//! Layer 6, lighting (beside [`crate::jobs`], whose conversion rules it reads environments by): what a map does to a material lit by it.
+//! Layer 6, lighting: what a map does to a material lit by it.  It sits beside [`crate::jobs`]
+//! and reads environments by the source rules of its conversions ([`EnvRequest`]).
 //!
 //! * [`brdf`]: the materials (Lambert, GGX with height-correlated Smith G₂ and Fresnel 1),
 //!   their directional albedo, the visible-normal sampler;
@@ -221,7 +222,7 @@ pub struct MatcapReport {
     pub method: matcap::Method,
     /// The environment tree's cube face (0 for the mirror).
     pub tree_face: usize,
-    /// Lighting integrals computed (one per spatial sample).
+    /// Lighting integrals computed (one per spatial sample, or per point of the grid of normals).
     pub integrals: u64,
     pub max_texel_samples: u32,
     pub seconds: f64,

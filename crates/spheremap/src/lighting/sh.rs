@@ -39,6 +39,7 @@
 
 use super::brdf;
 use crate::base::error::{Error, Result};
+use crate::mappings::mapping::Mapping;
 use crate::resample::EnvMap;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -112,70 +113,66 @@ impl Sh9 {
         let (w, h, c) = (env.width, env.height, env.channels);
         let lc = super::envtree::light_channels(c);
         let m = env.mapping;
-        // The mean radiance (the texels' solid angles sum to 4π up to rounding).
-        let sums: Vec<[f64; 4]> = (0..h)
-            .into_par_iter()
-            .map(|y| {
-                let mut s = [0.0; 4];
-                for x in 0..w {
-                    let dw = m.texel_solid_angle(x, y, w, h);
-                    if dw > 0.0 {
-                        for k in 0..lc {
-                            s[k] += env.data[(y * w + x) * c + k] as f64 * dw;
-                        }
-                        s[3] += dw;
-                    }
-                }
-                s
-            })
-            .collect();
-        let total = sums
-            .iter()
-            .fold([0.0; 4], |a, s| [0, 1, 2, 3].map(|k| a[k] + s[k]));
-        let mean = [0, 1, 2].map(|k| total[k] / total[3]);
-        let rows: Vec<[[f64; 3]; 9]> = (0..h)
-            .into_par_iter()
-            .map(|y| {
-                let mut acc = [[0.0; 3]; 9];
-                let mut row_angles = Vec::with_capacity(w);
-                for x in 0..w {
-                    row_angles.push(m.texel_solid_angle(x, y, w, h));
-                }
-                for x in 0..w {
-                    let dw = row_angles[x];
-                    if dw == 0.0 {
-                        continue;
-                    }
-                    let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
-                    let Some(d) = m.uv_to_dir(uv) else { continue };
-                    // Map frame → world: the transpose of world → map.
-                    let r = world_to_env;
-                    let dw_ = brdf::normalize([
-                        r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
-                        r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
-                        r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
-                    ]);
-                    let b = basis(dw_);
-                    let p = &env.data[(y * w + x) * c..];
-                    for k in 0..lc {
-                        let l = (p[k] as f64 - mean[k]) * dw;
-                        for i in 0..9 {
-                            acc[i][k] += l * b[i];
-                        }
-                    }
-                }
-                acc
-            })
-            .collect();
-        let mut coefficients = [[0.0; 3]; 9];
-        for k in 0..lc {
-            coefficients[0][k] = mean[k] * 2.0 * PI.sqrt();
+        let geometry = Geometry::new(m, w, h, world_to_env);
+        // One pass: Σ L yᵢ dω, Σ yᵢ dω, Σ L dω and Σ dω; then
+        // Lᵢ = L̄ ∫ yᵢ dω (exact) + Σ (L − L̄) yᵢ dω = L̄ exactᵢ + Σ L yᵢ dω − L̄ Σ yᵢ dω.
+        #[derive(Clone, Copy)]
+        struct Sums {
+            ly: [[f64; 3]; 9],
+            y: [f64; 9],
+            l: [f64; 3],
+            omega: f64,
         }
+        let zero = Sums {
+            ly: [[0.0; 3]; 9],
+            y: [0.0; 9],
+            l: [0.0; 3],
+            omega: 0.0,
+        };
+        let rows: Vec<Sums> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut a = zero;
+                for x in 0..w {
+                    let Some((d, dw)) = geometry.at(x, y) else {
+                        continue;
+                    };
+                    let b = basis(d);
+                    let p = &env.data[(y * w + x) * c..];
+                    for i in 0..9 {
+                        a.y[i] += b[i] * dw;
+                    }
+                    a.omega += dw;
+                    for k in 0..lc {
+                        let l = p[k] as f64 * dw;
+                        a.l[k] += l;
+                        for i in 0..9 {
+                            a.ly[i][k] += l * b[i];
+                        }
+                    }
+                }
+                a
+            })
+            .collect();
+        let mut t = zero;
         for r in &rows {
             for i in 0..9 {
+                t.y[i] += r.y[i];
                 for k in 0..3 {
-                    coefficients[i][k] += r[i][k];
+                    t.ly[i][k] += r.ly[i][k];
                 }
+            }
+            for k in 0..3 {
+                t.l[k] += r.l[k];
+            }
+            t.omega += r.omega;
+        }
+        let mean = [0, 1, 2].map(|k| t.l[k] / t.omega);
+        let mut coefficients = [[0.0; 3]; 9];
+        for i in 0..9 {
+            let exact = if i == 0 { 2.0 * PI.sqrt() } else { 0.0 };
+            for k in 0..lc {
+                coefficients[i][k] = mean[k] * exact + t.ly[i][k] - mean[k] * t.y[i];
             }
         }
         if coefficients.iter().flatten().any(|v| !v.is_finite()) {
@@ -383,6 +380,108 @@ impl IrradianceReport {
     }
 }
 
+/// Where a map's texels look (world frame) and their solid angles.  For a lat-long map (any
+/// preset) the direction of texel (x, y) is cos θ_y · P + sin θ_y · Q_x (P the pole, Q_x the
+/// equator under column x), so rows and columns are computed once; other mappings ask the
+/// mapping per texel.
+struct Geometry {
+    mapping: Mapping,
+    w: usize,
+    h: usize,
+    map_to_world: [[f64; 3]; 3],
+    /// Lat-long: per row (cos θ, sin θ, dω), per column Q_x, and P (world frame).
+    rows: Vec<(f64, f64, f64)>,
+    cols: Vec<[f64; 3]>,
+    pole: [f64; 3],
+}
+
+impl Geometry {
+    fn new(mapping: Mapping, w: usize, h: usize, world_to_env: &[[f64; 3]; 3]) -> Geometry {
+        let r = world_to_env;
+        let map_to_world = [0, 1, 2].map(|i| [0, 1, 2].map(|j| r[j][i]));
+        let g = Geometry {
+            mapping,
+            w,
+            h,
+            map_to_world,
+            rows: Vec::new(),
+            cols: Vec::new(),
+            pole: [0.0; 3],
+        };
+        if let Mapping::LatLong(_) = mapping {
+            let dir = |u: f64, v: f64| mapping.uv_to_dir([u, v]).map(|d| g.world(d));
+            if let (Some(pole), Some(_)) = (dir(0.5, 0.0), dir(0.5, 0.5)) {
+                let rows: Vec<(f64, f64, f64)> = (0..h)
+                    .map(|y| {
+                        let th = (y as f64 + 0.5) / h as f64 * PI;
+                        (th.cos(), th.sin(), mapping.texel_solid_angle(0, y, w, h))
+                    })
+                    .collect();
+                let cols: Vec<[f64; 3]> = (0..w)
+                    .map(|x| dir((x as f64 + 0.5) / w as f64, 0.5).unwrap_or([0.0; 3]))
+                    .collect();
+                let fast = Geometry {
+                    rows,
+                    cols,
+                    pole,
+                    ..g
+                };
+                // Used only where it reproduces the mapping (to rounding) at sample texels.
+                let agrees = [(0, 0), (w / 3, h / 5), (w - 1, h - 1), (w / 2, h / 2)]
+                    .iter()
+                    .all(|&(x, y)| {
+                        let slow = g_slow(&fast, x, y);
+                        let quick = fast.at(x, y);
+                        match (slow, quick) {
+                            (Some((a, da)), Some((b, db))) => {
+                                (0..3).all(|k| (a[k] - b[k]).abs() < 1e-9)
+                                    && (da - db).abs() <= 1e-12 * da.abs().max(1e-30)
+                            }
+                            _ => false,
+                        }
+                    });
+                return if agrees {
+                    fast
+                } else {
+                    Geometry {
+                        rows: Vec::new(),
+                        cols: Vec::new(),
+                        ..fast
+                    }
+                };
+            }
+        }
+        g
+    }
+
+    fn world(&self, d: [f64; 3]) -> [f64; 3] {
+        let r = &self.map_to_world;
+        brdf::normalize([0, 1, 2].map(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]))
+    }
+
+    /// Texel (x, y)'s world direction and solid angle (`None` off the map).
+    #[inline]
+    fn at(&self, x: usize, y: usize) -> Option<([f64; 3], f64)> {
+        if self.rows.is_empty() {
+            return g_slow(self, x, y);
+        }
+        let (c, s, dw) = self.rows[y];
+        let q = &self.cols[x];
+        let p = &self.pole;
+        Some(([0, 1, 2].map(|k| c * p[k] + s * q[k]), dw))
+    }
+}
+
+/// [`Geometry::at`] by asking the mapping.
+fn g_slow(g: &Geometry, x: usize, y: usize) -> Option<([f64; 3], f64)> {
+    let dw = g.mapping.texel_solid_angle(x, y, g.w, g.h);
+    if !(dw > 0.0) {
+        return None;
+    }
+    let uv = [(x as f64 + 0.5) / g.w as f64, (y as f64 + 0.5) / g.h as f64];
+    g.mapping.uv_to_dir(uv).map(|d| (g.world(d), dw))
+}
+
 /// Filament's sinc⁴ window of band `l` for window size `w` (bands).
 pub fn window(l: usize, w: f64) -> f64 {
     if l == 0 {
@@ -411,7 +510,6 @@ pub fn fibonacci(n: usize) -> Vec<[f64; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mappings::mapping::Mapping;
 
     #[test]
     fn a_white_map_has_two_root_pi_and_irradiance_pi() {
@@ -432,6 +530,36 @@ mod tests {
         }
         // Filament's pre-scaled L00 is E/π = 1 for a white map.
         assert!((sh.filament()[0][2] - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_lat_long_rows_and_columns_are_the_mapping_per_texel() {
+        let turn = crate::frame::view::look_up([1.0, 0.3, -0.2], [0.0, 1.0, 0.0]).unwrap();
+        for preset in [
+            None,
+            Some("blender"),
+            Some("threejs"),
+            Some("skylibs"),
+            Some("filament"),
+            Some("mitsuba"),
+            Some("pbrt"),
+        ] {
+            let m = Mapping::parse("latlong", preset).unwrap();
+            let (w, h) = (24, 12);
+            let g = Geometry::new(m, w, h, &turn);
+            assert!(!g.rows.is_empty(), "{preset:?}: the fast path is used");
+            for y in 0..h {
+                for x in 0..w {
+                    let (a, da) = g.at(x, y).unwrap();
+                    let (b, db) = g_slow(&g, x, y).unwrap();
+                    assert!(
+                        (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12),
+                        "{preset:?} {x} {y}"
+                    );
+                    assert!((da - db).abs() < 1e-15);
+                }
+            }
+        }
     }
 
     #[test]
