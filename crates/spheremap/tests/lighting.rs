@@ -154,3 +154,63 @@ fn bad_requests_name_their_field() {
         assert!(e.starts_with(field), "{field}: {e}");
     }
 }
+
+#[test]
+fn the_grid_of_normals_keeps_the_integrals() {
+    use spheremap::lighting::matcap::{bake, Bake};
+    use spheremap::resample::EnvMap;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/hdri/park.exr");
+    let img = spheremap::images::codec::read_image(std::path::Path::new(path), &Default::default())
+        .unwrap();
+    let env = EnvMap::new(
+        spheremap::Mapping::parse("latlong", None).unwrap(),
+        &img,
+        "park",
+    )
+    .unwrap();
+    for m in [Material::Lambert, Material::Ggx { alpha: 0.36 }] {
+        let b = |table| Bake {
+            material: m,
+            albedo: [1.0; 3],
+            size: 24,
+            view: spheremap::frame::view::look_up([0.3, -0.4, -1.0], [0.0, 1.0, 0.0]).unwrap(),
+            world_to_env: spheremap::frame::view::IDENTITY,
+            samples: 1,
+            max_samples: 1,
+            seed: 0,
+            outside: spheremap::resample::Outside::Gutter,
+            max_memory: u64::MAX,
+            rule: Default::default(),
+            normal_table: Some(table),
+        };
+        let (direct, _) = bake(&env, &b(false), None).unwrap();
+        let (table, rep) = bake(&env, &b(true), None).unwrap();
+        assert!(rep.integrals > 0);
+        let (mut worst, mut sum, mut count) = (0f64, 0f64, 0usize);
+        for j in 0..24 {
+            for i in 0..24 {
+                if normal(i, j, 24).is_none() {
+                    continue;
+                }
+                for k in 0..3 {
+                    let (a, t) = (
+                        direct.data[(j * 24 + i) * 3 + k],
+                        table.data[(j * 24 + i) * 3 + k],
+                    );
+                    // Measured: at most 1.2 % (one channel of one texel of this map), 0.1 % on
+                    // average.
+                    let d = ((a - t).abs() / a.abs().max(0.05)) as f64;
+                    assert!(d <= 2e-2, "{m:?} ({i}, {j}): {a} vs {t}");
+                    worst = worst.max(d);
+                    sum += d;
+                    count += 1;
+                }
+            }
+        }
+        let mean = sum / count as f64;
+        assert!(
+            mean < 1e-3,
+            "{m:?}: mean relative difference {mean} (worst {worst})"
+        );
+    }
+}

@@ -6,7 +6,7 @@
 //! the faces' texels are grouped 2×2 into a pyramid up to one node per face.  Each node holds
 //!
 //! * its **residual power** Σ (L − L̄) dω over its texels, L̄ the map's mean radiance,
-//! * its **representative direction**, the luminance-weighted centroid of its texels (a sun
+//! * its **representative direction**, the brightness-weighted centroid of its texels (a sun
 //!   inside a large node is evaluated where the sun is),
 //! * its bounding cone (axis and angular radius).
 //!
@@ -52,10 +52,10 @@ struct Node {
     omega: f32,
     /// The Ω-weighted centroid (unit): where L̄'s share is evaluated.
     odir: [f32; 3],
-    /// |Σ (L − L̄) dω| and the variation inside the node, Σ |L − L̄_node| dω, of the luminance.
+    /// |Σ (L − L̄) dω| and the variation inside the node, Σ |L − L̄_node| dω, of the brightness (the mean of the channels, so no channel is under-weighted).
     abs_res: f32,
     var: f32,
-    /// The luminance-weighted centroid (unit): where the power is evaluated.
+    /// The brightness-weighted centroid (unit): where the power is evaluated.
     dir: [f32; 3],
     /// Bounding cone: axis (unit), the sine of the radius, the radius.
     axis: [f32; 3],
@@ -135,7 +135,7 @@ impl EnvTree {
         let r = world_to_env;
         let lum = |l: [f64; 3]| {
             if c == 3 {
-                0.2126 * l[0] + 0.7152 * l[1] + 0.0722 * l[2]
+                (l[0] + l[1] + l[2]) / 3.0
             } else {
                 l[0]
             }
@@ -280,11 +280,11 @@ impl EnvTree {
         leaves * (std::mem::size_of::<Acc>() as u128 + 2 * std::mem::size_of::<Node>() as u128)
     }
 
-    /// The luminance of L̄ (its only channel for a grey map).
-    pub fn mean_luminance(&self) -> f64 {
+    /// The brightness of L̄: the mean of its channels (its only channel for a grey map).
+    pub fn mean_brightness(&self) -> f64 {
         let m = self.mean;
         if self.channels == 3 {
-            0.2126 * m[0] + 0.7152 * m[1] + 0.0722 * m[2]
+            (m[0] + m[1] + m[2]) / 3.0
         } else {
             m[0]
         }
@@ -423,7 +423,7 @@ pub struct Lobe {
 }
 
 impl Lobe {
-    /// `scale` is the size of the integral (L̄'s luminance × the lobe's albedo): nodes are
+    /// `scale` is the size of the integral (L̄'s brightness × the lobe's albedo): nodes are
     /// opened while their error estimate exceeds `rule.tol` × it.
     pub fn new(material: Material, n: [f64; 3], v: [f64; 3], rule: CutRule, scale: f64) -> Lobe {
         let nv = brdf::dot(n, v);

@@ -35,6 +35,10 @@ use crate::trace::generate::{generate, GenerateOptions, RaySource};
 
 /// The finest cube face the tree is built at.
 pub const TREE_FACE_CAP: usize = 512;
+/// Points of the grid of normals per lobe width (α) across the half-circle of θ from the
+/// viewer to the rim (the grid spans 2 × that): `GRID_PER_WIDTH · π / α + 1` points.
+const GRID_PER_WIDTH: f64 = 4.0;
+
 /// Visible-normal samples per integral for lobes narrower than the tree resolves.
 pub const VNDF_SAMPLES: usize = 256;
 
@@ -184,9 +188,10 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
 
 /// L_o on a grid of view-space normals, for bicubic lookups: the hemisphere as the
 /// equidistant disc (a, b) = θ/(π/2) · (cos φ, sin φ) (θ the angle to the viewer), M×M points
-/// from −1 to 1 plus two on each side (beyond the rim, the line through it: 2 G(1) − G(2 − ρ)).  The
-/// grid spacing is an eighth of the lobe's width (α for GGX), so a Catmull–Rom lookup is
-/// within a few 1e-4 of the integral; each grid value is an integral like any other.
+/// from −1 to 1 plus two on each side (beyond the rim, the line through it: 2 G(1) − G(2 − ρ)).
+/// The grid's spacing in θ is a quarter of the lobe's width (α for GGX; 1 for Lambert), so a
+/// Catmull–Rom lookup keeps the integral's accuracy; each grid value is an integral like any
+/// other.
 struct NormalTable {
     m: usize,
     /// (m + 4)² values, row-major.
@@ -197,13 +202,13 @@ struct NormalTable {
 impl NormalTable {
     const PAD: usize = 2;
 
-    /// The grid size for a material: 8π/α + 1 points across (65 to 1025).
+    /// The grid size for a material: 4π/α + 1 points across (65 to 1025).
     fn size_for(m: Material) -> usize {
         let width = match m {
             Material::Lambert => 1.0,
             Material::Ggx { alpha } => alpha.min(1.0),
         };
-        ((8.0 * std::f64::consts::PI / width).ceil() as usize + 1).clamp(65, 1025)
+        ((GRID_PER_WIDTH * std::f64::consts::PI / width).ceil() as usize + 1).clamp(65, 1025)
     }
 
     fn build(src: &MatcapSource, m: usize, progress: Option<&Progress>) -> NormalTable {
@@ -363,7 +368,7 @@ impl MatcapSource<'_> {
                 n,
                 self.v,
                 self.rule,
-                self.tree.mean_luminance() * e,
+                self.tree.mean_brightness() * e,
             )),
         };
         [0, 1, 2].map(|k| mean[k] * e + res[k])

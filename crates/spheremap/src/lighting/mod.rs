@@ -124,7 +124,7 @@ impl crate::trace::generate::RaySource for IrradianceSource<'_> {
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let c = self.tree.channels;
         let rule = envtree::CutRule::default();
-        let scale = self.tree.mean_luminance();
+        let scale = self.tree.mean_brightness();
         for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
             let n = brdf::normalize(d.map(|v| v as f64));
             let lobe = envtree::Lobe::new(Material::Lambert, n, n, rule, scale);
