@@ -1,21 +1,27 @@
 //! The environment as a tree of cube-map texel blocks, for integrating a BRDF lobe against it
 //! exactly and fast.
 //!
-//! The environment is resampled (footprint-filtered, energy-preserving: [`crate::resample`])
-//! into a world-frame cube of face F₀ (a power of two matching the source's resolution), and
-//! the faces' texels are grouped 2×2 into a pyramid up to one node per face.  Each node holds
+//! Every texel of the map — as up to 4×4 points with the map's bilinear radiance where texels
+//! are larger than the tree's leaves, each with its exact solid angle — goes into the leaf of a
+//! world-frame cube of face F₀ (a power of two: what the lobe needs, within what the map
+//! resolves) that its direction falls in; the faces' leaves are grouped 2×2 into a pyramid up
+//! to one node per face.  Each node holds
 //!
-//! * its **residual power** Σ (L − L̄) dω over its texels, L̄ the map's mean radiance,
-//! * its **representative direction**, the brightness-weighted centroid of its texels (a sun
-//!   inside a large node is evaluated where the sun is),
+//! * its **power** Σ L dω and its **solid angle** Σ dω,
+//! * the **brightness-weighted centroid** of its points, where its power is evaluated (a sun
+//!   inside a large node is evaluated where the sun is), and the Ω-weighted centroid, where
+//!   L̄'s share is,
+//! * the brightness (mean of the channels) of its residual |Σ (L − L̄) dω| and of its inner
+//!   variation, for the error estimate,
 //! * its bounding cone (axis and angular radius).
 //!
-//! An integral ∫ g(l) L(l) dω is then L̄ ∫ g dω (known in closed form or tabulated: the
-//! material's directional albedo) plus Σ g(dᵢ) Rᵢ over a **cut** of the tree: a node is opened
-//! while it is wide compared with the scale on which g varies near it (the lobe's width α
-//! near its peak, a fraction of the angle to the peak farther out, a fixed scale for the
-//! cosine), and where it straddles the horizon of the normal.  A constant environment has no
-//! residual, so it integrates to the albedo exactly (the white furnace).
+//! An integral ∫ g(l) L(l) dω is then L̄ ∫ g dω (the material's directional albedo) plus
+//! Σ [g(dᵢ) Pᵢ − g(oᵢ) L̄ Ωᵢ] over a **cut** of the tree: a node is opened while its estimated
+//! error — its inner variation × the lobe's change across it, plus its residual × the lobe's
+//! curvature, the lobe's scale being α near its peak, a fraction of the angle to the peak
+//! farther out, and the whole node where it straddles the normal's horizon — exceeds a
+//! tolerance of the integral.  A constant environment has no residual, so it integrates to the
+//! albedo exactly (the white furnace).
 
 use super::brdf::{self, Material};
 use crate::base::error::Result;
@@ -52,7 +58,8 @@ struct Node {
     omega: f32,
     /// The Ω-weighted centroid (unit): where L̄'s share is evaluated.
     odir: [f32; 3],
-    /// |Σ (L − L̄) dω| and the variation inside the node, Σ |L − L̄_node| dω, of the brightness (the mean of the channels, so no channel is under-weighted).
+    /// |Σ (L − L̄) dω| and the variation inside the node, Σ |L − L̄_node| dω, of the
+    /// brightness (the mean of the channels, so no channel is under-weighted).
     abs_res: f32,
     var: f32,
     /// The brightness-weighted centroid (unit): where the power is evaluated.
