@@ -202,13 +202,13 @@ struct NormalTable {
 impl NormalTable {
     const PAD: usize = 2;
 
-    /// The grid size for a material: 4π/α + 1 points across (65 to 1025).
+    /// The grid size for a material: 4π/α + 1 points across (129 to 1025).
     fn size_for(m: Material) -> usize {
         let width = match m {
             Material::Lambert => 1.0,
             Material::Ggx { alpha } => alpha.min(1.0),
         };
-        ((GRID_PER_WIDTH * std::f64::consts::PI / width).ceil() as usize + 1).clamp(65, 1025)
+        ((GRID_PER_WIDTH * std::f64::consts::PI / width).ceil() as usize + 1).clamp(129, 1025)
     }
 
     fn build(src: &MatcapSource, m: usize, progress: Option<&Progress>) -> NormalTable {

@@ -1,0 +1,81 @@
+"""Lighting jobs timed in one run: MatCap bakes (256^2, 4 samples, a 512x256 map) at several
+materials, SH9 of a 2048x1024 lat-long (against a vectorised numpy projection, the obvious
+peer), the irradiance map and the split-sum table. Median of --rounds calls each.
+
+    python bench/bench_lighting.py [--rounds 3]
+
+Goals (2 cores): bake-matcap 256^2 GGX 0.25 <= 1 s; SH9 of 2048x1024 <= 5 ms.
+"""
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+import spheremap as sm
+
+HERE = os.path.dirname(__file__)
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def median_time(f, rounds):
+    times = []
+    for _ in range(rounds):
+        t = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def numpy_sh9(env):
+    """SH9 radiance coefficients of a lat-long by numpy (the default lat-long preset's
+    directions from spheremap, computed once outside the timing)."""
+    h, w, _ = env.shape
+    return lambda: np.einsum("hwc,hwi->ic", env * OMEGA[..., None], BASIS)
+
+
+def basis(d):
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    return np.stack([0.282095 + 0 * x, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y,
+                     1.092548 * y * z, 0.315392 * (3 * z * z - 1), 1.092548 * x * z,
+                     0.546274 * (x * x - y * y)], -1)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--rounds", type=int, default=3)
+    a = ap.parse_args()
+    park = sm.read_image(os.path.join(HERE, "..", "testdata", "hdri", "park.exr"))
+    rows = []
+    for label, kw in [("bake-matcap lambert", dict(material="lambert")),
+                      ("bake-matcap ggx 0.5", dict(roughness=0.5)),
+                      ("bake-matcap ggx 0.25", dict(roughness=0.25))]:
+        rows.append((label + " 256^2", median_time(lambda: sm.bake_matcap(park, size=256, **kw), a.rounds)))
+    big = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
+    global OMEGA, BASIS
+    OMEGA = sm.texel_solid_angles("latlong", 2048, 1024).reshape(1024, 2048)
+    v, u = np.mgrid[0:1024, 0:2048]
+    dirs, _ = sm.uv_to_dir(np.stack([(u + 0.5) / 2048, (v + 0.5) / 1024], -1), "latlong")
+    BASIS = basis(dirs)
+    rows.append(("irradiance_sh 2048x1024", median_time(lambda: sm.irradiance_sh(big), max(a.rounds, 5))))
+    rows.append(("numpy SH9 2048x1024 (peer)", median_time(numpy_sh9(big), max(a.rounds, 5))))
+    rows.append(("dfg_lut 128", median_time(lambda: sm.dfg_lut(128), a.rounds)))
+    print(f"CPU: {cpu_model()}, {os.cpu_count()} threads")
+    for label, t in rows:
+        print(f"{label:32s} {t:8.3f} s")
+
+
+if __name__ == "__main__":
+    main()
