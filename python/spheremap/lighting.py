@@ -12,6 +12,18 @@ from ._args import _finite, _floats, _name, _seed, _size_any, _vec3
 from .convert import _env_array
 
 
+def _env_request(src: str, src_preset: str | None, src_look, src_up) -> dict[str, Any]:
+    """The environment's fields of the core's lighting requests (an array: its NaN/Inf are
+    refused by _env_array before)."""
+    return {
+        "env_format": src,
+        "env_preset": src_preset,
+        "env_look": _vec3(src_look, "src_look"),
+        "env_up": _vec3(src_up, "src_up"),
+        "nonfinite": "error",
+    }
+
+
 def bake_matcap(
     env: npt.ArrayLike,
     src: str = "latlong",
@@ -51,18 +63,15 @@ def bake_matcap(
     request: dict[str, Any] = {
         "material": _name("material", material, "material"),
         "roughness": _finite(roughness, "roughness"),
-        "albedo": None if albedo is None else [float(v) for v in _vec3(albedo, "albedo")],
+        "albedo": _vec3(albedo, "albedo"),
         "size": _size_any(size, "size"),
-        "look": None if look is None else [float(v) for v in _vec3(look, "look")],
-        "up": None if up is None else [float(v) for v in _vec3(up, "up")],
+        "look": _vec3(look, "look"),
+        "up": _vec3(up, "up"),
         "samples": 4 if samples is None else _size_any(samples, "samples"),
         "max_samples": _size_any(max_samples, "max_samples"),
         "seed": _seed(seed),
         "outside": _name("outside", outside, "outside"),
-        "env_format": src,
-        "env_preset": src_preset,
-        "env_look": None if src_look is None else [float(v) for v in _vec3(src_look, "src_look")],
-        "env_up": None if src_up is None else [float(v) for v in _vec3(src_up, "src_up")],
+        **_env_request(src, src_preset, src_look, src_up),
     }
     return _ext.bake_matcap(image=a, request=request)
 
@@ -86,13 +95,7 @@ def irradiance_sh(
     """
     _name("mapping", src, "src")
     a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    request: dict[str, Any] = {
-        "env_format": src,
-        "env_preset": src_preset,
-        "env_look": None if src_look is None else [float(v) for v in _vec3(src_look, "src_look")],
-        "env_up": None if src_up is None else [float(v) for v in _vec3(src_up, "src_up")],
-        "nonfinite": "error",
-    }
+    request = _env_request(src, src_preset, src_look, src_up)
     report: dict[str, Any] = _ext.irradiance_sh(image=a, request=request, window=window)
     return report
 

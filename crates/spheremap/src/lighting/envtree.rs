@@ -140,13 +140,7 @@ impl EnvTree {
         let c = light_channels(ch);
         let m = env.mapping;
         let r = world_to_env;
-        let lum = |l: [f64; 3]| {
-            if c == 3 {
-                (l[0] + l[1] + l[2]) / 3.0
-            } else {
-                l[0]
-            }
-        };
+        let lum = |l: [f64; 3]| brightness(l, c);
         let mut acc = vec![Acc::default(); 6 * face * face];
         // Each texel is k×k points (the map's bilinear radiance over its area): k grows until
         // the points are about half a leaf apart, so texels larger than the leaves fill them.
@@ -192,7 +186,7 @@ impl EnvTree {
                         Some((
                             j * face + i,
                             Acc {
-                                res: l.map(|v| v * dw),
+                                power: l.map(|v| v * dw),
                                 wd: [d[0] * wt, d[1] * wt, d[2] * wt],
                                 od: [d[0] * dw, d[1] * dw, d[2] * dw],
                                 omega: dw,
@@ -204,21 +198,14 @@ impl EnvTree {
                 })
                 .collect();
             for (k, a) in parts {
-                let t = &mut acc[k];
-                for q in 0..3 {
-                    t.res[q] += a.res[q];
-                    t.wd[q] += a.wd[q];
-                    t.od[q] += a.od[q];
-                }
-                t.omega += a.omega;
-                t.lum += a.lum;
+                acc[k].add(&a);
             }
         }
         let total = acc.iter().fold([0.0; 4], |s, a| {
             [
-                s[0] + a.res[0],
-                s[1] + a.res[1],
-                s[2] + a.res[2],
+                s[0] + a.power[0],
+                s[1] + a.power[1],
+                s[2] + a.power[2],
                 s[3] + a.omega,
             ]
         });
@@ -250,14 +237,7 @@ impl EnvTree {
                         .map(|(dj, di)| &acc[f * m * m + (2 * j + dj) * m + 2 * i + di]);
                     let mut r = Acc::default();
                     for ch in kids {
-                        for q in 0..3 {
-                            r.res[q] += ch.res[q];
-                            r.wd[q] += ch.wd[q];
-                            r.od[q] += ch.od[q];
-                        }
-                        r.omega += ch.omega;
-                        r.lum += ch.lum;
-                        r.var += ch.var;
+                        r.add(ch);
                     }
                     // The variation between the children's means adds to theirs.
                     if r.omega > 0.0 {
@@ -289,12 +269,7 @@ impl EnvTree {
 
     /// The brightness of L̄: the mean of its channels (its only channel for a grey map).
     pub fn mean_brightness(&self) -> f64 {
-        let m = self.mean;
-        if self.channels == 3 {
-            (m[0] + m[1] + m[2]) / 3.0
-        } else {
-            m[0]
-        }
+        brightness(self.mean, self.channels)
     }
 
     /// ∫ g(l) (L(l) − L̄) dω for the lobe `q` (add L̄ × the lobe's albedo for ∫ g L dω).
@@ -359,12 +334,36 @@ impl EnvTree {
 /// A node's sums while the tree is built (f64).
 #[derive(Clone, Copy, Debug, Default)]
 struct Acc {
-    res: [f64; 3],
+    /// Σ L dω.
+    power: [f64; 3],
     wd: [f64; 3],
     od: [f64; 3],
     omega: f64,
     lum: f64,
     var: f64,
+}
+
+impl Acc {
+    fn add(&mut self, o: &Acc) {
+        for q in 0..3 {
+            self.power[q] += o.power[q];
+            self.wd[q] += o.wd[q];
+            self.od[q] += o.od[q];
+        }
+        self.omega += o.omega;
+        self.lum += o.lum;
+        self.var += o.var;
+    }
+}
+
+/// The brightness the tree weighs and estimates errors by: the mean of the channels (each
+/// counts alike: a blue sky is not under-weighted), the channel itself for a grey map.
+fn brightness(l: [f64; 3], channels: usize) -> f64 {
+    if channels == 3 {
+        (l[0] + l[1] + l[2]) / 3.0
+    } else {
+        l[0]
+    }
 }
 
 /// Nodes of a level from their accumulated sums.
@@ -373,7 +372,7 @@ fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
     acc.par_iter()
         .enumerate()
         .map(|(k, a)| {
-            let (res, wd, od) = (&a.res, &a.wd, &a.od);
+            let (power, wd, od) = (&a.power, &a.wd, &a.od);
             let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
             let mf = m as f64;
             let eps = 1e-9;
@@ -395,7 +394,7 @@ fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
                 axis
             };
             Node {
-                power: res.map(|v| v as f32),
+                power: power.map(|v| v as f32),
                 omega: a.omega as f32,
                 odir: {
                     let l = brdf::dot(*od, *od).sqrt();
