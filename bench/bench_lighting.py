@@ -1,10 +1,12 @@
 """Lighting jobs timed in one run: MatCap bakes (256^2, 4 samples, a 512x256 map) at several
-materials, SH9 of a 2048x1024 lat-long (against a vectorised numpy projection, the obvious
-peer), the irradiance map and the split-sum table. Median of --rounds calls each.
+materials, prefiltered cube chains (256^2, 6 levels, one sample per texel, each method) and the
+irradiance cube (32^2), SH9 of a 2048x1024 lat-long (against a vectorised numpy projection, the
+obvious peer) and the split-sum table. Median of --rounds calls each.
 
     python bench/bench_lighting.py [--rounds 3]
 
-Goals (2 cores): bake-matcap 256^2 GGX 0.25 <= 1 s; SH9 of 2048x1024 <= 5 ms.
+Goals (2 cores): bake-matcap 256^2 GGX 0.25 <= 1 s; prefilter cube 6x256^2, 6 levels <= 2 s;
+SH9 of 2048x1024 <= 5 ms.
 """
 
 import argparse
@@ -48,9 +50,20 @@ def numpy_sh9(env):
 
 def basis(d):
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
-    return np.stack([0.282095 + 0 * x, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y,
-                     1.092548 * y * z, 0.315392 * (3 * z * z - 1), 1.092548 * x * z,
-                     0.546274 * (x * x - y * y)], -1)
+    return np.stack(
+        [
+            0.282095 + 0 * x,
+            0.488603 * y,
+            0.488603 * z,
+            0.488603 * x,
+            1.092548 * x * y,
+            1.092548 * y * z,
+            0.315392 * (3 * z * z - 1),
+            1.092548 * x * z,
+            0.546274 * (x * x - y * y),
+        ],
+        -1,
+    )
 
 
 def main():
@@ -59,10 +72,20 @@ def main():
     a = ap.parse_args()
     park = sm.read_image(os.path.join(HERE, "..", "testdata", "hdri", "park.exr"))
     rows = []
-    for label, kw in [("bake-matcap lambert", dict(material="lambert")),
-                      ("bake-matcap ggx 0.5", dict(roughness=0.5)),
-                      ("bake-matcap ggx 0.25", dict(roughness=0.25))]:
+    for label, kw in [
+        ("bake-matcap lambert", dict(material="lambert")),
+        ("bake-matcap ggx 0.5", dict(roughness=0.5)),
+        ("bake-matcap ggx 0.25", dict(roughness=0.25)),
+    ]:
         rows.append((label + " 256^2", median_time(lambda: sm.bake_matcap(park, size=256, **kw), a.rounds)))
+    for label, kw in [
+        ("prefilter cube 256, tree 1e-4", {}),
+        ("prefilter cube 256, tree 1e-3", dict(tolerance=1e-3)),
+        ("prefilter cube 256, sampled", dict(method="sampled")),
+        ("prefilter irradiance 32, tree", dict(irradiance=True)),
+        ("prefilter irradiance 32, sampled", dict(irradiance=True, method="sampled")),
+    ]:
+        rows.append((label, median_time(lambda: sm.prefilter(park, to="cube", **kw), a.rounds)))
     big = np.random.default_rng(0).random((1024, 2048, 3), dtype=np.float32)
     global OMEGA, BASIS
     OMEGA = sm.texel_solid_angles("latlong", 2048, 1024).reshape(1024, 2048)

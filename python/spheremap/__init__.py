@@ -36,19 +36,22 @@ from .texgen import (
     sphere_texgen,
     sphere_to_dir,
 )
-from .images import info, read_image, write_image
+from .images import info, read_image, read_texture, write_image, write_texture
 from .mappings import dir_to_uv, texel_solid_angles, uv_to_dir
 from .convert import convert, cube_from_layout, cube_to_layout
 from .scene import Scene, generate
 from .photo import find_ball, from_fisheye, from_mirror_ball
 from .render import load_mesh, render
 from .analyze import analyze
-from .lighting import bake_matcap, dfg_lut, irradiance_sh
+from .lighting import bake_matcap, dfg_lut, irradiance_sh, prefilter
 
 __all__ = [
     "bake_matcap",
     "irradiance_sh",
     "dfg_lut",
+    "prefilter",
+    "read_texture",
+    "write_texture",
     "__version__",
     "Error",
     "DataError",

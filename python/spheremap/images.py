@@ -17,9 +17,11 @@ from .names import MAPPINGS
 def read_image(
     path: str | os.PathLike[str], *, linear: bool = False, max_pixels: int | None = None
 ) -> npt.NDArray[np.float32]:
-    """Reads OpenEXR, Radiance HDR, PFM, PNG (8/16-bit), JPEG or WebP (recognised by content)
-    into an (H, W, C) float32 array: linear values, row 0 at the top, C = 1 (Y), 2 (Y,A),
-    3 (R,G,B) or 4 (R,G,B,A). LDR files are sRGB-decoded unless `linear` (alpha never is).
+    """Reads OpenEXR, Radiance HDR, PFM, PNG (8/16-bit), JPEG, WebP, KTX2 or DDS (recognised by
+    content) into an (H, W, C) float32 array: linear values, row 0 at the top, C = 1 (Y),
+    2 (Y,A), 3 (R,G,B) or 4 (R,G,B,A). LDR files are sRGB-decoded unless `linear` (alpha never
+    is). Of a KTX2/DDS texture, level 0 (a cube's as its (6F, F, C) face stack, +X -X +Y -Y +Z
+    -Z from the top); read_texture reads every level.
 
     Raises FileNotFoundError for a missing file and spheremap.DataError for a corrupt one or
     one whose header claims more than `max_pixels` (default 2**28) pixels.
@@ -39,8 +41,10 @@ def info(path: str | os.PathLike[str], *, linear: bool = False) -> dict[str, Any
     for a square image, whether its corners are empty or mirror the disc, never read from the
     file) and ``recorded``: the ``mapping``, ``preset``, cube ``layout`` or ``face``, and the
     view's ``look`` and ``up`` (None for the identity view) that spheremap noted in the file
-    when it wrote it (EXR, PNG, JPEG, HDR), or None. LDR statistics
-    are of the sRGB-decoded values unless `linear`.
+    when it wrote it (EXR, PNG, JPEG, HDR, KTX2; a DDS cube reads as its face stack), or None;
+    ``texture``: for KTX2 and DDS {"cube": bool, "levels": [(width, height), ...]} (the
+    statistics are level 0's), else None. LDR statistics are of the sRGB-decoded values unless
+    `linear`.
 
     Raises FileNotFoundError for a missing file and spheremap.DataError for one spheremap
     cannot read.
@@ -65,7 +69,8 @@ def write_image(
 ) -> dict[str, int]:
     """Writes an (H, W) or (H, W, C) array (C = 1..4, linear values, row 0 at the top) to
     `path`; the format follows the extension: .exr (float, or `half`), .hdr, .pfm, .png (`bits`
-    8 or 16, sRGB-encoded unless `linear`), .jpg. The file is written atomically.
+    8 or 16, sRGB-encoded unless `linear`), .jpg, .ktx2 or .dds (one 2D level of RGBA float,
+    or `half`; write_texture writes mip levels and cube faces). The file is written atomically.
 
     half: a value beyond the half-float range (65504), which half would hold as Inf, raises
     spheremap.DataError naming the count and the largest, unless `clamp_half` (clamp to 65504).
@@ -105,3 +110,77 @@ def write_image(
         note=note,
     )
     return {"clipped": clipped, "clamped_half": clamped}
+
+
+def read_texture(
+    path: str | os.PathLike[str], *, max_pixels: int | None = None
+) -> tuple[list[npt.NDArray[np.float32]], bool]:
+    """Reads a KTX2 or DDS texture (uncompressed float: RGBA/RGB/R, 16- or 32-bit) with all its
+    mip levels -> (levels, cube): level 0 first, each an (H, W, C) float32 array with row 0 at
+    the top; for a cube map (cube True) each level is (6, F, F, C): faces +X, -X, +Y, -Y, +Z,
+    -Z, each with row 0 at t = 0 of the GL face table, as spheremap.convert returns a cube.
+
+    Raises spheremap.DataError for a file that is not one (block-compressed, supercompressed,
+    3D or array textures are refused with the reason).
+    """
+
+    if max_pixels is not None:
+        max_pixels = _size_any(max_pixels, "max_pixels")
+    levels, cube = _ext.read_texture(path=os.fspath(path), max_pixels=max_pixels)
+    if cube:
+        levels = [x.reshape(6, x.shape[1], x.shape[1], x.shape[2]) for x in levels]
+    return list(levels), bool(cube)
+
+
+def write_texture(
+    path: str | os.PathLike[str],
+    levels: list[_ArrayLike],
+    *,
+    cube: bool = False,
+    half: bool = False,
+    clamp_half: bool = False,
+    mapping: str | None = None,
+    preset: str | None = None,
+    look: npt.ArrayLike | None = None,
+    up: npt.ArrayLike | None = None,
+) -> None:
+    """Writes mip levels (level 0 first; level i is max(1, W >> i) x max(1, H >> i)) as a KTX2
+    or DDS texture (by the extension), RGBA float32 or `half`, atomically. With `cube`, each
+    level is (6, F, F, C) faces (or their (6F, F, C) stack) in GL order +X, -X, +Y, -Y, +Z, -Z
+    and the file holds a cube map. mapping, preset, look, up: recorded in a KTX2 file as write_image records them.
+    """
+
+    arrays = []
+    for i, lv in enumerate(levels):
+        a = _floats(lv, f"levels[{i}]")
+        if cube and a.ndim == 4 and a.shape[0] == 6:
+            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+        if a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
+            raise ValueError(f"levels[{i}]: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
+        arrays.append(np.ascontiguousarray(a, dtype=np.float32))
+    if not arrays:
+        raise ValueError("levels: a texture needs at least one level")
+    if clamp_half and not half:
+        raise ValueError("clamp_half: applies to half=True")
+    note = None
+    if mapping is not None:
+        _choice(mapping, "mapping", MAPPINGS)
+        note = _ext.map_note(
+            mapping=mapping,
+            preset=preset,
+            layout="vstrip" if cube else None,
+            look=_vec3(look, "look"),
+            up=_vec3(up, "up"),
+        )
+    elif (preset, look, up) != (None, None, None):
+        raise ValueError("mapping: preset, look and up describe a mapping; name it")
+    _ext.write_texture(
+        path=os.fspath(path),
+        levels=arrays,
+        cube=bool(cube),
+        half=bool(half),
+        clamp_half=bool(clamp_half),
+        note=note,
+    )

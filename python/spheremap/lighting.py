@@ -1,4 +1,5 @@
-"""Lighting from a map: exact MatCaps, spherical-harmonics irradiance, the split-sum DFG table."""
+"""Lighting from a map: exact MatCaps, prefiltered radiance and irradiance, spherical-harmonics
+irradiance, the split-sum DFG table."""
 
 from __future__ import annotations
 
@@ -74,6 +75,83 @@ def bake_matcap(
         **_env_request(src, src_preset, src_look, src_up),
     }
     return _ext.bake_matcap(image=a, request=request)
+
+
+def prefilter(
+    env: npt.ArrayLike,
+    src: str = "latlong",
+    *,
+    to: str = "cube",
+    levels: int | None = None,
+    size: int | None = None,
+    samples: int | None = None,
+    irradiance: bool = False,
+    roughness_map: str = "filament",
+    preset: str | None = None,
+    look: npt.ArrayLike | None = None,
+    up: npt.ArrayLike | None = None,
+    max_samples: int = 1024,
+    seed: int = 0,
+    outside: str = "gutter",
+    tolerance: float | None = None,
+    method: str = "tree",
+    lobe_samples: int = 1024,
+    src_preset: str | None = None,
+    src_layout: str | None = None,
+    src_look: npt.ArrayLike | None = None,
+    src_up: npt.ArrayLike | None = None,
+    report: bool = False,
+) -> Any:
+    """Prefiltered lighting of `env` (the engine of ``spheremap prefilter``) -> a list of levels,
+    level 0 first, each an (H, W, C) float32 array in `to`'s canvas (a cube's as (6, F, F, C)
+    faces in GL order, as convert returns them); with `report`, (levels, reports), one dict per
+    level ("roughness", "method", "integrals", "seconds", ...).
+
+    Level i of L has size N >> i (N = `size`, default 256; cube faces N x N, latlong 2N x N) and
+    perceptual roughness r_i from `roughness_map`: "filament" (r(2 - r) = i/(L - 1)), "threejs"
+    (the roughness three.js's PMREM shader reads from a face of that size) or "linear"; levels
+    default down to 8 texels. For every mapping but "sphere" a texel in direction r holds the
+    split-sum prefiltered radiance, the integral of L(l) D(h) (r.l) over that of D(h) (r.l)
+    (n = v = r; a constant map gives itself). For "sphere" each level is the exact GGX MatCap
+    of albedo 1 of the view (`look`, `up`), with no n = v assumption.
+
+    irradiance: one level (default size 32) of (1/pi) times the irradiance: the radiance a white
+    Lambertian surface reflects.
+    samples: spatial samples per texel (default 1, the centre; more average its footprint).
+    tolerance: the error each integral may leave, relative to the map's mean radiance (default
+    1e-4; 1e-5 is three times slower, 1e-3 three times faster).
+    method: "tree" (exact integrals, the default) or "sampled" (filtered importance sampling
+    from a cube mip pyramid with `lobe_samples` GGX samples per texel, as Filament's cmgen:
+    fast, approximate).
+    """
+    _name("mapping", src, "src")
+    _name("mapping", to, "to")
+    a = _env_array(_floats(env, "env"), src, "env", src_layout)
+    request: dict[str, Any] = {
+        "to": to,
+        "preset": preset,
+        "size": None if size is None else _size_any(size, "size"),
+        "levels": None if levels is None else _size_any(levels, "levels"),
+        "roughness_map": _name("roughness_map", roughness_map, "roughness_map"),
+        "irradiance": bool(irradiance),
+        "look": _vec3(look, "look"),
+        "up": _vec3(up, "up"),
+        "samples": 1 if samples is None else _size_any(samples, "samples"),
+        "max_samples": _size_any(max_samples, "max_samples"),
+        "seed": _seed(seed),
+        "outside": _name("outside", outside, "outside"),
+        "tolerance": None if tolerance is None else _finite(tolerance, "tolerance"),
+        "method": _name("prefilter_method", method, "method"),
+        "lobe_samples": _size_any(lobe_samples, "lobe_samples"),
+        **_env_request(src, src_preset, src_look, src_up),
+    }
+    arrays, reports = _ext.prefilter(image=a, request=request)
+    if to == "cube":
+        # Faces (6, F, F, C), as convert returns a cube.
+        arrays = [x.reshape(6, x.shape[1], x.shape[1], x.shape[2]) for x in arrays]
+    if report:
+        return list(arrays), list(reports)
+    return list(arrays)
 
 
 def irradiance_sh(

@@ -7,8 +7,9 @@ use spheremap::resample::Progress;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// IN OUT. IN: an image (EXR, HDR, PFM, PNG, JPEG, WebP); OUT: an image, its format by
-    /// extension (.exr .hdr .pfm .png .jpg). A cube side may instead be six face files: named
+    /// IN OUT. IN: an image (EXR, HDR, PFM, PNG, JPEG, WebP, KTX2, DDS); OUT: an image, its
+    /// format by extension (.exr .hdr .pfm .png .jpg .ktx2 .dds; a cube without --layout in
+    /// .ktx2/.dds is a cube texture). A cube side may instead be six face files: named
     /// one by one in GL order (+X -X +Y -Y +Z -Z; so IN OUT is 7 or 12 paths), or a pattern:
     /// 'sky_{face}.exr' (px nx py ny pz nz), {posx} (posx negx ...), {side} (right left top
     /// bottom front back; front = +Z) or {index} (0-5).

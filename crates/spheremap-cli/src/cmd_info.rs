@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Image file (OpenEXR, Radiance HDR, PFM, PNG, JPEG, WebP; recognised by content).
+    /// Image file (OpenEXR, Radiance HDR, PFM, PNG, JPEG, WebP, KTX2, DDS; recognised by content).
     file: PathBuf,
     /// Read LDR files as linear values (no sRGB decoding) for the statistics.
     #[arg(long)]
@@ -69,7 +69,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .map_or(String::new(), |(x, y)| format!(" (first at x={x}, y={y})"))
         );
         let _ = writeln!(o, "  negative values: {}", r.negative);
+        if let Some(t) = &r.texture {
+            let sizes: Vec<String> = t.levels.iter().map(|(w, h)| format!("{w}x{h}")).collect();
+            let _ = writeln!(
+                o,
+                "  texture: {}, {} level{} ({}); the values above are level 0's",
+                if t.cube {
+                    "cube map (faces +X -X +Y -Y +Z -Z from the top)"
+                } else {
+                    "2D"
+                },
+                t.levels.len(),
+                if t.levels.len() == 1 { "" } else { "s" },
+                sizes.join(" ")
+            );
+        }
         match (&r.recorded, &r.note) {
+            (Some(_), Some(text)) if r.format == "DDS" => {
+                let _ = writeln!(
+                    o,
+                    "  mapping (DDS keeps no note; a cube texture's faces): {text}"
+                );
+            }
             (Some(_), Some(text)) => {
                 let _ = writeln!(
                     o,

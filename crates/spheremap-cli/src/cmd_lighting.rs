@@ -1,4 +1,4 @@
-//! `spheremap bake-matcap`, `irradiance` and `dfg`: lighting from a map (thin layer over
+//! `spheremap bake-matcap`, `prefilter`, `irradiance` and `dfg`: lighting from a map (thin layer over
 //! `spheremap::lighting`).
 
 use crate::job::vec3;
@@ -6,15 +6,15 @@ use anyhow::Context;
 use spheremap::images::envmap::{
     check_nonfinite_env, read_env_layout, read_note, write_env, EnvFiles,
 };
-use spheremap::lighting::{dfg, sh, MatcapRequest};
+use spheremap::lighting::{dfg, sh, MatcapRequest, PrefilterRequest};
 use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{EnvMap, Progress};
 
 /// The environment a lighting command reads.
 #[derive(clap::Args, Debug)]
 pub struct EnvArgs {
-    /// The environment map: an image (EXR, HDR, PFM, PNG, JPEG, WebP) or six cube faces as a
-    /// pattern ('sky_{face}.exr').
+    /// The environment map: an image (EXR, HDR, PFM, PNG, JPEG, WebP, KTX2, DDS) or six cube
+    /// faces as a pattern ('sky_{face}.exr').
     env: String,
     /// Its mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
     /// spheremap recorded in it, else latlong.
@@ -291,6 +291,143 @@ pub fn run_dfg(a: DfgArgs) -> anyhow::Result<()> {
             t0.elapsed().as_secs_f64(),
             n = a.size,
         );
+    }
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+pub struct PrefilterArgs {
+    #[command(flatten)]
+    env: EnvArgs,
+    /// Output mapping: cube (default), octahedral, latlong, sphere (the exact prefiltered sphere
+    /// map of the view: the GGX MatCap of each level's roughness), or any other.
+    #[arg(long, default_value = "cube", value_parser = crate::names::core("mapping"))]
+    to: String,
+    /// Preset of the output mapping.
+    #[arg(long)]
+    preset: Option<String>,
+    /// Cube layout of levels written as images ('{level}' in -o); a .ktx2/.dds cube holds faces.
+    #[arg(long, value_parser = crate::names::core("layout"))]
+    layout: Option<String>,
+    /// Level 0's size N (cube faces NxN, latlong 2NxN); default 256, 32 with --irradiance.
+    #[arg(long)]
+    size: Option<usize>,
+    /// Mip levels, each half the last; default down to 8 texels (6 for 256).
+    #[arg(long)]
+    levels: Option<usize>,
+    /// Level -> roughness: filament (r(2-r) = level/(L-1)), threejs (its PMREM's
+    /// roughnessToMip at log2 of the level's size) or linear.
+    #[arg(long, default_value = "filament", value_parser = crate::names::core("roughness_map"))]
+    roughness_map: String,
+    /// One level of the cosine-convolved map ((1/pi) times the irradiance) instead.
+    #[arg(long)]
+    irradiance: bool,
+    /// The output's view: world direction of its -Z (with --up); a sphere map's eye.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    look: Option<Vec<f64>>,
+    /// World direction of the output's +Y (with --look; default 0 1 0).
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
+    up: Option<Vec<f64>>,
+    /// Spatial samples per texel (1, the default: the texel centre; S > 1: at least S over
+    /// the texel's footprint, adaptive).
+    #[arg(long, default_value_t = 1)]
+    samples: u32,
+    /// The most samples a texel may take.
+    #[arg(long, default_value_t = 1024)]
+    max_samples: u32,
+    /// Seed of the sample jitter.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Outside a sphere map's disc: gutter (default) or black.
+    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
+    outside: String,
+    /// The error each integral may leave, relative to the map's mean radiance (default 1e-4;
+    /// 1e-5 is three times slower, 1e-3 three times faster).
+    #[arg(long)]
+    tolerance: Option<f64>,
+    /// tree: exact integrals on the environment's tree (default); sampled: filtered importance
+    /// sampling from a cube mip pyramid, as Filament's cmgen (fast, approximate).
+    #[arg(long, default_value = "tree", value_parser = crate::names::core("prefilter_method"))]
+    method: String,
+    /// GGX samples per texel with --method sampled (Filament's default).
+    #[arg(long, default_value_t = 1024)]
+    lobe_samples: usize,
+    /// Output: a .ktx2 or .dds file (every level; a cube's six faces), or images with
+    /// '{level}' in the name (.exr .hdr .pfm .png .jpg; '{face}' for cube face files).
+    #[arg(short = 'o', long)]
+    output: String,
+    #[command(flatten)]
+    job: crate::job::JobFlags,
+}
+
+pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
+    let request = PrefilterRequest {
+        to: a.to.clone(),
+        preset: a.preset.clone(),
+        layout: a.layout.clone(),
+        size: a.size,
+        levels: a.levels,
+        roughness_map: a.roughness_map.clone(),
+        irradiance: a.irradiance,
+        look: vec3(&a.look),
+        up: vec3(&a.up),
+        samples: a.samples,
+        max_samples: a.max_samples,
+        seed: a.seed,
+        outside: a.outside.clone(),
+        tolerance: a.tolerance,
+        method: a.method.clone(),
+        lobe_samples: a.lobe_samples,
+        env_format: a.env.env_format.clone(),
+        env_preset: a.env.env_preset.clone(),
+        env_layout: a.env.env_layout.clone(),
+        env_look: vec3(&a.env.env_look),
+        env_up: vec3(&a.env.env_up),
+        nonfinite: a.job.nonfinite.clone(),
+        max_memory: Some(a.job.max_memory()?),
+    };
+    let wopts = a.job.write_options(false);
+    let progress = Progress::default();
+    let (report, notice) = std::thread::scope(|s| {
+        let work = s.spawn(|| {
+            request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(&progress))
+        });
+        crate::progress::watch(&progress, &work, a.job.show_progress(), "prefiltering");
+        work.join().expect("the prefilter thread panicked")
+    })
+    .map_err(crate::flag_error)?;
+    if let Some(n) = notice.filter(|_| !a.job.quiet) {
+        eprintln!("note: {n}");
+    }
+    if a.job.json {
+        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
+    } else if !a.job.quiet {
+        eprintln!(
+            "{} -> {} ({} {}, {} level{}), {:.3} s",
+            report.input,
+            report.output.join(", "),
+            report.mapping,
+            if report.irradiance {
+                "irradiance"
+            } else {
+                "GGX radiance"
+            },
+            report.levels.len(),
+            if report.levels.len() == 1 { "" } else { "s" },
+            report.seconds
+        );
+        for l in &report.levels {
+            eprintln!(
+                "  level {}: {}x{} roughness {} ({:?}, {} integrals, {:.3} s)",
+                l.level,
+                l.width,
+                l.height,
+                l.roughness.map_or("-".to_string(), |r| format!("{r:.4}")),
+                l.method,
+                l.integrals,
+                l.seconds
+            );
+        }
     }
     Ok(())
 }

@@ -82,6 +82,10 @@ enum Command {
     Irradiance(Box<cmd_lighting::IrradianceArgs>),
     /// The split-sum DFG lookup table (Karis 2013) of spheremap's GGX.
     Dfg(Box<cmd_lighting::DfgArgs>),
+    /// Prefilter an environment for engines: the GGX radiance mip chain (each level the map
+    /// convolved with the GGX lobe of that level's roughness), or with --irradiance the
+    /// cosine-convolved map; a cube as one KTX2/DDS file with every face and level.
+    Prefilter(Box<cmd_lighting::PrefilterArgs>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
     /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
@@ -166,6 +170,7 @@ where
         Command::BakeMatcap(a) => cmd_lighting::run_bake(*a),
         Command::Irradiance(a) => cmd_lighting::run_irradiance(*a),
         Command::Dfg(a) => cmd_lighting::run_dfg(*a),
+        Command::Prefilter(a) => cmd_lighting::run_prefilter(*a),
         Command::Completions(a) => completions(a),
     });
     std::panic::set_hook(previous_hook);

@@ -603,6 +603,110 @@ fn bake_matcap<'py>(
         .into_any())
 }
 
+/// Arrays and their report dicts.
+type PyLevels<'py> = (Vec<Bound<'py, PyAny>>, Vec<Bound<'py, PyAny>>);
+
+/// The prefiltered levels of an environment array (level 0 first; a cube's as F x 6F face
+/// stacks) and their reports as dicts; `request` is a `PrefilterRequest` as a dict.
+#[pyfunction]
+#[pyo3(signature = (image, request))]
+fn prefilter<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArrayDyn<'py, f32>,
+    request: &Bound<'py, PyAny>,
+) -> PyResult<PyLevels<'py>> {
+    use spheremap::lighting::PrefilterRequest;
+    use spheremap::resample::Progress;
+    let req: PrefilterRequest = pythonize::depythonize(request)
+        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let img = image_of(&image, "env")?;
+    let progress = Progress::default();
+    let made = run_cancellable(py, &progress, "the prefilter", |p| {
+        req.run_image(&img, Some(p)).map_err(lighting_names)
+    })?;
+    let (mut arrays, mut reports) = (Vec::new(), Vec::new());
+    for (out, rep) in made {
+        arrays.push(
+            PyArray1::from_vec(py, out.data)
+                .reshape([out.height, out.width, out.channels])?
+                .into_any(),
+        );
+        reports.push(
+            pythonize::pythonize(py, &rep)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?
+                .into_any(),
+        );
+    }
+    Ok((arrays, reports))
+}
+
+/// Reads a KTX2 or DDS texture: (levels as (H, W, C) float32 arrays, level 0 first; whether it
+/// is a cube, whose levels are F x 6F face stacks).
+#[pyfunction]
+#[pyo3(signature = (path, max_pixels))]
+fn read_texture<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    max_pixels: Option<usize>,
+) -> PyResult<(Vec<Bound<'py, PyAny>>, bool)> {
+    use spheremap::images::codec::{Limits, ReadOptions};
+    let mut limits = Limits::default();
+    if let Some(m) = max_pixels {
+        limits.max_pixels = m;
+    }
+    let tex = py
+        .detach(|| {
+            spheremap::images::codec::read_texture(
+                &path,
+                &ReadOptions {
+                    linear: true,
+                    limits,
+                },
+            )
+        })
+        .map_err(to_py)?;
+    let mut levels = Vec::new();
+    for l in tex.levels {
+        levels.push(
+            PyArray1::from_vec(py, l.data)
+                .reshape([l.height, l.width, l.channels])?
+                .into_any(),
+        );
+    }
+    Ok((levels, tex.cube))
+}
+
+/// Writes levels (level 0 first; a cube's as F x 6F face stacks) as a KTX2 or DDS texture.
+#[pyfunction]
+#[pyo3(signature = (path, levels, cube, half, clamp_half, note))]
+fn write_texture(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    levels: Vec<PyReadonlyArrayDyn<'_, f32>>,
+    cube: bool,
+    half: bool,
+    clamp_half: bool,
+    note: Option<String>,
+) -> PyResult<()> {
+    use spheremap::images::codec::WriteOptions;
+    let levels = levels
+        .iter()
+        .enumerate()
+        .map(|(i, a)| image_of(a, &format!("levels[{i}]")))
+        .collect::<PyResult<Vec<_>>>()?;
+    let tex = spheremap::images::container::Texture { cube, levels };
+    let opts = WriteOptions {
+        half,
+        clamp_half,
+        ..Default::default()
+    };
+    py.detach(|| {
+        tex.check("levels")?;
+        spheremap::images::codec::write_texture(&path, &tex, &opts, note.as_deref())
+    })
+    .map_err(to_py)
+}
+
 /// The SH9 report of `spheremap irradiance --json` for an environment array, as a dict;
 /// `request` is an `EnvRequest` as a dict, `window` None, "auto" or a size in bands.
 #[pyfunction]
@@ -979,6 +1083,9 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake_matcap, m)?)?;
     m.add_function(wrap_pyfunction!(irradiance_sh, m)?)?;
     m.add_function(wrap_pyfunction!(dfg_lut, m)?)?;
+    m.add_function(wrap_pyfunction!(prefilter, m)?)?;
+    m.add_function(wrap_pyfunction!(read_texture, m)?)?;
+    m.add_function(wrap_pyfunction!(write_texture, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;

@@ -16,7 +16,7 @@ use crate::resample::{Filter, Outside, Precision, Taps};
 use crate::Singular;
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
-pub const KINDS: [&str; 15] = [
+pub const KINDS: [&str; 17] = [
     "mapping",
     "filter",
     "taps",
@@ -32,6 +32,8 @@ pub const KINDS: [&str; 15] = [
     "nonfinite",
     "tonemap",
     "material",
+    "roughness_map",
+    "prefilter_method",
 ];
 
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
@@ -54,6 +56,8 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "nonfinite" => &NonFinite::NAMES,
         "tonemap" => &ToneMap::NAMES,
         "material" => &crate::lighting::brdf::Material::NAMES,
+        "roughness_map" => &crate::lighting::prefilter::RoughnessMap::NAMES,
+        "prefilter_method" => &crate::lighting::prefilter::PrefilterMethod::NAMES,
         _ => return None,
     })
 }
@@ -79,6 +83,8 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
         "nonfinite" => NonFinite::parse(value).map(drop),
         "tonemap" => ToneMap::parse(value).map(drop),
         "material" => crate::lighting::brdf::Material::parse(value, 0.5).map(drop),
+        "roughness_map" => crate::lighting::prefilter::RoughnessMap::parse(value).map(drop),
+        "prefilter_method" => crate::lighting::prefilter::PrefilterMethod::parse(value).map(drop),
         _ => Err(Error::param(
             "kind",
             format!(

@@ -1,5 +1,6 @@
-//! Reading and writing images: OpenEXR, Radiance `.hdr`, PFM, PNG (8/16-bit), JPEG, and WebP
-//! (read).  In memory an [`Image`] is linear float32, row 0 at the top (see
+//! Reading and writing images: OpenEXR, Radiance `.hdr`, PFM, PNG (8/16-bit), JPEG, WebP
+//! (read), and the texture containers KTX2 and DDS ([`crate::images::container`]: an image is
+//! their level 0, a cube's as its face stack).  In memory an [`Image`] is linear float32, row 0 at the top (see
 //! [`crate::frame::conventions`]), 1–4 interleaved channels named Y / Y,A / R,G,B / R,G,B,A.
 //!
 //! * Formats are recognised by their first bytes, not by the file name; a name that disagrees
@@ -16,52 +17,7 @@ use crate::base::files::atomic_write;
 use std::io::{BufWriter, Cursor, Write};
 use std::path::Path;
 
-/// Size limits checked against a file's header before its pixels are allocated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Limits {
-    pub max_width: usize,
-    pub max_height: usize,
-    /// Width × height.
-    pub max_pixels: usize,
-}
-
-impl Default for Limits {
-    /// 65,536 on a side and 2²⁸ pixels (4 GiB as float RGBA); `SPHEREMAP_MAX_PIXELS` (a
-    /// pixel count) overrides the total for every front end.
-    fn default() -> Self {
-        let max_pixels = std::env::var("SPHEREMAP_MAX_PIXELS")
-            .ok()
-            .and_then(|s| s.trim().parse::<usize>().ok())
-            .filter(|&n| n > 0)
-            .unwrap_or(1 << 28);
-        Limits {
-            max_width: 1 << 16,
-            max_height: 1 << 16,
-            max_pixels,
-        }
-    }
-}
-
-impl Limits {
-    fn check(&self, path: &Path, w: usize, h: usize) -> Result<()> {
-        if w == 0 || h == 0 {
-            return Err(Error::data(
-                path,
-                format!("the header gives an empty image ({w}x{h})"),
-            ));
-        }
-        if w > self.max_width || h > self.max_height || w.saturating_mul(h) > self.max_pixels {
-            return Err(Error::limit(
-                path.display().to_string(),
-                format!(
-                    "the header claims {w}x{h} pixels, over the limit ({}x{}, {} pixels in all)",
-                    self.max_width, self.max_height, self.max_pixels
-                ),
-            ));
-        }
-        Ok(())
-    }
-}
+pub use super::limits::Limits;
 
 /// How to read.
 #[derive(Clone, Copy, Debug, Default)]
@@ -111,7 +67,7 @@ impl Losses {
         let c = img.channels.max(1);
         let mut l = Losses::default();
         match format {
-            Format::Exr if opts.half => {
+            Format::Exr | Format::Ktx2 | Format::Dds if opts.half => {
                 for &v in &img.data {
                     if v.is_finite()
                         && v.abs() > HALF_MAX
@@ -210,7 +166,8 @@ pub fn decode(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
     let format = Format::sniff(bytes).ok_or_else(|| {
         Error::data(
             path,
-            "not an image spheremap reads (expected OpenEXR, Radiance HDR, PFM, PNG, JPEG or WebP)",
+            "not an image spheremap reads (expected OpenEXR, Radiance HDR, PFM, PNG, JPEG, WebP, \
+             KTX2 or DDS)",
         )
     })?;
     // The JPEG decoder fills a cut-off file with grey instead of failing: a complete JPEG has
@@ -227,6 +184,10 @@ pub fn decode(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
     match format {
         Format::Exr => decode_exr(path, bytes, &opts.limits),
         Format::Pfm => decode_pfm(path, bytes, &opts.limits),
+        Format::Ktx2 | Format::Dds => {
+            let mut tex = super::container::decode(path, bytes, &opts.limits)?;
+            Ok(tex.levels.swap_remove(0))
+        }
         _ => decode_with_image_crate(path, bytes, format, opts),
     }
 }
@@ -246,7 +207,9 @@ fn decode_with_image_crate(
         Format::Jpeg => Box::new(image::codecs::jpeg::JpegDecoder::new(cursor).map_err(bad)?),
         Format::Webp => Box::new(image::codecs::webp::WebPDecoder::new(cursor).map_err(bad)?),
         Format::Hdr => Box::new(image::codecs::hdr::HdrDecoder::new(cursor).map_err(bad)?),
-        Format::Exr | Format::Pfm => unreachable!("decoded elsewhere"),
+        Format::Exr | Format::Pfm | Format::Ktx2 | Format::Dds => {
+            unreachable!("decoded elsewhere")
+        }
     };
     let (w, h) = decoder.dimensions();
     opts.limits.check(path, w as usize, h as usize)?;
@@ -463,7 +426,7 @@ pub fn write_image_with_note(
         Error::param(
             "output",
             format!(
-                "{}: unknown image extension; use .exr, .hdr, .pfm, .png or .jpg",
+                "{}: unknown image extension; use .exr, .hdr, .pfm, .png, .jpg, .ktx2 or .dds",
                 path.display()
             ),
         )
@@ -498,25 +461,22 @@ pub fn encode_with_note(
         |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
     let mut buf = Cursor::new(Vec::new());
     let (w, h, c) = (img.width as u32, img.height as u32, img.channels);
-    if format == Format::Exr && opts.half && !opts.clamp_half {
+    if matches!(format, Format::Exr | Format::Ktx2 | Format::Dds) && opts.half && !opts.clamp_half {
         let l = Losses::of(img, format, opts);
         if l.beyond_half > 0 {
-            return Err(Error::data(
-                path,
-                format!(
-                    "{} value{} beyond the half-float range (the largest {:e}; half ends at \
-                     65504) would be written as Inf: write 32-bit floats (no --half, \
-                     half=False) or clamp them to 65504 (--clamp-half, clamp_half=True)",
-                    l.beyond_half,
-                    if l.beyond_half == 1 { " lies" } else { "s lie" },
-                    l.largest
-                ),
-            ));
+            return Err(beyond_half_error(path, &l));
         }
     }
     match format {
         Format::Exr => encode_exr(path, img, opts.half, note, &mut buf)?,
         Format::Pfm => encode_pfm(img, &mut buf),
+        Format::Ktx2 | Format::Dds => {
+            let tex = super::container::Texture {
+                cube: false,
+                levels: vec![img.clone()],
+            };
+            return encode_texture(path, &tex, format, opts, note);
+        }
         Format::Hdr => {
             let rgb = to_rgb(img);
             let px: Vec<image::Rgb<f32>> = rgb
@@ -592,6 +552,99 @@ pub fn encode_with_note(
         Some(t) if format != Format::Exr => crate::images::note::insert(format, bytes, t),
         _ => bytes,
     })
+}
+
+/// The error for values a half-float write would turn into Inf.
+pub fn beyond_half_error(path: &Path, l: &Losses) -> Error {
+    Error::data(
+        path,
+        format!(
+            "{} value{} beyond the half-float range (the largest {:e}; half ends at \
+             65504) would be written as Inf: write 32-bit floats (no --half, \
+             half=False) or clamp them to 65504 (--clamp-half, clamp_half=True)",
+            l.beyond_half,
+            if l.beyond_half == 1 { " lies" } else { "s lie" },
+            l.largest
+        ),
+    )
+}
+
+/// Encodes a texture (mip levels, cube faces) as KTX2 or DDS (`opts.half`: 16-bit floats,
+/// values beyond the half range refused unless `opts.clamp_half`, as for EXR); `note` goes
+/// into KTX2's key/value data (DDS has no place for it).
+pub fn encode_texture(
+    path: &Path,
+    tex: &super::container::Texture,
+    format: Format,
+    opts: &WriteOptions,
+    note: Option<&str>,
+) -> Result<Vec<u8>> {
+    let mut clamped;
+    let mut tex = tex;
+    if opts.half {
+        let mut beyond = Losses::default();
+        for l in &tex.levels {
+            let x = Losses::of(l, format, opts);
+            beyond.beyond_half += x.beyond_half;
+            beyond.largest = beyond.largest.max(x.largest);
+        }
+        if beyond.beyond_half > 0 {
+            if !opts.clamp_half {
+                return Err(beyond_half_error(path, &beyond));
+            }
+            clamped = tex.clone();
+            for l in &mut clamped.levels {
+                for v in &mut l.data {
+                    if v.is_finite() {
+                        *v = v.clamp(-HALF_MAX, HALF_MAX);
+                    }
+                }
+            }
+            tex = &clamped;
+        }
+    }
+    match format {
+        Format::Ktx2 => {
+            let extra: Vec<(&str, &str)> =
+                note.map(|n| (super::note::KEY, n)).into_iter().collect();
+            super::container::encode_ktx2(tex, opts.half, &extra)
+        }
+        Format::Dds => super::container::encode_dds(tex, opts.half),
+        _ => Err(Error::param(
+            "output",
+            format!("{} holds one image, not a texture", format.name()),
+        )),
+    }
+}
+
+/// Writes a texture atomically as KTX2 or DDS, by the extension of `path`.
+pub fn write_texture(
+    path: &Path,
+    tex: &super::container::Texture,
+    opts: &WriteOptions,
+    note: Option<&str>,
+) -> Result<()> {
+    let format = Format::from_extension(path)
+        .filter(|f| f.is_container())
+        .ok_or_else(|| {
+            Error::param(
+                "output",
+                format!(
+                    "{}: a texture with mip levels or cube faces is written as .ktx2 or .dds",
+                    path.display()
+                ),
+            )
+        })?;
+    let bytes = encode_texture(path, tex, format, opts, note)?;
+    atomic_write(path, |f| {
+        f.write_all(&bytes).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Reads a KTX2 or DDS file with all its levels (a cube's as face stacks).
+pub fn read_texture(path: &Path, opts: &ReadOptions) -> Result<super::container::Texture> {
+    let bytes = crate::base::files::read_file(path)?;
+    super::container::decode(path, &bytes, &opts.limits)
 }
 
 /// RGB values of any image (grey repeated, alpha dropped).

@@ -208,7 +208,8 @@ pub fn read_env_layout(
 
 /// Writes a canvas of `mapping` (cube: face stack), made for `view` ([`crate::frame::view`]; the
 /// identity for the world frame), to `path`: six files for a face pattern, else one image
-/// (cube maps in `layout`, default hcross).  The output paths are returned.
+/// (cube maps in `layout`, default hcross; a `.ktx2` or `.dds` file without a layout holds a
+/// cube texture of six faces).  The output paths are returned.
 pub fn write_env(
     path: &str,
     mapping: Mapping,
@@ -273,6 +274,16 @@ pub fn write_env_files(
         face: None,
         view,
     };
+    if matches!(mapping, Mapping::Cube(_)) && Format::names_container(path) && layout.is_none() {
+        // A cube texture: its six faces, read back as the face stack.
+        tag.layout = Some(Layout::VStrip);
+        let tex = crate::images::container::Texture {
+            cube: true,
+            levels: vec![img.clone()],
+        };
+        crate::images::codec::write_texture(Path::new(path), &tex, opts, Some(&tag.text()))?;
+        return Ok(vec![path.to_string()]);
+    }
     let out = if let Mapping::Cube(_) = mapping {
         let layout = layout.unwrap_or(Layout::HCross);
         tag.layout = Some(layout);
@@ -377,7 +388,7 @@ fn output_format(path: &str) -> Result<Format> {
         found => Err(Error::param(
             "output",
             format!(
-                "{path}: {}; use .exr, .hdr, .pfm, .png or .jpg",
+                "{path}: {}; use .exr, .hdr, .pfm, .png, .jpg, .ktx2 or .dds",
                 if found.is_some() {
                     "spheremap reads WebP but does not write it"
                 } else {

@@ -11,6 +11,10 @@ pub enum Format {
     Png,
     Jpeg,
     Webp,
+    /// Khronos KTX 2.0 (uncompressed float textures, [`crate::images::container`]).
+    Ktx2,
+    /// DirectDraw Surface (uncompressed float textures, [`crate::images::container`]).
+    Dds,
 }
 
 impl Format {
@@ -22,7 +26,17 @@ impl Format {
             Format::Png => "PNG",
             Format::Jpeg => "JPEG",
             Format::Webp => "WebP",
+            Format::Ktx2 => "KTX2",
+            Format::Dds => "DDS",
         }
+    }
+    /// The GPU texture containers (mip levels, cube faces).
+    pub fn is_container(self) -> bool {
+        matches!(self, Format::Ktx2 | Format::Dds)
+    }
+    /// Whether `path`'s extension names a texture container (`.ktx2`, `.dds`).
+    pub fn names_container(path: &str) -> bool {
+        Format::from_extension(Path::new(path)).is_some_and(|f| f.is_container())
     }
     /// Low dynamic range formats hold sRGB-encoded values.
     pub fn is_ldr(self) -> bool {
@@ -38,6 +52,8 @@ impl Format {
             "png" => Format::Png,
             "jpg" | "jpeg" => Format::Jpeg,
             "webp" => Format::Webp,
+            "ktx2" => Format::Ktx2,
+            "dds" => Format::Dds,
             _ => return None,
         })
     }
@@ -53,6 +69,10 @@ impl Format {
             Some(Format::Webp)
         } else if head.starts_with(b"#?RADIANCE") || head.starts_with(b"#?RGBE") {
             Some(Format::Hdr)
+        } else if head.starts_with(&super::container::KTX2_MAGIC) {
+            Some(Format::Ktx2)
+        } else if head.starts_with(super::container::DDS_MAGIC) {
+            Some(Format::Dds)
         } else if head.starts_with(b"PF") || head.starts_with(b"Pf") {
             Some(Format::Pfm)
         } else {

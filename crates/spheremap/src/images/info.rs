@@ -33,8 +33,19 @@ pub struct InfoReport {
     pub mapping_guess: MappingGuess,
     /// What spheremap noted in the file when it wrote it ([`super::note`]), if anything.
     pub recorded: Option<Recorded>,
-    /// The note's text as the file holds it.
+    /// The note's text as the file holds it (for a DDS cube, which has no place for one, the
+    /// face stack it reads as).
     pub note: Option<String>,
+    /// For KTX2 and DDS: whether it is a cube texture and every level's size (a cube's faces).
+    pub texture: Option<TextureInfo>,
+}
+
+/// What a KTX2 or DDS file holds beyond its level 0.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TextureInfo {
+    pub cube: bool,
+    /// (width, height) of each level, level 0 first.
+    pub levels: Vec<(usize, usize)>,
 }
 
 /// One channel's statistics over its finite values.
@@ -121,5 +132,17 @@ pub fn info(path: &Path, opts: &ReadOptions) -> Result<InfoReport> {
             .as_ref()
             .map(Recorded::of),
         note: i.note,
+        texture: if i.format.is_container() {
+            let t = super::codec::read_texture(path, opts)?;
+            let (w, h) = t.size();
+            Some(TextureInfo {
+                cube: t.cube,
+                levels: (0..t.levels.len())
+                    .map(|k| super::container::Texture::level_size(w, h, k))
+                    .collect(),
+            })
+        } else {
+            None
+        },
     })
 }

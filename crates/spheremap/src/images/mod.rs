@@ -4,11 +4,13 @@
 //! This module holds the type every image layer shares; it imports nothing from its children.
 
 pub mod codec;
+pub mod container;
 pub mod cube_layout;
 pub mod draw;
 pub mod envmap;
 pub mod format;
 pub mod info;
+pub mod limits;
 pub mod note;
 pub mod tonemap;
 

@@ -14,6 +14,8 @@
 //! | JPEG | a `COM` (comment) segment after `SOI` (and the JFIF `APP0`) | ignored |
 //! | Radiance HDR | a header line `SPHEREMAP=…` before the blank line | unknown variables skipped |
 //! | PFM | none (the format has no place for it) | – |
+//! | KTX2 | a key/value entry `spheremap` | unknown keys skipped |
+//! | DDS | none; a cube file reads as `mapping=cube preset=gl layout=vstrip` | – |
 //!
 //! A note is a record of how spheremap wrote the file, not a proof of what the pixels show: an
 //! image edited elsewhere and saved keeps whatever its editor keeps.
@@ -154,17 +156,19 @@ pub fn insert(format: Format, mut bytes: Vec<u8>, text: &str) -> Vec<u8> {
             bytes.splice(nl + 1..nl + 1, line.bytes());
             bytes
         }
-        Format::Exr | Format::Pfm | Format::Webp => bytes,
+        Format::Exr | Format::Pfm | Format::Webp | Format::Ktx2 | Format::Dds => bytes,
     }
 }
 
-/// The note a file's bytes hold, if any (OpenEXR, PNG, JPEG or Radiance HDR).
+/// The note a file's bytes hold, if any (OpenEXR, PNG, JPEG, Radiance HDR or KTX2; a cube
+/// texture's face stack for KTX2 and DDS without one).
 pub fn read(bytes: &[u8]) -> Option<String> {
     match Format::sniff(bytes)? {
         Format::Png => read_png(bytes),
         Format::Jpeg => read_jpeg(bytes),
         Format::Hdr => read_hdr(bytes),
         Format::Exr => read_exr(bytes),
+        Format::Ktx2 | Format::Dds => read_container(bytes),
         Format::Pfm | Format::Webp => None,
     }
 }
@@ -182,6 +186,24 @@ pub fn read_file(path: &std::path::Path) -> crate::base::error::Result<Option<St
         .and_then(|f| f.take(4 << 20).read_to_end(&mut head))
         .map_err(|e| Error::io(path, e))?;
     Ok(read(&head))
+}
+
+/// The note a KTX2 file keeps under [`KEY`]; else, for a cube texture (KTX2 or DDS), the face
+/// stack it reads as.
+fn read_container(bytes: &[u8]) -> Option<String> {
+    use crate::images::container;
+    if let Some(v) = container::ktx2_value(bytes, KEY) {
+        return Some(String::from_utf8_lossy(&v).into_owned());
+    }
+    container::is_cube(bytes).then(|| {
+        MapNote {
+            mapping: Mapping::parse("cube", Some("gl")).expect("the gl cube"),
+            layout: Some(Layout::VStrip),
+            face: None,
+            view: None,
+        }
+        .text()
+    })
 }
 
 fn read_png(bytes: &[u8]) -> Option<String> {

@@ -101,7 +101,7 @@ pub fn ggx_visibility(alpha: f64, mu_l: f64, mu_v: f64) -> f64 {
 }
 
 /// f·(n·l) for unit n, v, l (0 below the horizon of n or behind the viewer's).
-#[inline]
+#[inline(always)]
 pub fn eval_cos(m: Material, n: [f64; 3], v: [f64; 3], l: [f64; 3]) -> f64 {
     let mu_l = dot(n, l);
     if !(mu_l > 0.0) {

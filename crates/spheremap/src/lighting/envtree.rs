@@ -1,7 +1,7 @@
 //! The environment as a tree of cube-map texel blocks, for integrating a BRDF lobe against it
 //! exactly and fast.
 //!
-//! Every texel of the map — as up to 4×4 points with the map's bilinear radiance where texels
+//! Every texel of the map — as up to 32×32 points with the map's bilinear radiance where texels
 //! are larger than the tree's leaves, each with its exact solid angle — goes into the leaf of a
 //! world-frame cube of face F₀ (a power of two: what the lobe needs, within what the map
 //! resolves) that its direction falls in; the faces' leaves are grouped 2×2 into a pyramid up
@@ -20,8 +20,9 @@
 //! error — its inner variation × the lobe's change across it, plus its residual × the lobe's
 //! curvature, the lobe's scale being α near its peak, a fraction of the angle to the peak
 //! farther out, and the whole node where it straddles the normal's horizon — exceeds a
-//! tolerance of the integral.  A constant environment has no residual, so it integrates to the
-//! albedo exactly (the white furnace).
+//! tolerance of the integral.  For a lobe under [`AVERAGE_BELOW`] leaves wide, a leaf that
+//! still exceeds it is taken as even radiance, and the lobe is averaged over its area.  A constant environment has no
+//! residual, so it integrates to the albedo exactly (the white furnace).
 
 use super::brdf::{self, Material};
 use crate::base::error::Result;
@@ -86,6 +87,7 @@ pub struct EnvTree {
     pub channels: usize,
     /// The cube's face size F₀.
     pub face: usize,
+    cube: Mapping,
 }
 
 /// The world-frame cube face a map of `w`×`h` texels is resolved by: the power of two at or above
@@ -98,13 +100,18 @@ pub fn face_for(w: usize, h: usize, cap: usize) -> usize {
 }
 
 /// How many points per texel axis stand for a texel of a `w`×`h` map of `m` in a tree of face
-/// `face`: enough that they are at most half a leaf apart (1 to 4).
+/// `face`: enough that they are at most half a leaf apart (1 to 32: a map coarser than the
+/// tree fills every leaf, so that a leaf's radiance is even over it).
 fn sub_points(m: Mapping, w: usize, h: usize, face: usize) -> usize {
     let texel = (4.0 * std::f64::consts::PI / (w as f64 * h as f64)).sqrt();
     let _ = m;
     let leaf = std::f64::consts::FRAC_PI_2 / face as f64;
-    ((2.0 * texel / leaf).ceil() as usize).clamp(1, 4)
+    ((2.0 * texel / leaf).ceil() as usize).clamp(1, 32)
 }
+
+/// Leaves across α below which a leaf the lobe varies across is averaged over (narrow lobes on
+/// the finest tree a map allows); wider lobes read each leaf at its centroid.
+pub const AVERAGE_BELOW: f64 = 8.0;
 
 /// The cube face that resolves `material`'s lobe (the power of two at or above
 /// `FACE_PER_ALPHA`/α), at least 64.
@@ -257,6 +264,7 @@ impl EnvTree {
             mean,
             channels: c,
             face,
+            cube,
         })
     }
 
@@ -284,6 +292,13 @@ impl EnvTree {
             top += 1;
         }
         let mut acc = [0.0f64; 3];
+        // A lobe fewer than AVERAGE_BELOW leaves wide has its leaves averaged.
+        let narrow = match q.material {
+            Material::Ggx { alpha } => {
+                alpha * self.face as f64 / std::f64::consts::FRAC_PI_2 < AVERAGE_BELOW
+            }
+            Material::Lambert => false,
+        };
         while top > 0 {
             top -= 1;
             let (lv, k) = stack[top];
@@ -297,22 +312,33 @@ impl EnvTree {
             }
             let dir = node.dir.map(|v| v as f64);
             let g = q.eval(dir);
-            if lv > 0 && top + 4 <= stack.len() {
-                let err = q.error(axis, rad, c.abs() < sin_r, g, node);
-                if err > q.budget {
-                    let (m, child) = (level.m, &self.levels[lv as usize - 1]);
-                    let k = k as usize;
-                    let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
-                    let cm = child.m;
-                    for (dj, di) in [(1, 1), (1, 0), (0, 1), (0, 0)] {
-                        stack[top] = (
-                            lv - 1,
-                            (f * cm * cm + (2 * j + dj) * cm + 2 * i + di) as u32,
-                        );
-                        top += 1;
+            let open = lv > 0 && top + 4 <= stack.len();
+            if (open || (lv == 0 && narrow))
+                && q.error(axis, rad, c.abs() < sin_r, g, node) > q.budget
+            {
+                if !open {
+                    // A leaf the lobe varies across: its radiance is taken as even over it,
+                    // so the lobe is averaged over the leaf's area (s×s points) instead of
+                    // read at one point.
+                    let g = self.leaf_average(q, k as usize);
+                    let om = node.omega as f64;
+                    for ch in 0..self.channels {
+                        acc[ch] += g * (node.power[ch] as f64 - self.mean[ch] * om);
                     }
                     continue;
                 }
+                let (m, child) = (level.m, &self.levels[lv as usize - 1]);
+                let k = k as usize;
+                let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+                let cm = child.m;
+                for (dj, di) in [(1, 1), (1, 0), (0, 1), (0, 0)] {
+                    stack[top] = (
+                        lv - 1,
+                        (f * cm * cm + (2 * j + dj) * cm + 2 * i + di) as u32,
+                    );
+                    top += 1;
+                }
+                continue;
             }
             // Σ g (L − L̄) dω, each part at its own centroid (first-order exact).
             let go = if node.odir == node.dir {
@@ -328,6 +354,30 @@ impl EnvTree {
             }
         }
         acc
+    }
+
+    /// The lobe `q` averaged over leaf `k` (its face, row and column on the finest level):
+    /// s×s points on the face, s from the leaf's size against the lobe's scale (2 to 16).
+    fn leaf_average(&self, q: &Lobe, k: usize) -> f64 {
+        let m = self.face;
+        let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+        let leaf = std::f64::consts::FRAC_PI_2 / m as f64;
+        let scale = match q.material {
+            Material::Lambert => q.rule.broad,
+            Material::Ggx { alpha } => alpha,
+        };
+        let s = ((8.0 * leaf / scale).ceil() as usize).clamp(2, 16);
+        let mut sum = 0.0;
+        for b in 0..s {
+            for a in 0..s {
+                let u = (i as f64 + (a as f64 + 0.5) / s as f64) / m as f64;
+                let v = (f as f64 + (j as f64 + (b as f64 + 0.5) / s as f64) / m as f64) / 6.0;
+                if let Some(d) = self.cube.uv_to_dir([u, v]) {
+                    sum += q.eval(brdf::normalize(d));
+                }
+            }
+        }
+        sum / (s * s) as f64
     }
 }
 
@@ -415,10 +465,21 @@ fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
         .collect()
 }
 
+/// What a lobe weighs the environment by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// The material's BRDF times the cosine, f(l, v)·(n·l).
+    Brdf,
+    /// The split-sum prefilter's GGX weight with n = v: D(h)·(n·l)⁺/4 (see
+    /// [`super::prefilter`]).
+    SplitSum,
+}
+
 /// One lobe to integrate: a material seen from `v` at normal `n` (world frame, unit), with the
 /// cut rule and the error a node may leave.
 pub struct Lobe {
     pub material: Material,
+    pub kernel: Kernel,
     pub n: [f64; 3],
     pub v: [f64; 3],
     /// The mirror direction (the GGX lobe's peak; the normal for Lambert).
@@ -439,6 +500,7 @@ impl Lobe {
         };
         Lobe {
             material,
+            kernel: Kernel::Brdf,
             n,
             v,
             peak,
@@ -447,9 +509,35 @@ impl Lobe {
         }
     }
 
-    #[inline]
+    /// The split-sum prefilter's lobe about `r` (n = v = r): D(h)·(n·l)⁺/4, h = normalize(l + r);
+    /// `scale` as for [`Lobe::new`].
+    pub fn split_sum(alpha: f64, r: [f64; 3], rule: CutRule, scale: f64) -> Lobe {
+        Lobe {
+            kernel: Kernel::SplitSum,
+            ..Lobe::new(Material::Ggx { alpha }, r, r, rule, scale)
+        }
+    }
+
+    #[inline(always)]
     pub fn eval(&self, l: [f64; 3]) -> f64 {
+        if self.kernel == Kernel::SplitSum {
+            return self.split_sum_eval(l);
+        }
         brdf::eval_cos(self.material, self.n, self.v, l)
+    }
+
+    /// D(h)·(n·l)⁺/4 with n = v, h = normalize(l + n).
+    #[inline(never)]
+    fn split_sum_eval(&self, l: [f64; 3]) -> f64 {
+        let Material::Ggx { alpha } = self.material else {
+            return 0.0;
+        };
+        let c = brdf::dot(self.n, l);
+        if !(c > 0.0) {
+            return 0.0;
+        }
+        // n·h for h = normalize(l + n): √((1 + c)/2).
+        brdf::ggx_d(alpha, ((1.0 + c) * 0.5).sqrt()) * c * 0.25
     }
 
     /// The error of evaluating a node (cone `axis`, radius `rad`) at its representative

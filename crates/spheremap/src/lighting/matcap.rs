@@ -75,6 +75,8 @@ pub enum Method {
     Vndf,
     /// Roughness 0: the sphere map of the view.
     Mirror,
+    /// Filtered importance sampling from a cube mip pyramid (`prefilter --method sampled`).
+    Sampled,
 }
 
 /// What a bake did.
@@ -361,7 +363,11 @@ impl MatcapSource<'_> {
         let mean = self.tree.mean;
         let res = match (&self.vndf, self.material) {
             (Some((sampler, rot)), Material::Ggx { alpha }) => {
-                vndf_residual(sampler, rot, alpha, n, self.v, mean, r)
+                // Each sample's weight G₂/G₁(v): the visible-normal pdf holds G₁(v).
+                let lambda_v = brdf::smith_lambda(alpha, brdf::dot(self.v, n).max(1e-6));
+                let w =
+                    |mu_l| (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, mu_l));
+                vndf_residual(sampler, rot, alpha, n, self.v, mean, r, w)
             }
             _ => self.tree.residual(&Lobe::new(
                 self.material,
@@ -397,9 +403,12 @@ impl RaySource for MatcapSource<'_> {
     }
 }
 
-/// Σ (L(lᵢ) − L̄) G₂/G₁(v) / N over N visible-normal samples: the residual of a narrow GGX
-/// lobe.  The points are a Hammersley set, turned per integral by a hash of `key`.
-fn vndf_residual(
+/// Σ (L(lᵢ) − L̄) w(n·lᵢ) / N over N visible-normal samples lᵢ (GGX α seen from `v` at normal
+/// `n`, world frame; `rot` takes world directions to the map's): the residual of a narrow GGX
+/// lobe, `weight` the lobe over the sampling density.  The points are a Hammersley set, turned
+/// per integral by a hash of `key`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn vndf_residual(
     sampler: &Sampler,
     rot: &Mat3,
     alpha: f64,
@@ -407,10 +416,10 @@ fn vndf_residual(
     v: [f64; 3],
     mean: [f64; 3],
     key: [f64; 3],
+    weight: impl Fn(f64) -> f64,
 ) -> [f64; 3] {
     let (t, b) = brdf::tangent_frame(n);
     let vl = [brdf::dot(v, t), brdf::dot(v, b), brdf::dot(v, n).max(1e-6)];
-    let lambda_v = brdf::smith_lambda(alpha, vl[2]);
     let lc = envtree::light_channels(sampler.channels());
     let h = key.iter().fold(0x9E37_79B9u32, |h, &k| {
         (h ^ (k as f32).to_bits()).wrapping_mul(0x85EB_CA6B)
@@ -427,7 +436,7 @@ fn vndf_residual(
         if !(ll[2] > 0.0) {
             continue;
         }
-        let w = (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, ll[2]));
+        let w = weight(ll[2]);
         let l = [0, 1, 2].map(|k| ll[0] * t[k] + ll[1] * b[k] + ll[2] * n[k]);
         let e = [0, 1, 2].map(|i| (rot[i][0] * l[0] + rot[i][1] * l[1] + rot[i][2] * l[2]) as f32);
         sampler.sample(e, &mut px);

@@ -6,6 +6,8 @@
 //! * [`envtree`]: the environment as a tree of cube texel blocks, for exact lobe integrals;
 //! * [`matcap`]: physically exact MatCaps (the lit sphere of a material seen by an
 //!   orthographic viewer), and [`MatcapRequest`], the bake as users name it;
+//! * [`prefilter`]: the GGX radiance mip chain and the irradiance map engines load, and
+//!   [`PrefilterRequest`];
 //! * [`sh`]: order-2 spherical harmonics of a map and the irradiance they imply, in the
 //!   conventions of three.js and Filament;
 //! * [`dfg`]: the split-sum DFG lookup table of the same GGX.
@@ -14,6 +16,7 @@ pub mod brdf;
 pub mod dfg;
 pub mod envtree;
 pub mod matcap;
+pub mod prefilter;
 pub mod sh;
 
 use crate::base::error::{default_max_memory, Error, Result};
@@ -361,5 +364,355 @@ fn rename_env_fields(e: Error) -> Error {
             None => e,
         },
         _ => e,
+    }
+}
+
+/// A prefilter as users name it: `spheremap prefilter` and Python's `prefilter` fill the same
+/// fields (serde-readable, unknown keys refused); [`PrefilterRequest::resolve`] checks them.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PrefilterRequest {
+    /// The output mapping (`cube`, `octahedral`, `latlong`, `sphere`, …) and its preset.
+    pub to: String,
+    pub preset: Option<String>,
+    /// The cube layout of levels written as images (a `.ktx2`/`.dds` cube holds faces).
+    pub layout: Option<String>,
+    /// Level 0's size N (cube faces N×N, lat-long 2N×N); default 256, 32 for the irradiance.
+    pub size: Option<usize>,
+    /// Levels, each half the last's size; default down to 8 texels (6 for 256), 1 for the
+    /// irradiance.
+    pub levels: Option<usize>,
+    /// Level → roughness: `filament`, `threejs` or `linear` ([`prefilter::RoughnessMap`]).
+    pub roughness_map: String,
+    /// One cosine-convolved (Lambert) level instead of the GGX chain.
+    pub irradiance: bool,
+    /// The output's view: world directions of its −Z and +Y (a sphere map's eye).
+    pub look: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+    /// Spatial samples per texel (default 1, the texel's centre: each level's lobe is as wide
+    /// as its texels), the most one may take, the jitter's seed, the gutter rule.
+    pub samples: u32,
+    pub max_samples: u32,
+    pub seed: u64,
+    pub outside: String,
+    /// The error each integral may leave, relative to the map's mean radiance (default
+    /// [`prefilter::DEFAULT_TOLERANCE`]): the tree is cut no finer than that.
+    pub tolerance: Option<f64>,
+    /// `tree` (exact, the default) or `sampled` (filtered importance sampling as Filament's
+    /// `cmgen`: fast, approximate) ([`prefilter::PrefilterMethod`]).
+    pub method: String,
+    /// GGX samples per texel with `sampled` (Filament's default, 1024).
+    pub lobe_samples: usize,
+    pub env_format: Option<String>,
+    pub env_preset: Option<String>,
+    pub env_layout: Option<String>,
+    pub env_look: Option<[f64; 3]>,
+    pub env_up: Option<[f64; 3]>,
+    pub nonfinite: String,
+    pub max_memory: Option<u64>,
+}
+
+impl Default for PrefilterRequest {
+    fn default() -> Self {
+        PrefilterRequest {
+            to: "cube".into(),
+            preset: None,
+            layout: None,
+            size: None,
+            levels: None,
+            roughness_map: "filament".into(),
+            irradiance: false,
+            look: None,
+            up: None,
+            samples: 1,
+            max_samples: 1024,
+            seed: 0,
+            outside: "gutter".into(),
+            tolerance: None,
+            method: "tree".into(),
+            lobe_samples: 1024,
+            env_format: None,
+            env_preset: None,
+            env_layout: None,
+            env_look: None,
+            env_up: None,
+            nonfinite: "error".into(),
+            max_memory: None,
+        }
+    }
+}
+
+/// A [`PrefilterRequest`] checked against its environment.
+#[derive(Clone, Debug)]
+pub struct ResolvedPrefilter {
+    pub env: crate::mappings::mapping::Mapping,
+    pub env_layout: Option<crate::images::cube_layout::Layout>,
+    pub layout: Option<crate::images::cube_layout::Layout>,
+    pub prefilter: prefilter::Prefilter,
+    pub nonfinite: crate::images::codec::NonFinite,
+    pub notice: Option<String>,
+}
+
+/// The report of `spheremap prefilter --json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PrefilterReport {
+    pub input: String,
+    pub output: Vec<String>,
+    pub mapping: String,
+    pub size: usize,
+    pub irradiance: bool,
+    pub roughness_map: &'static str,
+    pub samples: u32,
+    pub levels: Vec<prefilter::LevelReport>,
+    pub seconds: f64,
+}
+
+/// The token an output name holds for the level number.
+pub const LEVEL_TOKEN: &str = "{level}";
+
+impl PrefilterRequest {
+    /// The environment's fields.
+    pub fn env_request(&self) -> EnvRequest {
+        EnvRequest {
+            env_format: self.env_format.clone(),
+            env_preset: self.env_preset.clone(),
+            env_layout: self.env_layout.clone(),
+            env_look: self.env_look,
+            env_up: self.env_up,
+            nonfinite: self.nonfinite.clone(),
+        }
+    }
+
+    /// Checks every field; errors name the field.
+    pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<ResolvedPrefilter> {
+        use crate::mappings::mapping::Mapping;
+        let r = self.env_request().resolve(note, input)?;
+        let mapping =
+            Mapping::parse(&self.to, self.preset.as_deref()).map_err(|e| e.named("to"))?;
+        let layout = self
+            .layout
+            .as_deref()
+            .map(crate::images::cube_layout::Layout::parse)
+            .transpose()
+            .map_err(|e| e.named("layout"))?;
+        if layout.is_some() && !matches!(mapping, Mapping::Cube(_)) {
+            return Err(Error::param(
+                "layout",
+                format!(
+                    "a cube layout, but the output mapping is {}",
+                    mapping.name()
+                ),
+            ));
+        }
+        let size = self.size.unwrap_or(if self.irradiance { 32 } else { 256 });
+        crate::base::error::check_map_size("size", size)?;
+        let levels = match (self.levels, self.irradiance) {
+            (Some(l), true) if l != 1 => {
+                return Err(Error::param(
+                    "levels",
+                    format!("{l}: the irradiance is one level"),
+                ))
+            }
+            (Some(l), _) => l,
+            (None, true) => 1,
+            (None, false) => prefilter::default_levels(size),
+        };
+        if levels == 0 || levels > prefilter::max_levels(size) {
+            return Err(Error::param(
+                "levels",
+                format!(
+                    "{levels} is out of range 1..={} for size {size}",
+                    prefilter::max_levels(size)
+                ),
+            ));
+        }
+        for (name, v) in [("samples", self.samples), ("max_samples", self.max_samples)] {
+            if v == 0 || v > crate::resample::SAMPLE_CAP {
+                return Err(Error::param(
+                    name,
+                    format!("{v} is out of range 1..={}", crate::resample::SAMPLE_CAP),
+                ));
+            }
+        }
+        let view = crate::frame::view::output_view(self.look, self.up, None)?;
+        let tolerance = self.tolerance.unwrap_or(prefilter::DEFAULT_TOLERANCE);
+        if !(1..=65536).contains(&self.lobe_samples) {
+            return Err(Error::param(
+                "lobe_samples",
+                format!("{} is out of range 1..=65536", self.lobe_samples),
+            ));
+        }
+        if !(tolerance > 0.0 && tolerance <= 0.1) {
+            return Err(Error::param(
+                "tolerance",
+                format!("{tolerance} is out of range (0, 0.1]"),
+            ));
+        }
+        Ok(ResolvedPrefilter {
+            env: r.mapping,
+            env_layout: r.layout,
+            layout,
+            prefilter: prefilter::Prefilter {
+                mapping,
+                size,
+                levels,
+                map: prefilter::RoughnessMap::parse(&self.roughness_map)?,
+                irradiance: self.irradiance,
+                view,
+                world_to_env: r.world_to_env,
+                samples: self.samples,
+                max_samples: self.max_samples,
+                seed: self.seed,
+                outside: Outside::parse(&self.outside)?,
+                max_memory: self.max_memory.unwrap_or_else(default_max_memory),
+                rule: envtree::CutRule {
+                    tol: tolerance,
+                    ..Default::default()
+                },
+                method: prefilter::PrefilterMethod::parse(&self.method)?,
+                lobe_samples: self.lobe_samples,
+            },
+            nonfinite: r.nonfinite,
+            notice: r.notice,
+        })
+    }
+
+    /// Prefilters an environment in memory (a cube map as its F×6F face stack): the levels,
+    /// level 0 first (a cube's as face stacks).
+    pub fn run_image(
+        &self,
+        image: &Image,
+        progress: Option<&Progress>,
+    ) -> Result<Vec<(Image, prefilter::LevelReport)>> {
+        let r = self.resolve(None, "env")?;
+        let env = EnvMap::new(r.env, image, "env")?;
+        prefilter::prefilter(&env, &r.prefilter, progress)
+    }
+
+    /// The files `output` names for `levels` levels of `mapping`: one KTX2/DDS texture, one
+    /// image per level (`{level}` in the name), or one image for one level.
+    pub fn output_files(output: &str, levels: usize, layout_given: bool) -> Result<Vec<String>> {
+        let container = crate::images::format::Format::names_container(output);
+        if output.contains(LEVEL_TOKEN) {
+            Ok((0..levels)
+                .map(|i| output.replace(LEVEL_TOKEN, &i.to_string()))
+                .collect())
+        } else if container {
+            if layout_given {
+                return Err(Error::param(
+                    "layout",
+                    format!(
+                        "{output}: a .ktx2/.dds texture holds a cube's six faces; a layout \
+                         applies to levels written as images ({LEVEL_TOKEN} in the name)"
+                    ),
+                ));
+            }
+            Ok(vec![output.to_string()])
+        } else if levels == 1 {
+            Ok(vec![output.to_string()])
+        } else {
+            Err(Error::param(
+                "output",
+                format!(
+                    "{output}: {levels} levels need {LEVEL_TOKEN} in the name (one image per \
+                     level) or a .ktx2/.dds file (every level in one texture)"
+                ),
+            ))
+        }
+    }
+
+    /// Reads the environment `input`, prefilters, and writes `output` atomically: every level
+    /// in one `.ktx2`/`.dds` texture (a cube's faces, or a 2D mip chain), or one image per
+    /// level with `{level}` in the name; each records its mapping and view.
+    pub fn run_files(
+        &self,
+        input: &str,
+        output: &str,
+        write: &crate::images::codec::WriteOptions,
+        force: bool,
+        progress: Option<&Progress>,
+    ) -> Result<(PrefilterReport, Option<String>)> {
+        use crate::images::cube_layout::Layout;
+        use crate::images::note::MapNote;
+        let t0 = std::time::Instant::now();
+        let files = EnvFiles::parse(input);
+        let note = read_note(files.first())?;
+        let r = self.resolve(note.as_ref(), input)?;
+        let p = &r.prefilter;
+        let names = Self::output_files(output, p.levels, r.layout.is_some())?;
+        let outs: Vec<EnvFiles> = names.iter().map(|n| EnvFiles::parse(n)).collect();
+        let all: Vec<String> = outs.iter().flat_map(|o| o.paths()).collect();
+        if !force {
+            refuse_overwrite(&files.paths(), &all)?;
+        }
+        for o in &outs {
+            o.check_output(p.mapping)?;
+        }
+        let (mut img, _) = read_env_layout(&files, r.env, r.env_layout, &ReadOptions::default())?;
+        check_nonfinite_env(&mut img, &files, r.nonfinite)?;
+        let env = EnvMap::new(r.env, &img, files.first())?;
+        let made = prefilter::prefilter(&env, p, progress)?;
+        let cube = matches!(p.mapping, crate::mappings::mapping::Mapping::Cube(_));
+        let one_texture =
+            !output.contains(LEVEL_TOKEN) && crate::images::format::Format::names_container(output);
+        // Nothing is written unless every level can be: a value beyond half's range is found
+        // before the first file.
+        if write.half && !write.clamp_half {
+            for (img, _) in &made {
+                let l = crate::images::codec::Losses::of(
+                    img,
+                    crate::images::format::Format::Exr,
+                    write,
+                );
+                if l.beyond_half > 0 {
+                    return Err(crate::images::codec::beyond_half_error(
+                        std::path::Path::new(&names[0]),
+                        &l,
+                    ));
+                }
+            }
+        }
+        let written = if one_texture {
+            // One texture with every level.
+            let tag = MapNote {
+                mapping: p.mapping,
+                layout: cube.then_some(Layout::VStrip),
+                face: None,
+                view: crate::frame::view::as_look_up(&p.view),
+            };
+            let tex = crate::images::container::Texture {
+                cube,
+                levels: made.iter().map(|(i, _)| i.clone()).collect(),
+            };
+            crate::images::codec::write_texture(
+                std::path::Path::new(&names[0]),
+                &tex,
+                write,
+                Some(&tag.text()),
+            )?;
+            names.clone()
+        } else {
+            let mut w = Vec::new();
+            for (o, (img, _)) in outs.iter().zip(&made) {
+                w.extend(crate::images::envmap::write_env_files(
+                    o, p.mapping, img, r.layout, &p.view, write,
+                )?);
+            }
+            w
+        };
+        Ok((
+            PrefilterReport {
+                input: files.label(),
+                output: written,
+                mapping: p.mapping.name().to_string(),
+                size: p.size,
+                irradiance: p.irradiance,
+                roughness_map: p.map.name(),
+                samples: p.samples,
+                levels: made.into_iter().map(|(_, l)| l).collect(),
+                seconds: t0.elapsed().as_secs_f64(),
+            },
+            r.notice,
+        ))
     }
 }

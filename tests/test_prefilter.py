@@ -1,0 +1,270 @@
+"""Prefiltered lighting and the texture containers: `spheremap prefilter`, Python's `prefilter`,
+`read_texture` / `write_texture`, and KTX2 / DDS read by `info` and `convert`.
+
+The references are independent of the core: the GGX split-sum kernel and its normalization in
+numpy from the textbook formulas; the files' bytes parsed here from the KTX 2.0 and DDS
+specifications. (The Rust tests open the same files with the `ktx2` and `ddsfile` crates.)
+"""
+
+import json
+import math
+import os
+import struct
+
+import numpy as np
+import pytest
+
+import spheremap
+from conftest import cli
+
+HERE = os.path.dirname(__file__)
+SKY = os.path.join(HERE, "..", "testdata", "hdri", "sky.exr")
+
+
+def ggx_d(alpha, c):
+    a2 = alpha * alpha
+    return a2 / (math.pi * (c * c * (a2 - 1) + 1) ** 2)
+
+
+def latlong_dirs(h, w):
+    """Directions of a (h, w) lat-long's texel centres in spheremap's default preset."""
+    uv = np.stack(np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h), -1)
+    return spheremap.uv_to_dir(uv.reshape(-1, 2), "latlong")[0].reshape(h, w, 3)
+
+
+def test_furnace_every_mapping_and_the_sphere_is_the_matcap():
+    env = np.full((32, 64, 3), 1.5, np.float32)
+    for to in ["cube", "octahedral", "latlong"]:
+        for irr in [False, True]:
+            levels = spheremap.prefilter(
+                env, to=to, size=16, levels=None if irr else 3, irradiance=irr, samples=1
+            )
+            for lv in levels:
+                assert np.allclose(lv, 1.5, rtol=2e-4), (to, irr)
+    # The sphere variant is the exact GGX MatCap of albedo 1 of each level's roughness.
+    rng = np.random.default_rng(1)
+    env = (rng.random((32, 64, 3)) * 2).astype(np.float32)
+    # (Four samples per texel and the tolerance of convert and bake_matcap.)
+    levels, reports = spheremap.prefilter(
+        env, to="sphere", size=32, levels=3, look=(1, 0, -1), samples=4, tolerance=1e-5, report=True
+    )
+    for lv, rep in zip(levels, reports):
+        if rep["roughness"] == 0:
+            want = spheremap.convert(env, "latlong", "sphere", size=32, look=(1, 0, -1))
+        else:
+            want = spheremap.bake_matcap(
+                env, roughness=rep["roughness"], albedo=(1, 1, 1), size=lv.shape[0], look=(1, 0, -1)
+            )
+        assert np.array_equal(lv, want), rep
+
+
+def test_a_level_against_the_split_sum_integral_in_numpy():
+    # A smooth map with a bright spot; level 2 of a 4-level latlong chain against the kernel
+    # summed over every texel (4x4 sub-points, nearest texel: the map is smooth).
+    h, w = 32, 64
+    d = latlong_dirs(h, w)
+    spot = np.array([0.3, 0.5, -0.8]) / np.linalg.norm([0.3, 0.5, -0.8])
+    env = (0.3 + 0.2 * d[..., 0:1] + 20 * np.exp((d @ spot - 1) / 0.02)[..., None] * [1, 0.8, 0.5]).astype(
+        np.float32
+    )
+    levels, reports = spheremap.prefilter(env, to="latlong", size=16, levels=4, samples=1, report=True)
+    k = 4
+    dd = latlong_dirs(h * k, w * k).reshape(-1, 3)
+    om = spheremap.texel_solid_angles("latlong", w * k, h * k).reshape(-1)
+    lv = np.repeat(np.repeat(env, k, 0), k, 1).reshape(-1, 3).astype(np.float64)
+    for i in (2, 3):
+        r = reports[i]["roughness"]
+        alpha = r * r
+        out = levels[i]
+        rows = latlong_dirs(*out.shape[:2])
+        worst = 0.0
+        for y in range(0, out.shape[0], 2):
+            for x in range(0, out.shape[1], 3):
+                n = rows[y, x]
+                c = dd @ n
+                m = c > 0
+                nh = np.sqrt((1 + c[m]) / 2)
+                wgt = ggx_d(alpha, nh) * c[m] / 4 * om[m]
+                want = (lv[m] * wgt[:, None]).sum(0) / wgt.sum()
+                worst = max(worst, float(np.max(np.abs(out[y, x] - want) / np.maximum(want, 0.3))))
+        assert worst < 5e-3, (i, r, worst)
+
+
+def test_cli_prefilter_writes_a_cube_texture_and_level_images(tmp_path):
+    out = tmp_path / "sky.ktx2"
+    p = cli("prefilter", SKY, "-o", out, "--size", "32", "--levels", "4", "--samples", "1", "--json")
+    assert p.returncode == 0, p.stderr
+    rep = json.loads(p.stdout)
+    assert rep["mapping"] == "cube" and len(rep["levels"]) == 4 and rep["output"] == [str(out)]
+    r = [lv["roughness"] for lv in rep["levels"]]
+    # Filament's mapping: r (2 - r) = i / (L - 1).
+    assert np.allclose([x * (2 - x) for x in r], [0, 1 / 3, 2 / 3, 1])
+    levels, cube = spheremap.read_texture(out)
+    assert cube and [lv.shape for lv in levels] == [
+        (6, 32, 32, 4),
+        (6, 16, 16, 4),
+        (6, 8, 8, 4),
+        (6, 4, 4, 4),
+    ]
+    info = spheremap.info(str(out))
+    assert info["format"] == "KTX2" and info["recorded"]["mapping"] == "cube"
+    # convert reads the texture's level 0 as the cube it is, with no --from.
+    p = cli("convert", out, tmp_path / "back.exr", "--to", "latlong", "--size", "16")
+    assert p.returncode == 0, p.stderr
+    # The same chain as images, one per level, and as DDS.
+    p = cli(
+        "prefilter",
+        SKY,
+        "-o",
+        tmp_path / "sky_{level}.exr",
+        "--size",
+        "32",
+        "--levels",
+        "4",
+        "--samples",
+        "1",
+    )
+    assert p.returncode == 0, p.stderr
+    for i, lv in enumerate(levels):
+        img = spheremap.read_image(str(tmp_path / f"sky_{i}.exr"))
+        faces = spheremap.cube_from_layout(img, "hcross")
+        assert np.allclose(faces, lv[..., :3], rtol=1e-6, atol=1e-7), i
+    p = cli(
+        "prefilter",
+        SKY,
+        "-o",
+        tmp_path / "sky.dds",
+        "--size",
+        "32",
+        "--levels",
+        "4",
+        "--samples",
+        "1",
+        "--half",
+    )
+    assert p.returncode == 0, p.stderr
+    dl, dcube = spheremap.read_texture(tmp_path / "sky.dds")
+    assert dcube and all(np.allclose(a, b, rtol=1e-3, atol=1e-4) for a, b in zip(dl, levels))
+
+
+def test_cli_prefilter_irradiance_and_errors(tmp_path):
+    p = cli(
+        "prefilter",
+        SKY,
+        "-o",
+        tmp_path / "irr.exr",
+        "--irradiance",
+        "--to",
+        "latlong",
+        "--size",
+        "8",
+        "--json",
+    )
+    assert p.returncode == 0, p.stderr
+    rep = json.loads(p.stdout)
+    assert rep["irradiance"] and rep["levels"][0]["roughness"] is None
+    irr = spheremap.read_image(str(tmp_path / "irr.exr"))
+    assert irr.shape == (8, 16, 3) and (irr > 0).all()
+    for args, what in [
+        (["-o", tmp_path / "x.exr", "--levels", "3"], "{level}"),
+        (["-o", tmp_path / "x.ktx2", "--levels", "40"], "--levels"),
+        (["-o", tmp_path / "x.ktx2", "--irradiance", "--levels", "2"], "--levels"),
+        (["-o", tmp_path / "x.ktx2", "--roughness-map", "unreal"], "--roughness-map"),
+        (["-o", tmp_path / "x.ktx2", "--layout", "hcross"], "--layout"),
+        (["-o", tmp_path / "x.webp"], "x.webp"),
+    ]:
+        p = cli("prefilter", SKY, *args)
+        assert p.returncode == 2 and what in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert not any(tmp_path.glob("x*"))
+
+
+def test_python_prefilter_names_the_argument():
+    env = np.ones((16, 32, 3), np.float32)
+    for kwargs, name in [
+        ({"levels": 0}, "levels"),
+        ({"to": "globe"}, "to"),
+        ({"roughness_map": "unreal"}, "roughness_map"),
+        ({"irradiance": True, "levels": 2}, "levels"),
+    ]:
+        with pytest.raises(ValueError, match=name):
+            spheremap.prefilter(env, **kwargs)
+
+
+# -- the containers, byte by byte -----------------------------------------------------------------
+
+
+def test_ktx2_bytes_follow_the_specification(tmp_path):
+    rng = np.random.default_rng(2)
+    levels = [rng.random((16, 32, 3)).astype(np.float32), rng.random((8, 16, 3)).astype(np.float32)]
+    path = tmp_path / "t.ktx2"
+    spheremap.write_texture(path, levels, mapping="latlong")
+    b = path.read_bytes()
+    assert b[:12] == b"\xabKTX 20\xbb\r\n\x1a\n"
+    vk, ts, w, h, d, layers, faces, nlev, sc = struct.unpack_from("<9I", b, 12)
+    assert (vk, ts, w, h, d, layers, faces, nlev, sc) == (109, 4, 32, 16, 0, 0, 1, 2, 0)
+    dfd_off, dfd_len, kvd_off, kvd_len = struct.unpack_from("<4I", b, 48)
+    # Key/value pairs: length, key NUL value NUL, padded to 4.
+    kv, at = {}, kvd_off
+    while at < kvd_off + kvd_len:
+        (n,) = struct.unpack_from("<I", b, at)
+        key, _, val = b[at + 4 : at + 4 + n].partition(b"\0")
+        kv[key.decode()] = val.rstrip(b"\0").decode()
+        at += 4 + n + (-(4 + n)) % 4
+    assert kv["KTXorientation"] == "rd" and kv["spheremap"].startswith("mapping=latlong")
+    for i, lv in enumerate(levels):
+        off, length, ulen = struct.unpack_from("<3Q", b, 80 + 24 * i)
+        assert off % 16 == 0 and length == ulen == lv.shape[0] * lv.shape[1] * 16
+        px = np.frombuffer(b, np.float32, length // 4, off).reshape(lv.shape[0], lv.shape[1], 4)
+        assert np.array_equal(px[..., :3], lv) and (px[..., 3] == 1).all()
+    # Level 1 comes before level 0 in the file (smallest first).
+    assert struct.unpack_from("<Q", b, 104)[0] < struct.unpack_from("<Q", b, 80)[0]
+    back, cube = spheremap.read_texture(path)
+    assert not cube and np.array_equal(back[1][..., :3], levels[1])
+
+
+def test_dds_bytes_follow_the_specification(tmp_path):
+    f = 4
+    stack = np.arange(6 * f * f * 3, dtype=np.float32).reshape(6 * f, f, 3)
+    path = tmp_path / "c.dds"
+    spheremap.write_texture(path, [stack], cube=True, half=True)
+    b = path.read_bytes()
+    assert b[:4] == b"DDS " and struct.unpack_from("<I", b, 4)[0] == 124
+    hh, ww = struct.unpack_from("<2I", b, 12)
+    assert (hh, ww) == (f, f) and b[84:88] == b"DX10"
+    caps2 = struct.unpack_from("<I", b, 112)[0]
+    assert caps2 & 0x200 and caps2 & 0xFC00 == 0xFC00
+    dxgi, dim, misc, arr = struct.unpack_from("<4I", b, 128)
+    assert (dxgi, dim, misc & 4, arr) == (10, 3, 4, 1)
+    px = np.frombuffer(b, np.float16, 6 * f * f * 4, 148).reshape(6 * f, f, 4)
+    # Faces +X -X +Y -Y +Z -Z one after another: the face stack as it is.
+    assert np.array_equal(px[..., :3].astype(np.float32), stack)
+    back, cube = spheremap.read_texture(path)
+    assert cube and np.array_equal(back[0][..., :3], stack.reshape(6, f, f, 3))
+
+
+def test_bad_textures_are_refused_with_the_reason(tmp_path):
+    good = tmp_path / "g.ktx2"
+    spheremap.write_texture(good, [np.ones((4, 4, 3), np.float32)])
+    b = bytearray(good.read_bytes())
+    cases = {
+        "trunc.ktx2": bytes(b[:-5]),
+        "bc7.ktx2": bytes(b[:12] + struct.pack("<I", 145) + b[16:]),
+        "zstd.ktx2": bytes(b[:44] + struct.pack("<I", 2) + b[48:]),
+        "empty.dds": b"DDS " + bytes(10),
+    }
+    for name, data in cases.items():
+        p = tmp_path / name
+        p.write_bytes(data)
+        with pytest.raises(spheremap.DataError, match=name):
+            spheremap.read_image(p)
+        r = cli("info", p)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    with pytest.raises(ValueError, match="levels"):
+        spheremap.write_texture(
+            tmp_path / "x.ktx2", [np.ones((4, 4, 3), np.float32), np.ones((3, 3, 3), np.float32)]
+        )
+    with pytest.raises(ValueError, match="levels"):
+        spheremap.write_texture(tmp_path / "x.ktx2", [])
+    with pytest.raises(spheremap.DataError, match="half"):
+        spheremap.write_texture(tmp_path / "x.ktx2", [np.full((2, 2, 3), 1e6, np.float32)], half=True)
+    assert not (tmp_path / "x.ktx2").exists()
