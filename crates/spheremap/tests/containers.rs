@@ -304,4 +304,21 @@ fn latlong_ktx2_chain_reads_back_through_convert() {
     assert_eq!(note.mapping.name(), "cube");
     let img = spheremap::images::codec::read_image(&cube, &ReadOptions::default()).unwrap();
     assert_eq!((img.width, img.height, img.channels), (8, 48, 4));
+    // A conversion that keeps the cube (its note's layout, the face stack) writes a cube
+    // texture again.
+    let again = dir.join("again.ktx2");
+    let job = spheremap::jobs::convert::ConvertJob {
+        size: Some(4),
+        ..Default::default()
+    };
+    job.run_files(
+        &[
+            cube.to_str().unwrap().to_string(),
+            again.to_str().unwrap().to_string(),
+        ],
+        None,
+    )
+    .unwrap();
+    let tex = read_texture(&again, &ReadOptions::default()).unwrap();
+    assert!(tex.cube && tex.levels[0].width == 4);
 }

@@ -208,8 +208,8 @@ pub fn read_env_layout(
 
 /// Writes a canvas of `mapping` (cube: face stack), made for `view` ([`crate::frame::view`]; the
 /// identity for the world frame), to `path`: six files for a face pattern, else one image
-/// (cube maps in `layout`, default hcross; a `.ktx2` or `.dds` file without a layout holds a
-/// cube texture of six faces).  The output paths are returned.
+/// (cube maps in `layout`, default hcross; a `.ktx2` or `.dds` file without a layout, or in
+/// the face stack's, holds a cube texture of six faces).  The output paths are returned.
 pub fn write_env(
     path: &str,
     mapping: Mapping,
@@ -274,8 +274,10 @@ pub fn write_env_files(
         face: None,
         view,
     };
-    if matches!(mapping, Mapping::Cube(_)) && Format::names_container(path) && layout.is_none() {
-        // A cube texture: its six faces, read back as the face stack.
+    let stack = matches!(layout, None | Some(Layout::VStrip));
+    if matches!(mapping, Mapping::Cube(_)) && Format::names_container(path) && stack {
+        // A cube texture: its six faces, read back as the face stack (so a cube read from one
+        // is written as one).
         tag.layout = Some(Layout::VStrip);
         let tex = crate::images::container::Texture {
             cube: true,
