@@ -28,8 +28,9 @@
 //! ([`super::envtree`]) with the control variate L̄: LD = L̄ + Σ over a cut of (L − L̄)·k / W(α),
 //! k = D(h)(n·l)⁺/4 and W(α) = ∫ k dω its exact integral ([`split_sum_norm`]), to the
 //! tolerance ([`DEFAULT_TOLERANCE`]).  The tree's finest face resolves the lobe (16 leaves
-//! across α, up to faces of 512; below that, leaves the lobe varies across average it over
-//! their area, down to [`MIN_LEAVES_PER_ALPHA`] leaves, α ≈ 0.009, roughness ≈ 0.096).
+//! across α, up to faces of 512; under [`envtree::AVERAGE_BELOW`] leaves, leaves the lobe
+//! varies across average it over their area, down to [`MIN_LEAVES_PER_ALPHA`] leaves,
+//! α ≈ 0.009, roughness ≈ 0.096).
 //! Narrower lobes take 256 visible-normal samples with bilinear lookups, as MatCaps do.
 //!
 //! [`PrefilterMethod::Sampled`] is filtered importance sampling (Křivánek and Colbert 2008) as
