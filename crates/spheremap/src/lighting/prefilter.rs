@@ -295,7 +295,19 @@ pub fn prefilter(
             None => Material::Lambert,
             Some(r) => Material::Ggx { alpha: r * r },
         };
-        if let Mapping::Sphere(_) = p.mapping {
+        let gen = GenerateOptions {
+            samples: p.samples,
+            max_samples: p.max_samples,
+            filter: crate::resample::Filter::Box,
+            outside: p.outside,
+            rotation: p.view,
+            pos: [0.0; 3],
+            seed: p.seed,
+            precision: crate::resample::Precision::F32,
+            max_memory: p.max_memory,
+        };
+        // Each level by its method: (image, method, tree face, integrals).
+        let (img, method, tree_face, integrals) = if let Mapping::Sphere(_) = p.mapping {
             let bake = matcap::Bake {
                 material,
                 albedo: [1.0; 3],
@@ -311,33 +323,8 @@ pub fn prefilter(
                 normal_table: None,
             };
             let (img, r) = matcap::bake(env, &bake, progress)?;
-            out.push((
-                img,
-                LevelReport {
-                    level: i,
-                    width: w,
-                    height: h,
-                    roughness,
-                    method: r.method,
-                    tree_face: r.tree_face,
-                    integrals: r.integrals,
-                    seconds: t0.elapsed().as_secs_f64(),
-                },
-            ));
-            continue;
-        }
-        let gen = GenerateOptions {
-            samples: p.samples,
-            max_samples: p.max_samples,
-            filter: crate::resample::Filter::Box,
-            outside: p.outside,
-            rotation: p.view,
-            pos: [0.0; 3],
-            seed: p.seed,
-            precision: crate::resample::Precision::F32,
-            max_memory: p.max_memory,
-        };
-        if material == (Material::Ggx { alpha: 0.0 }) {
+            (img, r.method, r.tree_face, r.integrals)
+        } else if material == (Material::Ggx { alpha: 0.0 }) {
             // The mirror: the environment resampled.
             let opts = crate::resample::ResampleOptions {
                 samples: p.samples,
@@ -349,77 +336,48 @@ pub fn prefilter(
                 ..Default::default()
             };
             let (img, r) = crate::resample::resample(env, p.mapping, w, h, &opts, progress)?;
-            out.push((
-                img,
-                LevelReport {
-                    level: i,
-                    width: w,
-                    height: h,
-                    roughness,
-                    method: Method::Mirror,
-                    tree_face: 0,
-                    integrals: r.lookups,
-                    seconds: t0.elapsed().as_secs_f64(),
-                },
-            ));
-            continue;
-        }
-        if p.method == PrefilterMethod::Sampled {
+            (img, Method::Mirror, 0, r.lookups)
+        } else if p.method == PrefilterMethod::Sampled {
             if pyramid.is_none() {
                 pyramid = Some(CubePyramid::build(env, p, progress)?);
             }
+            let pyramid = pyramid.as_ref().expect("built above");
             let source = SampledSource {
-                pyramid: pyramid.as_ref().expect("built above"),
-                samples: lobe_samples(
-                    material,
-                    p.lobe_samples,
-                    pyramid.as_ref().expect("built above").face,
-                ),
+                pyramid,
+                samples: lobe_samples(material, p.lobe_samples, pyramid.face),
             };
             let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
-            out.push((
-                img,
-                LevelReport {
-                    level: i,
-                    width: w,
-                    height: h,
-                    roughness,
-                    method: Method::Sampled,
-                    tree_face: 0,
-                    integrals: r.rays,
-                    seconds: t0.elapsed().as_secs_f64(),
+            (img, Method::Sampled, 0, r.rays)
+        } else {
+            let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
+            let need = envtree::face_needed(material);
+            let cap = TREE_FACE_CAP.max(src_face);
+            // The tree at its finest resolves lobes down to MIN_LEAVES_PER_ALPHA leaves across
+            // α (measured against brute force); narrower ones are sampled.
+            let leaves = |alpha: f64| alpha * cap as f64 / std::f64::consts::FRAC_PI_2;
+            let method = match material {
+                Material::Ggx { alpha } if leaves(alpha) < MIN_LEAVES_PER_ALPHA => Method::Vndf,
+                _ => Method::Tree,
+            };
+            let face = need.min(cap);
+            if tree.as_ref().map(|t| t.face) != Some(face) {
+                drop(tree.take()); // free the last one first
+                crate::base::error::check_memory("env", EnvTree::bytes(face), p.max_memory)?;
+                tree = Some(EnvTree::build(env, p.world_to_env, face)?);
+            }
+            let source = LevelSource {
+                tree: tree.as_ref().expect("built above"),
+                material,
+                norm: match material {
+                    Material::Lambert => 1.0,
+                    Material::Ggx { alpha } => split_sum_norm(alpha),
                 },
-            ));
-            continue;
-        }
-        let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
-        let need = envtree::face_needed(material);
-        let cap = TREE_FACE_CAP.max(src_face);
-        // The tree at its finest resolves lobes down to MIN_LEAVES_PER_ALPHA leaves across α
-        // (measured against brute force); narrower ones are sampled.
-        let leaves = |alpha: f64| alpha * cap as f64 / std::f64::consts::FRAC_PI_2;
-        let method = match material {
-            Material::Ggx { alpha } if leaves(alpha) < MIN_LEAVES_PER_ALPHA => Method::Vndf,
-            _ => Method::Tree,
+                vndf: (method == Method::Vndf).then(|| (Sampler::new(env), p.world_to_env)),
+                rule: p.rule,
+            };
+            let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
+            (img, method, face, r.rays)
         };
-        let face = need.min(cap);
-        if tree.as_ref().map(|t| t.face) != Some(face) {
-            drop(tree.take()); // free the last one first
-            crate::base::error::check_memory("env", EnvTree::bytes(face), p.max_memory)?;
-            tree = Some(EnvTree::build(env, p.world_to_env, face)?);
-        }
-        let t = tree.as_ref().expect("built above");
-        let source = LevelSource {
-            tree: t,
-            material,
-            norm: match material {
-                Material::Lambert => 1.0,
-                Material::Ggx { alpha } => split_sum_norm(alpha),
-            },
-            vndf: (method == Method::Vndf).then(|| (Sampler::new(env), p.world_to_env)),
-            rule: p.rule,
-        };
-        let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
         out.push((
             img,
             LevelReport {
@@ -428,8 +386,8 @@ pub fn prefilter(
                 height: h,
                 roughness,
                 method,
-                tree_face: face,
-                integrals: r.rays,
+                tree_face,
+                integrals,
                 seconds: t0.elapsed().as_secs_f64(),
             },
         ));
