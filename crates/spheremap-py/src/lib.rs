@@ -732,11 +732,21 @@ fn irradiance_sh<'py>(
             }
         },
     };
-    let img = image_of(&image, "env")?;
+    let shape = image.shape().to_vec();
+    if shape.len() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "env: expected (H, W, C), got shape {shape:?}"
+        )));
+    }
+    let data = contiguous(&image, "env")?;
     let r = req
         .resolve(None, "env")
         .map_err(|e| to_py(lighting_names(e)))?;
-    let env = spheremap::resample::EnvMap::new(r.mapping, &img, "env").map_err(to_py)?;
+    // The array's texels as they are (no copy: a 2048×1024 map is read in a few ms).
+    let env = spheremap::resample::EnvMap::from_slice(
+        r.mapping, shape[1], shape[0], shape[2], data, "env",
+    )
+    .map_err(to_py)?;
     let report = py
         .detach(|| sh::IrradianceReport::of(&env, &r.world_to_env, window, "env"))
         .map_err(to_py)?;

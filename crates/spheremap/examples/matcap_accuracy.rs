@@ -5,7 +5,8 @@
 //!
 //! Usage: cargo run --release -p spheremap --example matcap_accuracy -- HDRI.exr [...]
 //! `SUN=1` adds a one-texel sun holding a quarter of the map's energy; `TOL=…` overrides the
-//! tree's tolerance.
+//! tree's tolerance; `ONLY=0.15` bakes only the materials whose name ends so; `N` (32) is the
+//! MatCap's size and `KS` (4) the reference's points per texel axis.
 use rayon::prelude::*;
 use spheremap::images::codec::{read_image, ReadOptions};
 use spheremap::lighting::brdf::{self, Material};
@@ -39,7 +40,13 @@ fn rule() -> spheremap::lighting::envtree::CutRule {
 #[allow(clippy::needless_range_loop)]
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let n = 32usize;
+    let var = |k: &str, d: usize| -> usize {
+        std::env::var(k)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(d)
+    };
+    let n = var("N", 32);
     let ll = Mapping::parse("latlong", None).unwrap();
     for path in &args {
         let full = read_image(std::path::Path::new(path), &ReadOptions::default()).unwrap();
@@ -81,7 +88,7 @@ fn main() {
                 }
             }
             // Brute-force table of env texels.
-            let ks = 4;
+            let ks = var("KS", 4);
             let e0 = EnvMap::new(ll, &env, "env").unwrap();
             let smp = spheremap::resample::Sampler::new(&e0);
             let texels: Vec<([f64; 3], [f64; 3])> = (0..h * ks)
@@ -106,7 +113,11 @@ fn main() {
                 ("ggx 0.5", Material::Ggx { alpha: 0.25 }),
                 ("ggx 0.25", Material::Ggx { alpha: 0.0625 }),
                 ("ggx 0.15", Material::Ggx { alpha: 0.0225 }),
+                ("ggx 0.12", Material::Ggx { alpha: 0.0144 }),
             ] {
+                if std::env::var("ONLY").is_ok_and(|o| !name.ends_with(&o)) {
+                    continue;
+                }
                 let b = Bake {
                     material: mat,
                     albedo: [1.0; 3],

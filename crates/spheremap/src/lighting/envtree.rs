@@ -113,6 +113,10 @@ fn sub_points(m: Mapping, w: usize, h: usize, face: usize) -> usize {
 /// the finest tree a map allows); wider lobes read each leaf at its centroid.
 pub const AVERAGE_BELOW: f64 = 8.0;
 
+/// The fewest leaves of the finest tree across α that a GGX lobe is integrated on the tree
+/// with (measured against brute force); narrower lobes are sampled.
+pub const MIN_LEAVES_PER_ALPHA: f64 = 3.0;
+
 /// The cube face that resolves `material`'s lobe (the power of two at or above
 /// `FACE_PER_ALPHA`/α), at least 64.
 pub const FACE_PER_ALPHA: f64 = 16.0;

@@ -148,16 +148,7 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         };
         return Ok((img, report));
     }
-    // The tree at the resolution the lobe needs, up to the source's; a GGX lobe finer than
-    // that is sampled.
-    let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
-    let need = envtree::face_needed(b.material);
-    let method = if need > TREE_FACE_CAP.max(src_face) {
-        Method::Vndf
-    } else {
-        Method::Tree
-    };
-    let face = need.min(TREE_FACE_CAP.max(src_face));
+    let (method, face) = plan(env, b.material);
     crate::base::error::check_memory("env", envtree::EnvTree::bytes(face), b.max_memory)?;
     let tree = EnvTree::build(env, b.world_to_env, face)?;
     let mut source = MatcapSource {
@@ -186,6 +177,22 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         rep.integrals = integrals;
     }
     Ok((img, rep))
+}
+
+/// How `material`'s integrals over `env` are computed, and the tree face they use: the tree at
+/// the resolution the lobe needs ([`envtree::face_needed`]), up to [`TREE_FACE_CAP`]; a lobe
+/// too narrow for that face has its leaves averaged ([`envtree::AVERAGE_BELOW`]) down to
+/// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.096); narrower ones are
+/// sampled ([`Method::Vndf`]).
+pub fn plan(env: &EnvMap, material: Material) -> (Method, usize) {
+    let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
+    let cap = TREE_FACE_CAP.max(src_face);
+    let leaves = |alpha: f64| alpha * cap as f64 / std::f64::consts::FRAC_PI_2;
+    let method = match material {
+        Material::Ggx { alpha } if leaves(alpha) < envtree::MIN_LEAVES_PER_ALPHA => Method::Vndf,
+        _ => Method::Tree,
+    };
+    (method, envtree::face_needed(material).min(cap))
 }
 
 /// L_o on a grid of view-space normals, for bicubic lookups: the hemisphere as the
@@ -456,5 +463,26 @@ pub fn check_albedo(a: [f64; 3]) -> Result<[f64; 3]> {
             "albedo",
             format!("{a:?}: three finite values of at least 0 are expected"),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plan_trees_lobes_down_to_three_leaves_of_a_512_face() {
+        let m = Mapping::parse("latlong", None).unwrap();
+        let img = Image::new(512, 256, 3);
+        let env = EnvMap::new(m, &img, "env").unwrap();
+        let ggx = |r: f64| Material::Ggx { alpha: r * r };
+        assert_eq!(plan(&env, Material::Lambert), (Method::Tree, 64));
+        assert_eq!(plan(&env, ggx(0.5)), (Method::Tree, 64));
+        assert_eq!(plan(&env, ggx(0.25)), (Method::Tree, 256));
+        // 16/α wants a 1024 face; the 512 face holds 7.3 leaves across α: averaged leaves.
+        assert_eq!(plan(&env, ggx(0.15)), (Method::Tree, 512));
+        assert_eq!(plan(&env, ggx(0.1)), (Method::Tree, 512));
+        // Under 3 leaves across α (roughness 0.096): visible-normal samples.
+        assert_eq!(plan(&env, ggx(0.09)).0, Method::Vndf);
     }
 }

@@ -82,9 +82,7 @@ impl PrefilterMethod {
     }
 }
 
-/// The fewest leaves of the finest tree across α that a split-sum lobe is integrated on the
-/// tree with (below, by visible-normal samples).
-pub const MIN_LEAVES_PER_ALPHA: f64 = 3.0;
+pub use super::envtree::MIN_LEAVES_PER_ALPHA;
 
 /// How level i of L is given its roughness.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -349,17 +347,7 @@ pub fn prefilter(
             let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
             (img, Method::Sampled, 0, r.rays)
         } else {
-            let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
-            let need = envtree::face_needed(material);
-            let cap = TREE_FACE_CAP.max(src_face);
-            // The tree at its finest resolves lobes down to MIN_LEAVES_PER_ALPHA leaves across
-            // α (measured against brute force); narrower ones are sampled.
-            let leaves = |alpha: f64| alpha * cap as f64 / std::f64::consts::FRAC_PI_2;
-            let method = match material {
-                Material::Ggx { alpha } if leaves(alpha) < MIN_LEAVES_PER_ALPHA => Method::Vndf,
-                _ => Method::Tree,
-            };
-            let face = need.min(cap);
+            let (method, face) = matcap::plan(env, material);
             if tree.as_ref().map(|t| t.face) != Some(face) {
                 drop(tree.take()); // free the last one first
                 crate::base::error::check_memory("env", EnvTree::bytes(face), p.max_memory)?;
@@ -509,25 +497,31 @@ impl CubePyramid {
     }
 
     /// Bilinear within face `fc` at (s, t) (edges clamped), mip `k`.
-    #[inline]
+    #[inline(always)]
     fn texel(&self, k: usize, fc: usize, s: f32, t: f32) -> [f32; 3] {
         let f = (self.face >> k).max(1);
         let (x, y) = (s * f as f32 - 0.5, t * f as f32 - 0.5);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (tx, ty) = (x - x0, y - y0);
-        let cl = |v: f32| (v.max(0.0) as usize).min(f - 1);
-        let (xa, xb, ya, yb) = (cl(x0), cl(x0 + 1.0), cl(y0), cl(y0 + 1.0));
+        // x, y ≥ −0.5 (s, t in [0, 1]): floor by truncation of x + 1 (no libm call).
+        let (xi, yi) = ((x + 1.0) as i32 - 1, (y + 1.0) as i32 - 1);
+        let (tx, ty) = (x - xi as f32, y - yi as f32);
+        let last = f as i32 - 1;
+        let cl = |v: i32| v.clamp(0, last) as usize;
+        let (xa, xb, ya, yb) = (cl(xi), cl(xi + 1), cl(yi), cl(yi + 1));
         let lv = &self.levels[k];
         let base = fc * f * f;
         let (a, b) = (lv[base + ya * f + xa], lv[base + ya * f + xb]);
         let (c, e) = (lv[base + yb * f + xa], lv[base + yb * f + xb]);
-        [0, 1, 2].map(|q| {
-            (1.0 - ty) * ((1.0 - tx) * a[q] + tx * b[q]) + ty * ((1.0 - tx) * c[q] + tx * e[q])
-        })
+        let (w00, w10) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
+        let (w01, w11) = ((1.0 - tx) * ty, tx * ty);
+        [
+            w00 * a[0] + w10 * b[0] + w01 * c[0] + w11 * e[0],
+            w00 * a[1] + w10 * b[1] + w01 * c[1] + w11 * e[1],
+            w00 * a[2] + w10 * b[2] + w01 * c[2] + w11 * e[2],
+        ]
     }
 
     /// Trilinear in direction `d` at fractional mip `lod`.
-    #[inline]
+    #[inline(always)]
     fn sample(&self, d: [f32; 3], lod: f32) -> [f32; 3] {
         let lod = lod.clamp(0.0, (self.levels.len() - 1) as f32);
         let k = lod as usize;
@@ -538,7 +532,11 @@ impl CubePyramid {
             return a;
         }
         let b = self.texel(k + 1, fc, s, tt);
-        [0, 1, 2].map(|q| a[q] + t * (b[q] - a[q]))
+        [
+            a[0] + t * (b[0] - a[0]),
+            a[1] + t * (b[1] - a[1]),
+            a[2] + t * (b[2] - a[2]),
+        ]
     }
 }
 
@@ -550,9 +548,10 @@ struct LobeSample {
     lod: f32,
 }
 
-/// A level's lobe samples (those above the horizon).
+/// A level's lobe samples (those above the horizon) and the sum of their weights.
 struct LobeSet {
     samples: Vec<LobeSample>,
+    weight: f64,
 }
 
 /// The Hammersley set of `n` samples of `material`'s lobe about z (the split-sum's D(h) with
@@ -561,37 +560,37 @@ struct LobeSet {
 /// texel of the pyramid (Filament's rule).
 fn lobe_samples(material: Material, n: usize, face: usize) -> LobeSet {
     let omega_p = 4.0 * std::f64::consts::PI / (6.0 * face as f64 * face as f64);
-    LobeSet {
-        samples: (0..n)
-            .filter_map(|i| {
-                let u1 = (i as f64 + 0.5) / n as f64;
-                let u2 = (i as u32).reverse_bits() as f64 / 4294967296.0;
-                let phi = 2.0 * std::f64::consts::PI * u2;
-                let (l, pdf) = match material {
-                    Material::Ggx { alpha } => {
-                        // cos²θ_h from D's CDF; l = reflect(z about h).
-                        let a2 = alpha * alpha;
-                        let c2 = (1.0 - u1) / (1.0 + (a2 - 1.0) * u1);
-                        let (ch, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
-                        let h = [sh * phi.cos(), sh * phi.sin(), ch];
-                        let l = [2.0 * ch * h[0], 2.0 * ch * h[1], 2.0 * ch * ch - 1.0];
-                        (l, brdf::ggx_d(alpha, ch) / 4.0)
-                    }
-                    Material::Lambert => {
-                        let (c, s) = ((1.0 - u1).sqrt(), u1.sqrt());
-                        ([s * phi.cos(), s * phi.sin(), c], c / std::f64::consts::PI)
-                    }
-                };
-                let omega_s = 1.0 / (n as f64 * pdf.max(1e-300));
-                let lod = (0.5 * (omega_s / omega_p).log2() + 1.0).max(0.0);
-                (l[2] > 0.0).then_some(LobeSample {
-                    l: l.map(|v| v as f32),
-                    nl: l[2] as f32,
-                    lod: lod as f32,
-                })
+    let samples: Vec<LobeSample> = (0..n)
+        .filter_map(|i| {
+            let u1 = (i as f64 + 0.5) / n as f64;
+            let u2 = (i as u32).reverse_bits() as f64 / 4294967296.0;
+            let phi = 2.0 * std::f64::consts::PI * u2;
+            let (l, pdf) = match material {
+                Material::Ggx { alpha } => {
+                    // cos²θ_h from D's CDF; l = reflect(z about h).
+                    let a2 = alpha * alpha;
+                    let c2 = (1.0 - u1) / (1.0 + (a2 - 1.0) * u1);
+                    let (ch, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
+                    let h = [sh * phi.cos(), sh * phi.sin(), ch];
+                    let l = [2.0 * ch * h[0], 2.0 * ch * h[1], 2.0 * ch * ch - 1.0];
+                    (l, brdf::ggx_d(alpha, ch) / 4.0)
+                }
+                Material::Lambert => {
+                    let (c, s) = ((1.0 - u1).sqrt(), u1.sqrt());
+                    ([s * phi.cos(), s * phi.sin(), c], c / std::f64::consts::PI)
+                }
+            };
+            let omega_s = 1.0 / (n as f64 * pdf.max(1e-300));
+            let lod = (0.5 * (omega_s / omega_p).log2() + 1.0).max(0.0);
+            (l[2] > 0.0).then_some(LobeSample {
+                l: l.map(|v| v as f32),
+                nl: l[2] as f32,
+                lod: lod as f32,
             })
-            .collect(),
-    }
+        })
+        .collect();
+    let weight = samples.iter().map(|s| s.nl as f64).sum::<f64>().max(1e-300);
+    LobeSet { samples, weight }
 }
 
 /// A level's texel by filtered importance sampling.
@@ -615,17 +614,21 @@ impl RaySource for SampledSource<'_> {
                 b.map(|v| v as f32),
                 r.map(|v| v as f32),
             );
-            let (mut acc, mut wsum) = ([0.0f64; 3], 0.0f64);
+            let mut acc = [0.0f64; 3];
             for smp in &set.samples {
-                let l = [0, 1, 2].map(|k| smp.l[0] * t[k] + smp.l[1] * b[k] + smp.l[2] * r[k]);
+                let [x, y, z] = smp.l;
+                let l = [
+                    x * t[0] + y * b[0] + z * r[0],
+                    x * t[1] + y * b[1] + z * r[1],
+                    x * t[2] + y * b[2] + z * r[2],
+                ];
                 let v = self.pyramid.sample(l, smp.lod);
                 for k in 0..3 {
                     acc[k] += (v[k] * smp.nl) as f64;
                 }
-                wsum += smp.nl as f64;
             }
             for k in 0..c {
-                o[k] = (acc[k] / wsum.max(1e-300)) as f32;
+                o[k] = (acc[k] / set.weight) as f32;
             }
         }
         Ok(())
