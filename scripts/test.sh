@@ -5,22 +5,25 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Mesa's off-screen OpenGL, the texgen/rasterizer/shader oracle (Debian: libosmesa6), and
-# glslang, which compiles the GLSL and HLSL shader snippets (Debian: glslang-tools).
+# Mesa's off-screen OpenGL, the texgen/rasterizer/shader oracle (Debian: libosmesa6), glslang,
+# which compiles the GLSL and HLSL shader snippets (Debian: glslang-tools), and Chromium, the
+# real browser the viewer's tests drive through Playwright (Debian: chromium; Playwright is
+# pointed at it, never downloads one).
 need=()
 ldconfig -p 2>/dev/null | grep -q libOSMesa || need+=(libosmesa6)
 command -v glslangValidator >/dev/null || need+=(glslang-tools)
+[ -x "${SPHEREMAP_CHROMIUM:-/usr/bin/chromium}" ] || need+=(chromium)
 if [ ${#need[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
     echo "== installing ${need[*]}"
     apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
   else
-    echo "!! missing ${need[*]} and cannot apt-get install: the Mesa and shader-compiler tests will be skipped" >&2
+    echo "!! missing ${need[*]} and cannot apt-get install: the Mesa, shader-compiler or browser tests will be skipped" >&2
   fi
 fi
 
 echo "== Python test dependencies"
-python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10"
+python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40"
 
 echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q

@@ -117,6 +117,7 @@ def test_render_cli_errors(tmp_path):
         ((TEAPOT, "--mode", "normals", "--aa", 0), "aa"),
         ((TEAPOT, "--mode", "normals", "--tonemap", "filmic"), "tonemap"),
         ((TEAPOT, "--mode", "normals", "--camera", "1,2,3"), "camera"),
+        ((TEAPOT, "--mode", "normals", "--subpixel-bits", 9), "subpixel"),
     ]:
         r = cli("render", *args, "-o", out)
         assert r.returncode == 2, (args, r.stderr)
@@ -138,6 +139,18 @@ def test_python_render_errors(teapot):
         sm.render((p, n[:5], t), mode="normals")
     with pytest.raises(ValueError, match="^mesh"):
         sm.render(42, mode="normals")
+    for bits in (0, 9, 2.5):
+        with pytest.raises(ValueError, match="^subpixel_bits"):
+            sm.render((p, n, t), mode="normals", size=(16, 16), subpixel_bits=bits)
+    # Coarser vertex snapping moves the vertices by under 1/16 pixel: the coverage changes on a
+    # few edge pixels and the interpolated normals by little.
+    fine = sm.render((p, n, t), mode="normals", size=(192, 128))
+    coarse = sm.render((p, n, t), mode="normals", size=(192, 128), subpixel_bits=4)
+    cf, cc = fine.max(axis=2) > 0, coarse.max(axis=2) > 0
+    assert 0 < (cf != cc).sum() < 0.02 * cf.sum()
+    both = cf & cc
+    d = np.abs(fine[both] - coarse[both])
+    assert 0 < d.mean() < 0.005 and d.max() < 0.1
     # Normals None: angle-weighted ones are computed (as for an OBJ without vn).
     a = sm.render((p, None, t), mode="normals", size=(32, 32))
     b = sm.render((p, n, t), mode="normals", size=(32, 32))

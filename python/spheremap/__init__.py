@@ -44,6 +44,7 @@ from .photo import find_ball, from_fisheye, from_mirror_ball
 from .render import load_mesh, render
 from .analyze import analyze
 from .lighting import bake_matcap, dfg_lut, irradiance_sh, prefilter
+from .view import Viewer, view
 
 __all__ = [
     "bake_matcap",
@@ -94,4 +95,6 @@ __all__ = [
     "load_mesh",
     "render",
     "analyze",
+    "view",
+    "Viewer",
 ]

@@ -13,6 +13,8 @@ __all__ = [
     "MAX_SPLIT",
     "Scene",
     "UnsupportedError",
+    "VIEW_MAX_UPLOAD",
+    "ViewServer",
     "__version__",
     "_all_finite",
     "_cli_main",
@@ -58,6 +60,7 @@ __all__ = [
 
 __version__: str
 MAX_SPLIT: int
+VIEW_MAX_UPLOAD: int
 
 class Error(ValueError): ...
 class DataError(Error): ...
@@ -83,6 +86,26 @@ class Scene:
     def trace(self, /, origins: Any, directions: Any) -> Any: ...
     @property
     def triangle_count(self) -> Any: ...
+
+@final
+class ViewServer:
+    def __new__(
+        cls,
+        mesh: str | None,
+        env: str | None,
+        matcap: str | None,
+        request: dict[str, Any],
+        host: str,
+        port: int,
+        max_upload: int,
+    ) -> ViewServer: ...
+    @property
+    def url(self) -> str: ...
+    @property
+    def running(self) -> bool: ...
+    @property
+    def version(self) -> int: ...
+    def close(self) -> None: ...
 
 def _all_finite(a: Any) -> bool: ...
 def _cli_main(argv: Any) -> int: ...

@@ -66,6 +66,7 @@ def render(
     wrap: str = "clamp-to-edge",
     linear: bool = False,
     env_layout: str | None = None,
+    subpixel_bits: int = 8,
 ) -> npt.NDArray[np.float32]:
     """Draws a mesh with the CPU rasterizer (``spheremap render``; see the README).
 
@@ -82,6 +83,8 @@ def render(
         pixel (a sphere map in eye space, other mappings in world space).
     eye, target, up, fovy, near, far: gluLookAt + gluPerspective (defaults frame the mesh).
     size: (width, height). aa: k x k samples per pixel. wrap: "clamp-to-edge" or "repeat".
+    subpixel_bits: the vertex snapping of the rasterizer, 1 to 8 bits (8: llvmpipe; 4:
+        SwiftShader, what a browser without a GPU draws with).
 
     Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
     in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
@@ -117,6 +120,7 @@ def render(
         **_camera(eye, target, up, fovy, near, far, size, "size"),
         background=tuple(float(v) for v in bg),
         aa=_size_any(aa, "aa"),
+        subpixel_bits=_size_any(subpixel_bits, "subpixel_bits"),
         wrap=wrap,
     )
     return _ext.render(

@@ -16,23 +16,44 @@ pub struct EnvArgs {
     /// The environment map: an image (EXR, HDR, PFM, PNG, JPEG, WebP, KTX2, DDS) or six cube
     /// faces as a pattern ('sky_{face}.exr').
     env: String,
+    #[command(flatten)]
+    flags: EnvFlags,
+}
+
+/// How an environment map is read (the `--env-*` flags of every command that reads one).
+#[derive(clap::Args, Debug)]
+pub struct EnvFlags {
     /// Its mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
     /// spheremap recorded in it, else latlong.
     #[arg(long, value_parser = crate::names::core("mapping"))]
-    env_format: Option<String>,
+    pub env_format: Option<String>,
     /// Preset of its mapping.
     #[arg(long)]
-    env_preset: Option<String>,
+    pub env_preset: Option<String>,
     /// Cube layout of a cube map in one image (default: from its shape).
     #[arg(long, value_parser = crate::names::core("layout"))]
-    env_layout: Option<String>,
+    pub env_layout: Option<String>,
     /// The view it was made for, when it is not the world's (a turned sphere map); default:
     /// the one it records.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    env_look: Option<Vec<f64>>,
+    pub env_look: Option<Vec<f64>>,
     /// Up of --env-look.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    env_up: Option<Vec<f64>>,
+    pub env_up: Option<Vec<f64>>,
+}
+
+impl EnvFlags {
+    /// The core's request for these flags.
+    pub fn request(&self, nonfinite: &str) -> spheremap::lighting::EnvRequest {
+        spheremap::lighting::EnvRequest {
+            env_format: self.env_format.clone(),
+            env_preset: self.env_preset.clone(),
+            env_layout: self.env_layout.clone(),
+            env_look: vec3(&self.env_look),
+            env_up: vec3(&self.env_up),
+            nonfinite: nonfinite.to_string(),
+        }
+    }
 }
 
 #[derive(clap::Args, Debug)]
@@ -89,11 +110,11 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
         max_samples: a.max_samples,
         seed: a.seed,
         outside: a.outside.clone(),
-        env_format: a.env.env_format.clone(),
-        env_preset: a.env.env_preset.clone(),
-        env_layout: a.env.env_layout.clone(),
-        env_look: vec3(&a.env.env_look),
-        env_up: vec3(&a.env.env_up),
+        env_format: a.env.flags.env_format.clone(),
+        env_preset: a.env.flags.env_preset.clone(),
+        env_layout: a.env.flags.env_layout.clone(),
+        env_look: vec3(&a.env.flags.env_look),
+        env_up: vec3(&a.env.flags.env_up),
         nonfinite: a.job.nonfinite.clone(),
         max_memory: Some(a.job.max_memory()?),
     };
@@ -174,11 +195,11 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
     let files = EnvFiles::parse(&a.env.env);
     let note = read_note(files.first())?;
     let job = spheremap::lighting::EnvRequest {
-        env_format: a.env.env_format.clone(),
-        env_preset: a.env.env_preset.clone(),
-        env_layout: a.env.env_layout.clone(),
-        env_look: vec3(&a.env.env_look),
-        env_up: vec3(&a.env.env_up),
+        env_format: a.env.flags.env_format.clone(),
+        env_preset: a.env.flags.env_preset.clone(),
+        env_layout: a.env.flags.env_layout.clone(),
+        env_look: vec3(&a.env.flags.env_look),
+        env_up: vec3(&a.env.flags.env_up),
         nonfinite: a.nonfinite.clone(),
     };
     let r = job
@@ -378,11 +399,11 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
         tolerance: a.tolerance,
         method: a.method.clone(),
         lobe_samples: a.lobe_samples,
-        env_format: a.env.env_format.clone(),
-        env_preset: a.env.env_preset.clone(),
-        env_layout: a.env.env_layout.clone(),
-        env_look: vec3(&a.env.env_look),
-        env_up: vec3(&a.env.env_up),
+        env_format: a.env.flags.env_format.clone(),
+        env_preset: a.env.flags.env_preset.clone(),
+        env_layout: a.env.flags.env_layout.clone(),
+        env_look: vec3(&a.env.flags.env_look),
+        env_up: vec3(&a.env.flags.env_up),
         nonfinite: a.job.nonfinite.clone(),
         max_memory: Some(a.job.max_memory()?),
     };

@@ -51,6 +51,11 @@ pub struct Args {
     /// Anti-aliasing: K × K samples per pixel (1 = the pixel centre, as GL without MSAA).
     #[arg(long, default_value_t = 1)]
     aa: u32,
+    /// Sub-pixel precision of the vertex snapping, in bits (1-8): 8 as Mesa's llvmpipe and
+    /// D3D11-class GPUs; 4 as SwiftShader (Chromium without a GPU), the least GL allows. A GPU
+    /// reports its own as GL_SUBPIXEL_BITS.
+    #[arg(long, default_value_t = 8)]
+    subpixel_bits: u32,
     /// Texture wrap of a sphere map or MatCap: clamp-to-edge (default) or repeat.
     #[arg(long, default_value = "clamp-to-edge")]
     wrap: String,
@@ -87,6 +92,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         matcap_variant: a.matcap_variant.clone(),
         background: [a.background[0], a.background[1], a.background[2]],
         aa: a.aa,
+        subpixel_bits: a.subpixel_bits,
         wrap: a.wrap.clone(),
         ..a.camera.request((a.size[0], a.size[1]))
     };

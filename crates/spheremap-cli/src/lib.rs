@@ -19,6 +19,7 @@ mod cmd_preview;
 mod cmd_render;
 mod cmd_shader;
 mod cmd_texgen;
+mod cmd_view;
 mod job;
 mod names;
 pub mod progress;
@@ -86,6 +87,10 @@ enum Command {
     /// convolved with the GGX lobe of that level's roughness), or with --irradiance the
     /// cosine-convolved map; a cube as one KTX2/DDS file with every face and level.
     Prefilter(Box<cmd_lighting::PrefilterArgs>),
+    /// An interactive WebGL2 viewer in the browser: orbit a mesh lit by a sphere map
+    /// regenerated for the camera every frame (or frozen), per-vertex GL texgen against
+    /// per-pixel lookup and their error, MatCaps; served locally.
+    View(Box<cmd_view::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
     /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
@@ -171,6 +176,7 @@ where
         Command::Irradiance(a) => cmd_lighting::run_irradiance(*a),
         Command::Dfg(a) => cmd_lighting::run_dfg(*a),
         Command::Prefilter(a) => cmd_lighting::run_prefilter(*a),
+        Command::View(a) => cmd_view::run(*a),
         Command::Completions(a) => completions(a),
     });
     std::panic::set_hook(previous_hook);

@@ -18,6 +18,7 @@ use spheremap::{MatcapVariant, Singular, SpherePreset};
 mod generate;
 mod photo;
 mod render;
+mod view;
 
 pyo3::create_exception!(
     _spheremap,
@@ -72,7 +73,7 @@ pub(crate) fn emit_warnings(py: Python<'_>) -> PyResult<()> {
 }
 
 /// The one mapping from core errors to Python exceptions.
-fn to_py(e: spheremap::Error) -> PyErr {
+pub(crate) fn to_py(e: spheremap::Error) -> PyErr {
     use spheremap::Error as E;
     let msg = e.to_string();
     match e {
@@ -1065,10 +1066,12 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     spheremap::base::error::set_warning_sink(Some(queue_warning));
     m.add("__version__", spheremap::VERSION)?;
     m.add("MAX_SPLIT", spheremap::jobs::analyze::MAX_SPLIT)?;
+    m.add("VIEW_MAX_UPLOAD", spheremap::view::DEFAULT_MAX_UPLOAD)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
     m.add("LimitError", m.py().get_type::<LimitError>())?;
+    m.add_class::<view::ViewServer>()?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;

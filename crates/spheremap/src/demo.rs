@@ -181,6 +181,7 @@ pub fn contact_sheet(
             mode,
             background: bg,
             aa: 2,
+            ..RenderOptions::default()
         };
         render(mesh, &cam, Env::Texture(&tex), &opts).map(|r| r.0)
     };

@@ -35,6 +35,8 @@ pub mod mesh;
 pub mod names;
 pub mod resample;
 pub mod trace;
+#[cfg(feature = "scene")]
+pub mod view;
 
 pub use base::error::{Error, Result};
 pub use frame::conventions::{RowOrder, Singular, SpherePreset, PRESETS};

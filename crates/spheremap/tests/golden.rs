@@ -106,6 +106,7 @@ fn teapot_in_every_mode() {
             mode,
             background: [0.1, 0.2, 0.3],
             aa,
+            ..RenderOptions::default()
         };
         let (img, _) = render(&mesh, &cam, env, &opts).unwrap();
         check(name, &img);

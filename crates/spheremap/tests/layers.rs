@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The layers, bottom up: each top-level module of the crate and its height.
-const LAYERS: [(&str, usize); 11] = [
+const LAYERS: [(&str, usize); 12] = [
     ("base", 0),
     ("frame", 1),
     ("mappings", 2),
@@ -18,6 +18,7 @@ const LAYERS: [(&str, usize); 11] = [
     ("lighting", 6),
     ("demo", 7),
     ("names", 7),
+    ("view", 7),
 ];
 
 fn layer(module: &str) -> Option<usize> {

@@ -14,7 +14,8 @@
 //! * **Window**: pixel (i, j) covers `[i, i+1) × [j, j+1)` with its centre at `(i+½, j+½)`;
 //!   image row 0 is the **top** (GL's window row H−1: the image is what `glReadPixels` returns,
 //!   flipped to top-down, as every image in spheremap). Depth: `(z/w + 1)/2`, `GL_LESS`.
-//! * **Coverage**: vertices are snapped to 1/256 pixel (8 sub-pixel bits, like llvmpipe) and
+//! * **Coverage**: vertices are snapped to 1/2^b pixel (`subpixel_bits` b: 8 by default, as
+//!   Mesa's llvmpipe and D3D11-class GPUs; 4 as SwiftShader, the least GL and Vulkan allow) and
 //!   covered samples are found with exact integer edge functions; a sample exactly on an edge
 //!   belongs to the triangle for which the edge is a top or left edge (image coordinates), so a
 //!   shared edge is drawn once. Anti-aliasing (`aa` = k) takes k × k samples per pixel on a
@@ -403,6 +404,8 @@ pub struct RenderOptions {
     pub background: [f32; 3],
     /// Samples per pixel along each axis (1 = the pixel centre only).
     pub aa: u32,
+    /// Sub-pixel bits of the vertex snapping (1..=8): 8 as llvmpipe, 4 as SwiftShader.
+    pub subpixel_bits: u32,
 }
 
 impl Default for RenderOptions {
@@ -411,6 +414,7 @@ impl Default for RenderOptions {
             mode: Mode::PerPixel,
             background: [0.0; 3],
             aa: 1,
+            subpixel_bits: raster::SUB_BITS,
         }
     }
 }
@@ -536,6 +540,7 @@ pub fn render(
     if opts.aa == 0 || opts.aa > 16 {
         return Err(Error::param("aa", format!("{}: must be 1..=16", opts.aa)));
     }
+    raster::check_subpixel_bits(opts.subpixel_bits)?;
     match (opts.mode, env) {
         (Mode::PerVertex | Mode::Matcap(_), Env::Texture(_)) => {}
         (Mode::PerVertex | Mode::Matcap(_), _) => {
@@ -553,7 +558,13 @@ pub fn render(
         return Err(Error::param("mesh", "needs one normal per vertex"));
     }
     let verts = vertex_stage(mesh, cam)?;
-    let tris = raster::setup(&mesh.triangles, &verts, cam.width, cam.height)?;
+    let tris = raster::setup(
+        &mesh.triangles,
+        &verts,
+        cam.width,
+        cam.height,
+        opts.subpixel_bits,
+    )?;
     let shader = shade::Shader::new(opts.mode, env, cam, &verts);
     let (img, covered) = raster::draw(&tris, &shader, cam.width, cam.height, opts)?;
     Ok((
@@ -572,7 +583,13 @@ pub fn triangle_ids(mesh: &Mesh, cam: &GlCamera) -> Result<Vec<u32>> {
         return Err(Error::param("mesh", "needs one normal per vertex"));
     }
     let verts = vertex_stage(mesh, cam)?;
-    let tris = raster::setup(&mesh.triangles, &verts, cam.width, cam.height)?;
+    let tris = raster::setup(
+        &mesh.triangles,
+        &verts,
+        cam.width,
+        cam.height,
+        raster::SUB_BITS,
+    )?;
     Ok(raster::triangle_ids(&tris, cam.width, cam.height))
 }
 

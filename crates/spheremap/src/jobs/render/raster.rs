@@ -7,9 +7,22 @@ use crate::base::error::{Error, Result};
 use crate::images::Image;
 use rayon::prelude::*;
 
-/// Sub-pixel bits of the snapped vertex positions (llvmpipe's).
-const SUB_BITS: u32 = 8;
+/// Sub-pixel bits of the fixed-point window coordinates (1/256 pixel), and the default of the
+/// vertex snapping (llvmpipe's); coarser snapping rounds to a multiple of 2^(8 − bits) units.
+pub(crate) const SUB_BITS: u32 = 8;
 const SUB: f64 = (1 << SUB_BITS) as f64;
+
+/// Refuses a snapping precision outside 1..=8 bits.
+pub(crate) fn check_subpixel_bits(bits: u32) -> Result<()> {
+    if (1..=SUB_BITS).contains(&bits) {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "subpixel_bits",
+            format!("{bits}: must be 1..={SUB_BITS}"),
+        ))
+    }
+}
 /// Guard band: x and y are clipped at ±GUARD·w, far outside the viewport, so clipping never
 /// creates an edge inside the image and window coordinates stay small enough for i64 edge
 /// functions.
@@ -92,7 +105,10 @@ pub(crate) fn setup(
     v: &Vertices,
     width: usize,
     height: usize,
+    subpixel_bits: u32,
 ) -> Result<Vec<Tri>> {
+    check_subpixel_bits(subpixel_bits)?;
+    let snap = 1i64 << (SUB_BITS - subpixel_bits);
     let n = v.clip.len();
     let pv = |i: u32| -> PV {
         let i = i as usize;
@@ -131,7 +147,7 @@ pub(crate) fn setup(
                 };
                 for k in 1..poly.len().saturating_sub(1) {
                     if let Some(tri) =
-                        make_tri(src, [&poly[0], &poly[k], &poly[k + 1]], width, height)
+                        make_tri(src, [&poly[0], &poly[k], &poly[k + 1]], width, height, snap)
                     {
                         out.push(tri);
                     }
@@ -152,8 +168,9 @@ pub(crate) fn setup(
     Ok(chunks.into_iter().flatten().collect())
 }
 
-fn make_tri(src: u32, p: [&PV; 3], width: usize, height: usize) -> Option<Tri> {
+fn make_tri(src: u32, p: [&PV; 3], width: usize, height: usize, snap: i64) -> Option<Tri> {
     let (w, h) = (width as f64, height as f64);
+    let unit = SUB / snap as f64;
     let mut x = [0i64; 3];
     let mut y = [0i64; 3];
     let mut z = [0f64; 3];
@@ -167,8 +184,8 @@ fn make_tri(src: u32, p: [&PV; 3], width: usize, height: usize) -> Option<Tri> {
         // Viewport: x right, image rows down (GL's window y flipped).
         let xw = (c[0] * iw + 1.0) * 0.5 * w;
         let yw = (1.0 - c[1] * iw) * 0.5 * h;
-        x[k] = (xw * SUB).round() as i64;
-        y[k] = (yw * SUB).round() as i64;
+        x[k] = (xw * unit).round() as i64 * snap;
+        y[k] = (yw * unit).round() as i64 * snap;
         z[k] = (c[2] * iw + 1.0) * 0.5;
         inv_w[k] = iw;
     }

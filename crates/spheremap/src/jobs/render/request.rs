@@ -36,6 +36,8 @@ pub struct RenderRequest {
     pub background: [f32; 3],
     /// K × K samples per pixel.
     pub aa: u32,
+    /// Sub-pixel bits of the rasterizer's vertex snapping: 8 (llvmpipe) or down to 1.
+    pub subpixel_bits: u32,
     /// Texture wrap of a sphere map or MatCap: clamp-to-edge or repeat.
     pub wrap: String,
 }
@@ -56,6 +58,7 @@ impl Default for RenderRequest {
             height: 512,
             background: [0.0; 3],
             aa: 1,
+            subpixel_bits: super::raster::SUB_BITS,
             wrap: "clamp-to-edge".into(),
         }
     }
@@ -78,6 +81,7 @@ impl RenderRequest {
             mode: self.mode()?,
             background: self.background,
             aa: self.aa,
+            subpixel_bits: self.subpixel_bits,
         })
     }
 

@@ -95,6 +95,7 @@ fn flat_quad_covers_exactly_its_pixels() {
             mode: Mode::Normals,
             background: [0.0, 0.0, 0.0],
             aa,
+            ..RenderOptions::default()
         };
         let (img, stats) = render(&quad(), &c, Env::None, &opts).unwrap();
         assert_eq!(stats.covered_pixels, 32 * 32, "aa {aa}");
@@ -120,6 +121,7 @@ fn shared_diagonal_has_no_gap_and_partial_pixels_average() {
         mode: Mode::Normals,
         background: [0.0; 3],
         aa: 4,
+        ..RenderOptions::default()
     };
     let (img, _) = render(&quad(), &c, Env::None, &opts).unwrap();
     // Interior (including the diagonal): fully covered.
@@ -200,6 +202,7 @@ fn per_vertex_error_shrinks_with_tessellation_and_per_pixel_is_exact_on_a_consta
         mode: Mode::PerPixel,
         background: [-1.0; 3],
         aa: 1,
+        ..RenderOptions::default()
     };
     let (img, _) = render(&uv_sphere(16, 32), &c, Env::Texture(&tex), &opts).unwrap();
     let want = [5.0f32, 0.25, 2.0];
@@ -319,4 +322,38 @@ fn triangle_ids_split_the_quad_along_its_diagonal() {
     // Pixel centres exactly on the diagonal go to one triangle: 32 of them, to triangle 0 or 1
     // by the top-left rule; the rest split evenly.
     assert_eq!(counts[0].abs_diff(counts[1]), 32);
+}
+
+#[test]
+fn subpixel_bits_snap_vertices_as_the_gpu_does() {
+    // The quad's left and top edges fall at 15.53 pixels, its right and bottom at 48.47. With 8
+    // bits they stay there (3976/256 = 15.531, 12408/256 = 48.469): pixel centres 16.5..47.5,
+    // 32 × 32 pixels. With 4 bits they snap to 15.5 and 48.5, through pixel centres: the top-left
+    // rule keeps column and row 15 and drops 48, 33 × 33 pixels.
+    let (w, h) = (64, 64);
+    let c = cam(5.0, (32.0 - 15.53) / 32.0, w, h);
+    let covered = |bits| {
+        let opts = RenderOptions {
+            mode: Mode::Normals,
+            subpixel_bits: bits,
+            ..RenderOptions::default()
+        };
+        render(&quad(), &c, Env::None, &opts)
+            .unwrap()
+            .1
+            .covered_pixels
+    };
+    assert_eq!(covered(8), 32 * 32);
+    assert_eq!(covered(4), 33 * 33);
+    for bad in [0, 9] {
+        let opts = RenderOptions {
+            mode: Mode::Normals,
+            subpixel_bits: bad,
+            ..RenderOptions::default()
+        };
+        let e = render(&quad(), &c, Env::None, &opts)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("subpixel_bits"), "{e}");
+    }
 }
