@@ -23,7 +23,7 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 
 echo "== Python test dependencies"
-python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40"
+python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40" "dask[distributed]>=2024.1" blake3
 
 echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q

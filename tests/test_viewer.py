@@ -73,6 +73,9 @@ def served(*args):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # Ctrl-C's default disposition in the child: a shell starts background jobs with SIGINT
+        # ignored, and Python keeps an inherited ignored SIGINT ignored.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         url = p.stdout.readline().strip()

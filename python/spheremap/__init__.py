@@ -45,6 +45,7 @@ from .render import load_mesh, render
 from .analyze import analyze
 from .lighting import bake_matcap, dfg_lut, irradiance_sh, prefilter
 from .view import Viewer, view
+from . import batch
 
 __all__ = [
     "bake_matcap",
@@ -96,5 +97,6 @@ __all__ = [
     "render",
     "analyze",
     "view",
+    "batch",
     "Viewer",
 ]

@@ -8,6 +8,7 @@
 
 mod camera_args;
 mod cmd_analyze;
+mod cmd_batch;
 mod cmd_conventions;
 mod cmd_convert;
 mod cmd_demo;
@@ -91,6 +92,9 @@ enum Command {
     /// regenerated for the camera every frame (or frozen), per-vertex GL texgen against
     /// per-pixel lookup and their error, MatCaps; served locally.
     View(Box<cmd_view::Args>),
+    /// Run a recipe (TOML) over a library of maps: every input's outputs made on local cores
+    /// or a Dask cluster, recorded in a manifest so a rerun resumes; a bad input fails alone.
+    Batch(Box<cmd_batch::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
     /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
@@ -177,6 +181,7 @@ where
         Command::Dfg(a) => cmd_lighting::run_dfg(*a),
         Command::Prefilter(a) => cmd_lighting::run_prefilter(*a),
         Command::View(a) => cmd_view::run(*a),
+        Command::Batch(a) => cmd_batch::run(*a),
         Command::Completions(a) => completions(a),
     });
     std::panic::set_hook(previous_hook);

@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use spheremap::mappings::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
+mod batch;
 mod generate;
 mod photo;
 mod render;
@@ -1072,6 +1073,14 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
     m.add("LimitError", m.py().get_type::<LimitError>())?;
     m.add_class::<view::ViewServer>()?;
+    m.add_function(wrap_pyfunction!(batch::_batch_recipe, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_prepare, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_run_task, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_append, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_run_local, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;

@@ -24,6 +24,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod base;
+pub mod batch;
 #[cfg(feature = "scene")]
 pub mod demo;
 pub mod frame;

@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The layers, bottom up: each top-level module of the crate and its height.
-const LAYERS: [(&str, usize); 12] = [
+const LAYERS: [(&str, usize); 13] = [
     ("base", 0),
     ("frame", 1),
     ("mappings", 2),
@@ -16,6 +16,7 @@ const LAYERS: [(&str, usize); 12] = [
     ("trace", 5),
     ("jobs", 6),
     ("lighting", 6),
+    ("batch", 7),
     ("demo", 7),
     ("names", 7),
     ("view", 7),

@@ -402,7 +402,8 @@ fn moment_sums(env: &EnvMap, geometry: &Geometry, plane: &Plane) -> Sums {
         }
         a
     };
-    let n: [[f64; 10]; 4] = (0..env.height)
+    // Per row in parallel, then added in row order: the same bits on any number of threads.
+    let rows: Vec<[[f64; 10]; 4]> = (0..env.height)
         .into_par_iter()
         .map(|y| {
             let (cs, sn, dw) = geometry.rows[y];
@@ -414,7 +415,8 @@ fn moment_sums(env: &EnvMap, geometry: &Geometry, plane: &Plane) -> Sums {
             m[3] = local(dw, cs, sn, &ones);
             m
         })
-        .reduce(|| [[0.0; 10]; 4], add);
+        .collect();
+    let n = rows.into_iter().fold([[0.0; 10]; 4], add);
     // To the world frame: d = u P + v E₁ + w E₂.
     let r = [geometry.pole, plane.e1, plane.e2];
     let world = |n: &[f64; 10]| -> (f64, [f64; 3], [[f64; 3]; 3]) {
@@ -791,6 +793,18 @@ mod tests {
             let g = Geometry::new(m, w, h, &turn);
             assert!(g.plane().is_some(), "{preset:?}: the moment path is used");
             let fast = Sh9::project(&env, &turn).unwrap();
+            // The same bits on any number of threads (batch runs compare files by hash).
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let again = pool.install(|| Sh9::project(&env, &turn).unwrap());
+                assert_eq!(
+                    again.coefficients, fast.coefficients,
+                    "{preset:?}, {threads} threads"
+                );
+            }
             let slow = Sh9::project_reference(&env, &turn).unwrap();
             assert_eq!(fast.channels, slow.channels);
             for k in 0..slow.channels {
