@@ -79,7 +79,7 @@ def main():
         def shell_loop(out):
             os.makedirs(out)
             script = "set -e\nfor f in \"$1\"/*.exr; do s=$(basename \"$f\" .exr)\n" + "".join(
-                f'  "$2" convert "$f" "$3/{p.replace("{stem}", "$s")}" --to {to} --size {size} -q\n'
+                f'  "$2" convert "$f" "$3/{p.replace("{stem}", "${s}")}" --to {to} --size {size} -q\n'
                 for p, to, size in OUTPUTS
             ) + "done\n"
             subprocess.run(["bash", "-c", script, "loop", lib, " ".join(exe), out], check=True)

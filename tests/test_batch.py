@@ -196,7 +196,10 @@ def test_ctrl_c_stops_cleanly_and_the_rerun_resumes(tmp_path, recipe):
         assert r.returncode == 0, r.stderr
     out = tmp_path / "out"
     p = subprocess.Popen([*spheremap_cmd(), "batch", str(lib), "--recipe", str(recipe), "--out", str(out),
-                          "--workers", "1", "-q"], stderr=subprocess.PIPE, text=True)
+                          "--workers", "1", "-q"], stderr=subprocess.PIPE, text=True,
+                         # Ctrl-C's default disposition in the child: a shell starts background
+                         # jobs with SIGINT ignored, and Python keeps an inherited ignored SIGINT.
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     manifest = out / "manifest.jsonl"
     deadline = time.time() + 60
     while time.time() < deadline and not (manifest.exists() and manifest.read_text().count("\n") >= 2):
@@ -333,6 +336,17 @@ def test_input_and_output_mistakes(library, recipe, tmp_path):
     r = cli("batch", tmp_path / "a", "--recipe", rp, "--out", tmp_path / "a")
     assert r.returncode == 2 and "overwrite" in r.stderr, r.stderr
     assert not out.exists()
+    # An output folder that is the input folder: the second run does not take the first's
+    # outputs for inputs.
+    same = tmp_path / "same"
+    same.mkdir()
+    shutil.copy(src, same / "x.exr")
+    rp = tmp_path / "side.toml"
+    rp.write_text('[[output]]\nop = "convert"\nname = "{stem}_s.exr"\nto = "sphere"\nsize = 16\n')
+    for _ in range(2):
+        r = cli("batch", same, "--recipe", rp, "--out", same, "--json", "-q")
+        assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["inputs"] == 1 and sorted(os.listdir(same)) == ["manifest.jsonl", "x.exr", "x_s.exr"]
     r = cli("batch", library, "--recipe", recipe, "--out", out, "--workers", 0)
     assert r.returncode == 2 and "--workers" in r.stderr
 

@@ -165,6 +165,9 @@ def run(
     plan = json.loads(plan_json)
     if client is None:
         got = json.loads(_ext._batch_run_local(plan_json, text, is_json, source, workers or 0))
+        if got["summary"]["cancelled"]:
+            # Ctrl-C: the inputs in progress finished and were recorded; a rerun resumes.
+            raise KeyboardInterrupt
         return Manifest(out, _records_of(out, plan), got["summary"])
     return _run_dask(plan, plan_json, text, is_json, source, out, client, progress)
 
@@ -259,9 +262,9 @@ def _client_for(address: str):
 
 
 def _main(argv: list[str]) -> int:
-    """``python -m spheremap.batch --spec JSON``: what ``spheremap batch --dask`` runs."""
+    """``python -m spheremap._dask_cli --spec JSON``: what ``spheremap batch --dask`` runs."""
     if len(argv) != 2 or argv[0] != "--spec":
-        print("usage: python -m spheremap.batch --spec JSON (run by spheremap batch --dask)", file=sys.stderr)
+        print("usage: python -m spheremap._dask_cli --spec JSON (run by spheremap batch --dask)", file=sys.stderr)
         return 2
     spec = json.loads(argv[1])
     try:
@@ -296,10 +299,3 @@ def _main(argv: list[str]) -> int:
         print(f"spheremap: {s['failed']} input(s) failed (see {s['manifest']})", file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    # Run through the package's module, so the Dask tasks pickle as spheremap.batch's functions.
-    from spheremap.batch import _main as _package_main
-
-    sys.exit(_package_main(sys.argv[1:]))

@@ -155,7 +155,7 @@ fn report(
     Ok(())
 }
 
-/// `--dask`: the Python package runs the batch (`python -m spheremap.batch --spec JSON`), with
+/// `--dask`: the Python package runs the batch (`python -m spheremap._dask_cli --spec JSON`), with
 /// the same planning, tasks and manifest from this crate's core.
 fn run_dask(a: &Args, address: &str) -> anyhow::Result<()> {
     let python = std::env::var("SPHEREMAP_PYTHON").unwrap_or_else(|_| "python3".into());
@@ -169,7 +169,7 @@ fn run_dask(a: &Args, address: &str) -> anyhow::Result<()> {
         "quiet": a.quiet,
     });
     let status = std::process::Command::new(&python)
-        .args(["-m", "spheremap.batch", "--spec"])
+        .args(["-m", "spheremap._dask_cli", "--spec"])
         .arg(spec.to_string())
         .status()
         .with_context(|| format!("--dask: cannot run {python} (set SPHEREMAP_PYTHON)"))?;

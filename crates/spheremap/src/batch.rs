@@ -16,12 +16,15 @@
 //!   per Dask task from the Python package.
 
 use crate::base::error::{check_map_size, Error, Result};
-use crate::images::codec::WriteOptions;
-use crate::images::envmap::{check_nonfinite_env, read_env_layout, read_note, EnvFiles};
+use crate::images::codec::{ReadOptions, WriteOptions};
+use crate::images::cube_layout::Layout;
+use crate::images::envmap::{check_nonfinite_env, read_env_layout, read_note, EnvFiles, EnvReader};
 use crate::images::format::Format;
+use crate::images::Image;
 use crate::jobs::convert::ConvertJob;
 use crate::lighting::sh::{IrradianceReport, Window};
 use crate::lighting::{EnvRequest, MatcapRequest, PrefilterRequest};
+use crate::mappings::mapping::Mapping;
 use crate::resample::{EnvMap, Progress};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -540,7 +543,7 @@ pub fn output_name(pattern: &str, input: &Path, index: usize) -> String {
         .replace("{index}", &index.to_string())
 }
 
-/// The files an output name stands for (six faces, or the levels the manifest found).
+/// The files an output name stands for (six for a `{face}` pattern).
 fn name_files(name: &str) -> Vec<String> {
     EnvFiles::parse(name).paths()
 }
@@ -549,7 +552,24 @@ fn name_files(name: &str) -> Vec<String> {
 /// inputs, and with an input), the manifest read to see what a rerun may skip (unless
 /// `force`).
 pub fn plan(inputs: &[String], recipe: &Recipe, out_dir: &Path, force: bool) -> Result<Plan> {
-    let files = expand_inputs(inputs)?;
+    let manifest = Manifest::read(out_dir)?;
+    // Files an earlier run made (an output folder inside an input folder) are not inputs.
+    let made: std::collections::HashSet<PathBuf> = manifest
+        .records
+        .values()
+        .flat_map(|r| r.outputs.iter())
+        .filter_map(|o| std::fs::canonicalize(out_dir.join(&o.path)).ok())
+        .collect();
+    let files: Vec<PathBuf> = expand_inputs(inputs)?
+        .into_iter()
+        .filter(|f| std::fs::canonicalize(f).map_or(true, |c| !made.contains(&c)))
+        .collect();
+    if files.is_empty() {
+        return Err(Error::param(
+            "inputs",
+            "every input is an output of an earlier run in this folder",
+        ));
+    }
     let mut tasks = Vec::with_capacity(files.len());
     let mut owner: HashMap<String, usize> = HashMap::new();
     let canon_inputs: Vec<PathBuf> = files
@@ -594,7 +614,6 @@ pub fn plan(inputs: &[String], recipe: &Recipe, out_dir: &Path, force: bool) -> 
             outputs,
         });
     }
-    let manifest = Manifest::read(out_dir)?;
     let skip = tasks
         .iter()
         .map(|t| !force && manifest.is_done(t, &recipe.hash, out_dir))
@@ -767,6 +786,21 @@ pub fn run_task(
     let result = (|| -> Result<Vec<OutputRecord>> {
         record.input_hash = file_hash(Path::new(&task.input))?;
         let mut made: Vec<String> = Vec::new();
+        // The input is decoded once for all the steps that read it alike; each gets a copy.
+        let mut cache: Vec<(String, (Image, Option<Layout>))> = Vec::new();
+        let mut read = |files: &EnvFiles,
+                        m: Mapping,
+                        l: Option<Layout>,
+                        o: &ReadOptions|
+         -> Result<(Image, Option<Layout>)> {
+            let key = format!("{:?}|{m:?}|{l:?}|{}", files.paths(), o.linear);
+            if let Some((_, v)) = cache.iter().find(|(k, _)| *k == key) {
+                return Ok(v.clone());
+            }
+            let v = read_env_layout(files, m, l, o)?;
+            cache.push((key, v.clone()));
+            Ok(v)
+        };
         let run = (|| -> Result<()> {
             for (step, name) in recipe.steps.iter().zip(&task.outputs) {
                 let progress = Progress::default();
@@ -779,7 +813,13 @@ pub fn run_task(
                 if let Some(d) = out.parent() {
                     std::fs::create_dir_all(d).map_err(|e| Error::io(d, e))?;
                 }
-                let files = run_step(&step.op, &task.input, &out.display().to_string(), &progress)?;
+                let files = run_step(
+                    &step.op,
+                    &task.input,
+                    &out.display().to_string(),
+                    &progress,
+                    &mut read,
+                )?;
                 made.extend(files);
             }
             Ok(())
@@ -818,27 +858,39 @@ pub fn run_task(
 }
 
 /// One operation on one input; returns the files written.
-fn run_step(op: &Op, input: &str, output: &str, progress: &Progress) -> Result<Vec<String>> {
+fn run_step(
+    op: &Op,
+    input: &str,
+    output: &str,
+    progress: &Progress,
+    read: &mut EnvReader<'_>,
+) -> Result<Vec<String>> {
     match op {
         Op::Convert(job) => {
             let mut job = job.clone();
             job.force = true; // the plan refused outputs that are inputs
-            let r = job.run_files(&[input.to_string(), output.to_string()], Some(progress))?;
+            let r = job.run_files_with(
+                &[input.to_string(), output.to_string()],
+                Some(progress),
+                read,
+            )?;
             Ok(r.output)
         }
         Op::BakeMatcap(job, w) => {
-            let (r, _) = job.run_files(input, output, &w.options(), true, Some(progress))?;
+            let (r, _) =
+                job.run_files_with(input, output, &w.options(), true, Some(progress), read)?;
             Ok(r.output)
         }
         Op::Prefilter(job, w) => {
-            let (r, _) = job.run_files(input, output, &w.options(), true, Some(progress))?;
+            let (r, _) =
+                job.run_files_with(input, output, &w.options(), true, Some(progress), read)?;
             Ok(r.output)
         }
         Op::Irradiance(job) => {
             let files = EnvFiles::parse(input);
             let note = read_note(files.first())?;
             let r = job.env().resolve(note.as_ref(), input)?;
-            let (mut img, _) = read_env_layout(&files, r.mapping, r.layout, &Default::default())?;
+            let (mut img, _) = read(&files, r.mapping, r.layout, &ReadOptions::default())?;
             check_nonfinite_env(&mut img, &files, r.nonfinite)?;
             let env = EnvMap::new(r.mapping, &img, files.first())?;
             let report = IrradianceReport::of(&env, &r.world_to_env, job.window()?, input)?;

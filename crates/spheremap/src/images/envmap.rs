@@ -162,6 +162,11 @@ pub fn read_env_files(
     read_env_layout(files, mapping, layout, opts).map(|(img, _)| img)
 }
 
+/// How a job reads its environment: [`read_env_layout`], or a caller's own (the batch runner
+/// reads an input once for all of a recipe's outputs and hands out copies).
+pub type EnvReader<'a> = dyn FnMut(&EnvFiles, Mapping, Option<Layout>, &ReadOptions) -> Result<(Image, Option<Layout>)>
+    + 'a;
+
 /// [`read_env_files`], and the cube layout the image was read in (the one given, else the one
 /// its shape implies; `None` for six faces and other mappings).
 pub fn read_env_layout(

@@ -29,7 +29,7 @@ use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
 use crate::images::cube_layout::Layout;
 use crate::images::envmap::{
     check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, read_note,
-    refuse_overwrite, split_paths, write_env_files,
+    refuse_overwrite, split_paths, write_env_files, EnvReader,
 };
 use crate::images::format::Format;
 use crate::images::note::MapNote;
@@ -355,6 +355,16 @@ impl ConvertJob {
         paths: &[String],
         progress: Option<&Progress>,
     ) -> Result<ConvertReport> {
+        self.run_files_with(paths, progress, &mut read_env_layout)
+    }
+
+    /// [`ConvertJob::run_files`] with the source read by `read`.
+    pub fn run_files_with(
+        &self,
+        paths: &[String],
+        progress: Option<&Progress>,
+        read: &mut EnvReader<'_>,
+    ) -> Result<ConvertReport> {
         let t0 = std::time::Instant::now();
         let first = paths
             .first()
@@ -388,7 +398,7 @@ impl ConvertJob {
             linear: self.linear,
             ..Default::default()
         };
-        let (mut img, in_layout) = read_env_layout(&input, r.src, r.from_layout, &ropts)?;
+        let (mut img, in_layout) = read(&input, r.src, r.from_layout, &ropts)?;
         let layout = r.layout.or(if r.same { in_layout } else { None });
         check_nonfinite_env(&mut img, &input, r.nonfinite)?;
         let env = EnvMap::new(r.src, &img, input.first())?;

@@ -311,6 +311,19 @@ impl MatcapRequest {
         force: bool,
         progress: Option<&Progress>,
     ) -> Result<(MatcapReport, Option<String>)> {
+        self.run_files_with(input, output, write, force, progress, &mut read_env_layout)
+    }
+
+    /// `run_files` with the environment read by `read`.
+    pub fn run_files_with(
+        &self,
+        input: &str,
+        output: &str,
+        write: &crate::images::codec::WriteOptions,
+        force: bool,
+        progress: Option<&Progress>,
+        read: &mut crate::images::envmap::EnvReader<'_>,
+    ) -> Result<(MatcapReport, Option<String>)> {
         let t0 = std::time::Instant::now();
         let files = EnvFiles::parse(input);
         let note = read_note(files.first())?;
@@ -321,7 +334,7 @@ impl MatcapRequest {
         }
         let sphere = crate::mappings::mapping::Mapping::parse("sphere", None)?;
         out.check_output(sphere)?;
-        let (mut img, _) = read_env_layout(&files, r.env, r.env_layout, &ReadOptions::default())?;
+        let (mut img, _) = read(&files, r.env, r.env_layout, &ReadOptions::default())?;
         check_nonfinite_env(&mut img, &files, r.nonfinite)?;
         let env = EnvMap::new(r.env, &img, files.first())?;
         let (map, rep) = matcap::bake(&env, &r.bake, progress)?;
@@ -632,6 +645,19 @@ impl PrefilterRequest {
         force: bool,
         progress: Option<&Progress>,
     ) -> Result<(PrefilterReport, Option<String>)> {
+        self.run_files_with(input, output, write, force, progress, &mut read_env_layout)
+    }
+
+    /// `run_files` with the environment read by `read`.
+    pub fn run_files_with(
+        &self,
+        input: &str,
+        output: &str,
+        write: &crate::images::codec::WriteOptions,
+        force: bool,
+        progress: Option<&Progress>,
+        read: &mut crate::images::envmap::EnvReader<'_>,
+    ) -> Result<(PrefilterReport, Option<String>)> {
         use crate::images::cube_layout::Layout;
         use crate::images::note::MapNote;
         let t0 = std::time::Instant::now();
@@ -648,7 +674,7 @@ impl PrefilterRequest {
         for o in &outs {
             o.check_output(p.mapping)?;
         }
-        let (mut img, _) = read_env_layout(&files, r.env, r.env_layout, &ReadOptions::default())?;
+        let (mut img, _) = read(&files, r.env, r.env_layout, &ReadOptions::default())?;
         check_nonfinite_env(&mut img, &files, r.nonfinite)?;
         let env = EnvMap::new(r.env, &img, files.first())?;
         let made = prefilter::prefilter(&env, p, progress)?;
