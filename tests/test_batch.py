@@ -436,3 +436,12 @@ def test_cli_dask_local_cluster(library, recipe, tmp_path):
     assert (s["done"], s["workers"]) == (6, 2), s
     r = cli("batch", library, "--recipe", recipe, "--out", tmp_path / "out", "--dask", "local:x", env=env)
     assert r.returncode == 2 and "local:N" in r.stderr
+
+
+def test_the_example_recipe_is_valid():
+    """examples/library.toml (the documented recipe) passes the recipe checks; the docs' bench
+    recipe too."""
+    for path in ("examples/library.toml", "bench/batch.toml"):
+        with open(path) as f:
+            digest = sm._spheremap._batch_recipe(f.read(), False, path)
+        assert len(digest) == 64
