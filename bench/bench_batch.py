@@ -17,7 +17,6 @@ Goals (2 cores): batch >= 1.3x the faster loop; Dask local:2 >= 1.7x --workers 1
 import argparse
 import glob
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -28,6 +27,8 @@ import numpy as np
 
 import spheremap as sm
 
+from machine import cpu_model
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 RECIPE = os.path.join(HERE, "batch.toml")
@@ -36,17 +37,6 @@ OUTPUTS = [  # the recipe's outputs as convert calls: (name pattern, to, size)
     ("{stem}_preview.png", "sphere", 256),
     ("{stem}_latlong.exr", "latlong", 1024),
 ]
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def timed(f):

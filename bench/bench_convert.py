@@ -13,12 +13,13 @@ J4 = J1 with 16 samples <= 50 ms; RT cube 6x256^2 -> sphere 512^2 <= 2 ms.
 
 import argparse
 import os
-import platform
 import time
 
 import numpy as np
 
 import spheremap as sm
+
+from machine import cpu_model
 
 
 def j1_maps(h, w, n):
@@ -72,16 +73,6 @@ def median_ms(f, repeat):
         f()
         ts.append((time.perf_counter() - t) * 1e3)
     return float(np.median(ts)), float(min(ts))
-
-
-def cpu_model():
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def main():

@@ -11,25 +11,15 @@ SH9 of 2048x1024 <= 5 ms.
 
 import argparse
 import os
-import platform
 import time
 
 import numpy as np
 
 import spheremap as sm
 
+from machine import cpu_model
+
 HERE = os.path.dirname(__file__)
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def median_time(f, rounds):

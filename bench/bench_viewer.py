@@ -13,11 +13,12 @@ Goals: first frame <= 3 s under SwiftShader; 60 fps (16.7 ms) with re-targeting 
 
 import argparse
 import os
-import platform
 import statistics
 import subprocess
 import sys
 import tempfile
+
+from machine import cpu_model
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -25,17 +26,6 @@ TEAPOT = os.path.join(ROOT, "crates/spheremap/data/teapot.obj")
 ENV = os.path.join(ROOT, "testdata/apartment.exr")
 CHROMIUM = os.environ.get("SPHEREMAP_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def main():

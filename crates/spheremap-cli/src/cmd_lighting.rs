@@ -3,9 +3,7 @@
 
 use crate::job::vec3;
 use anyhow::Context;
-use spheremap::images::envmap::{
-    check_nonfinite_env, read_env_layout, read_note, write_env, EnvFiles,
-};
+use spheremap::images::envmap::{read_env_layout, read_note, write_env, EnvFiles};
 use spheremap::lighting::{dfg, sh, MatcapRequest, PrefilterRequest};
 use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::{EnvMap, Progress};
@@ -231,13 +229,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
         .as_deref()
         .map(spheremap::images::cube_layout::Layout::parse)
         .transpose()?;
-    let (mut img, _) = read_env_layout(
-        &files,
-        r.mapping,
-        r.layout,
-        &spheremap::images::codec::ReadOptions::default(),
-    )?;
-    check_nonfinite_env(&mut img, &files, r.nonfinite)?;
+    let img = r.read(&files, &mut read_env_layout)?;
     let env = EnvMap::new(r.mapping, &img, files.first())?;
     let mut report = sh::IrradianceReport::of(&env, &r.world_to_env, window, &files.label())?;
     if let Some(p) = &a.sh_txt {

@@ -18,7 +18,7 @@
 use crate::base::error::{check_map_size, Error, Result};
 use crate::images::codec::{ReadOptions, WriteOptions};
 use crate::images::cube_layout::Layout;
-use crate::images::envmap::{check_nonfinite_env, read_env_layout, read_note, EnvFiles, EnvReader};
+use crate::images::envmap::{read_env_layout, read_note, EnvFiles, EnvReader};
 use crate::images::format::Format;
 use crate::images::Image;
 use crate::jobs::convert::ConvertJob;
@@ -890,8 +890,7 @@ fn run_step(
             let files = EnvFiles::parse(input);
             let note = read_note(files.first())?;
             let r = job.env().resolve(note.as_ref(), input)?;
-            let (mut img, _) = read(&files, r.mapping, r.layout, &ReadOptions::default())?;
-            check_nonfinite_env(&mut img, &files, r.nonfinite)?;
+            let img = r.read(&files, read)?;
             let env = EnvMap::new(r.mapping, &img, files.first())?;
             let report = IrradianceReport::of(&env, &r.world_to_env, job.window()?, input)?;
             let text = if output.ends_with(".txt") {

@@ -94,6 +94,20 @@ impl EnvRequest {
     }
 }
 
+impl ResolvedEnv {
+    /// Reads the environment's `files` (`read` decodes them: [`read_env_layout`] or a caller's
+    /// cache) in the resolved mapping and layout, and applies the NaN/Inf rule.
+    pub fn read(
+        &self,
+        files: &EnvFiles,
+        read: &mut crate::images::envmap::EnvReader<'_>,
+    ) -> Result<Image> {
+        let (mut img, _) = read(files, self.mapping, self.layout, &ReadOptions::default())?;
+        check_nonfinite_env(&mut img, files, self.nonfinite)?;
+        Ok(img)
+    }
+}
+
 /// The irradiance map of `env` (E(n) = ∫ L(l) max(0, n·l) dω, the full integral on the
 /// environment's tree, no spherical-harmonics truncation) as a `width`×`height` canvas of
 /// `mapping` in the world frame, `samples` normals per texel.
