@@ -355,11 +355,13 @@ pub struct PrefilterArgs {
     #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
     outside: String,
     /// The error each integral may leave, relative to the map's mean radiance (default 1e-4;
-    /// 1e-5 is three times slower, 1e-3 three times faster).
+    /// 1e-5 is three times slower, 1e-3 three times faster; with --irradiance, 5e-4 or more
+    /// sums the map on a coarser cube, about twice as fast).
     #[arg(long)]
     tolerance: Option<f64>,
-    /// tree: exact integrals on the environment's tree (default); sampled: filtered importance
-    /// sampling from a cube mip pyramid, as Filament's cmgen (fast, approximate).
+    /// tree: exact integrals on the environment's tree (default; with --irradiance, the cosine
+    /// integral by the map's moments); sampled: filtered importance sampling from a cube mip
+    /// pyramid, as Filament's cmgen (fast, approximate).
     #[arg(long, default_value = "tree", value_parser = crate::names::core("prefilter_method"))]
     method: String,
     /// GGX samples per texel with --method sampled (Filament's default).

@@ -140,6 +140,74 @@ pub fn light_channels(c: usize) -> usize {
     }
 }
 
+/// Every point a tree of face `face` sums: each texel of the map as k×k points (the map's
+/// bilinear radiance over its area; k grows until the points are about half a leaf apart, so
+/// texels larger than the leaves fill them), with its exact solid angle, put into the leaf of
+/// the world-frame cube its direction falls in.  `point(L, d, dω)` makes each point's share
+/// (in parallel; L is RGB, or grey in L[0]; d the unit world direction); `add(leaf, share)`
+/// sums them in the map's row order, so the sums are the same on any number of threads.
+pub(crate) fn sum_points<T: Send>(
+    env: &EnvMap,
+    world_to_env: [[f64; 3]; 3],
+    face: usize,
+    point: impl Fn([f64; 3], [f64; 3], f64) -> T + Sync,
+    mut add: impl FnMut(usize, T),
+) -> Result<()> {
+    let cube = Mapping::parse("cube", None)?;
+    let (w, h, ch) = (env.width, env.height, env.channels);
+    let c = light_channels(ch);
+    let m = env.mapping;
+    let r = world_to_env;
+    let k = sub_points(m, w, h, face);
+    let (wk, hk) = (w * k, h * k);
+    let sampler = &crate::resample::Sampler::new(env);
+    let point = &point;
+    let cube = &cube;
+    let block = (32 / k).max(1);
+    for y0 in (0..h).step_by(block) {
+        let parts: Vec<(usize, T)> = (y0 * k..((y0 + block).min(h)) * k)
+            .into_par_iter()
+            .flat_map_iter(|ys| {
+                (0..wk).filter_map(move |xs| {
+                    let dw = m.texel_solid_angle(xs, ys, wk, hk);
+                    if !(dw > 0.0) {
+                        return None;
+                    }
+                    let uv = [(xs as f64 + 0.5) / wk as f64, (ys as f64 + 0.5) / hk as f64];
+                    let d = m.uv_to_dir(uv)?;
+                    // The radiance there: the texel itself, or between texels the bilinear
+                    // lookup every other spheremap path makes.
+                    let mut px = [0f32; 8];
+                    if k == 1 {
+                        px[..ch].copy_from_slice(&env.data[(ys * w + xs) * ch..][..ch]);
+                    } else {
+                        sampler.sample(d.map(|v| v as f32), &mut px);
+                    }
+                    // Map frame → world: the transpose of world → map.
+                    let d = brdf::normalize([
+                        r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
+                        r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
+                        r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
+                    ]);
+                    let [u, v] = cube.dir_to_uv(d);
+                    let i = ((u * face as f64) as usize).min(face - 1);
+                    let j = ((v * (6 * face) as f64) as usize).min(6 * face - 1);
+                    let l = if c == 3 {
+                        [px[0] as f64, px[1] as f64, px[2] as f64]
+                    } else {
+                        [px[0] as f64, 0.0, 0.0]
+                    };
+                    Some((j * face + i, point(l, d, dw)))
+                })
+            })
+            .collect();
+        for (leaf, t) in parts {
+            add(leaf, t);
+        }
+    }
+    Ok(())
+}
+
 impl EnvTree {
     /// Builds the tree of `env` with leaves on a world-frame cube of face `face`;
     /// `world_to_env` takes world directions to the map's frame.  Every texel of the map is
@@ -147,71 +215,26 @@ impl EnvTree {
     /// tree sums exactly what a brute-force sum over the map's texels sums.
     pub fn build(env: &EnvMap, world_to_env: [[f64; 3]; 3], face: usize) -> Result<EnvTree> {
         let cube = Mapping::parse("cube", None)?;
-        let (w, h, ch) = (env.width, env.height, env.channels);
-        let c = light_channels(ch);
-        let m = env.mapping;
-        let r = world_to_env;
+        let c = light_channels(env.channels);
         let lum = |l: [f64; 3]| brightness(l, c);
         let mut acc = vec![Acc::default(); 6 * face * face];
-        // Each texel is k×k points (the map's bilinear radiance over its area): k grows until
-        // the points are about half a leaf apart, so texels larger than the leaves fill them.
-        let k = sub_points(m, w, h, face);
-        let (wk, hk) = (w * k, h * k);
-        let sampler = &crate::resample::Sampler::new(env);
-        let block = (32 / k).max(1);
-        for y0 in (0..h).step_by(block) {
-            let parts: Vec<(usize, Acc)> = (y0 * k..((y0 + block).min(h)) * k)
-                .into_par_iter()
-                .flat_map_iter(|ys| {
-                    (0..wk).filter_map(move |xs| {
-                        let dw = m.texel_solid_angle(xs, ys, wk, hk);
-                        if !(dw > 0.0) {
-                            return None;
-                        }
-                        let uv = [(xs as f64 + 0.5) / wk as f64, (ys as f64 + 0.5) / hk as f64];
-                        let d = m.uv_to_dir(uv)?;
-                        // The radiance there: the texel itself, or between texels the bilinear
-                        // lookup every other spheremap path makes.
-                        let mut px = [0f32; 8];
-                        if k == 1 {
-                            px[..ch].copy_from_slice(&env.data[(ys * w + xs) * ch..][..ch]);
-                        } else {
-                            sampler.sample(d.map(|v| v as f32), &mut px);
-                        }
-                        // Map frame → world: the transpose of world → map.
-                        let d = brdf::normalize([
-                            r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
-                            r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
-                            r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
-                        ]);
-                        let [u, v] = cube.dir_to_uv(d);
-                        let i = ((u * face as f64) as usize).min(face - 1);
-                        let j = ((v * (6 * face) as f64) as usize).min(6 * face - 1);
-                        let p = &px;
-                        let l = if c == 3 {
-                            [p[0] as f64, p[1] as f64, p[2] as f64]
-                        } else {
-                            [p[0] as f64, 0.0, 0.0]
-                        };
-                        let wt = (lum(l).max(0.0) + 1e-30) * dw;
-                        Some((
-                            j * face + i,
-                            Acc {
-                                power: l.map(|v| v * dw),
-                                wd: [d[0] * wt, d[1] * wt, d[2] * wt],
-                                od: [d[0] * dw, d[1] * dw, d[2] * dw],
-                                omega: dw,
-                                lum: lum(l) * dw,
-                                var: 0.0,
-                            },
-                        ))
-                    })
-                })
-                .collect();
-            for (k, a) in parts {
-                acc[k].add(&a);
-            }
-        }
+        sum_points(
+            env,
+            world_to_env,
+            face,
+            |l, d, dw| {
+                let wt = (lum(l).max(0.0) + 1e-30) * dw;
+                Acc {
+                    power: l.map(|v| v * dw),
+                    wd: [d[0] * wt, d[1] * wt, d[2] * wt],
+                    od: [d[0] * dw, d[1] * dw, d[2] * dw],
+                    omega: dw,
+                    lum: lum(l) * dw,
+                    var: 0.0,
+                }
+            },
+            |leaf, a| acc[leaf].add(&a),
+        )?;
         let total = acc.iter().fold([0.0; 4], |s, a| {
             [
                 s[0] + a.power[0],
@@ -412,7 +435,7 @@ impl Acc {
 
 /// The brightness the tree weighs and estimates errors by: the mean of the channels (each
 /// counts alike: a blue sky is not under-weighted), the channel itself for a grey map.
-fn brightness(l: [f64; 3], channels: usize) -> f64 {
+pub(crate) fn brightness(l: [f64; 3], channels: usize) -> f64 {
     if channels == 3 {
         (l[0] + l[1] + l[2]) / 3.0
     } else {
@@ -420,27 +443,33 @@ fn brightness(l: [f64; 3], channels: usize) -> f64 {
     }
 }
 
+/// The bounding cone of texel `k` of a cube of face `m` (the face stack's row-major index):
+/// the direction of its centre and the largest angle from it to a corner.
+pub(crate) fn cone(cube: &Mapping, m: usize, k: usize) -> ([f64; 3], f64) {
+    let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+    let mf = m as f64;
+    let eps = 1e-9;
+    let uv = |a: f64, b: f64| {
+        let u = (a / mf).clamp(eps, 1.0 - eps);
+        let v = (f as f64 + (b / mf).clamp(eps, 1.0 - eps)) / 6.0;
+        brdf::normalize(cube.uv_to_dir([u, v]).expect("on the cube"))
+    };
+    let axis = uv(i as f64 + 0.5, j as f64 + 0.5);
+    let mut rad: f64 = 0.0;
+    for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+        let d = uv(i as f64 + a, j as f64 + b);
+        rad = rad.max(brdf::dot(axis, d).clamp(-1.0, 1.0).acos());
+    }
+    (axis, rad)
+}
+
 /// Nodes of a level from their accumulated sums.
 fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
-    let (w, h) = (1.0, 6.0);
     acc.par_iter()
         .enumerate()
         .map(|(k, a)| {
             let (power, wd, od) = (&a.power, &a.wd, &a.od);
-            let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
-            let mf = m as f64;
-            let eps = 1e-9;
-            let uv = |a: f64, b: f64| {
-                let u = (a / mf).clamp(eps, 1.0 - eps);
-                let v = (f as f64 + (b / mf).clamp(eps, 1.0 - eps)) / h;
-                brdf::normalize(cube.uv_to_dir([u / w, v]).expect("on the cube"))
-            };
-            let axis = uv(i as f64 + 0.5, j as f64 + 0.5);
-            let mut rad: f64 = 0.0;
-            for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
-                let d = uv(i as f64 + a, j as f64 + b);
-                rad = rad.max(brdf::dot(axis, d).clamp(-1.0, 1.0).acos());
-            }
+            let (axis, rad) = cone(cube, m, k);
             let l = brdf::dot(*wd, *wd).sqrt();
             let dir = if l > 0.0 {
                 [wd[0] / l, wd[1] / l, wd[2] / l]

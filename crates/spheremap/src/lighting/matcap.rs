@@ -77,6 +77,8 @@ pub enum Method {
     Mirror,
     /// Filtered importance sampling from a cube mip pyramid (`prefilter --method sampled`).
     Sampled,
+    /// The cosine integral by the environment's moments (Lambert; [`super::cosine`]).
+    Cosine,
 }
 
 /// What a bake did.
@@ -147,6 +149,19 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
             max_texel_samples: r.max_texel_samples,
         };
         return Ok((img, report));
+    }
+    if b.material == Material::Lambert {
+        // View-independent: albedo/π × E(n), the cosine integral at each sample's normal.
+        let face = super::cosine::face_for_tolerance(b.rule.tol);
+        let tree = super::cosine::CosineTree::build(env, b.world_to_env, face)?;
+        let source = super::cosine::CosineSource {
+            tree: &tree,
+            normal: |r| normal_of(r, v),
+            scale: b.albedo.map(|a| a / std::f64::consts::PI),
+            channels: out_c,
+        };
+        let (img, r) = generate(sphere, b.size, b.size, &source, &gen, progress)?;
+        return Ok((img, report(Method::Cosine, face, r)));
     }
     let (method, face) = plan(env, b.material);
     crate::base::error::check_memory("env", envtree::EnvTree::bytes(face), b.max_memory)?;

@@ -4,6 +4,7 @@
 //! * [`brdf`]: the materials (Lambert, GGX with height-correlated Smith G₂ and Fresnel 1),
 //!   their directional albedo, the visible-normal sampler;
 //! * [`envtree`]: the environment as a tree of cube texel blocks, for exact lobe integrals;
+//! * [`cosine`]: the cosine (irradiance) integral, exact where the horizon does not cross;
 //! * [`matcap`]: physically exact MatCaps (the lit sphere of a material seen by an
 //!   orthographic viewer), and [`MatcapRequest`], the bake as users name it;
 //! * [`prefilter`]: the GGX radiance mip chain and the irradiance map engines load, and
@@ -13,6 +14,7 @@
 //! * [`dfg`]: the split-sum DFG lookup table of the same GGX.
 
 pub mod brdf;
+pub mod cosine;
 pub mod dfg;
 pub mod envtree;
 pub mod matcap;
@@ -108,9 +110,9 @@ impl ResolvedEnv {
     }
 }
 
-/// The irradiance map of `env` (E(n) = ∫ L(l) max(0, n·l) dω, the full integral on the
-/// environment's tree, no spherical-harmonics truncation) as a `width`×`height` canvas of
-/// `mapping` in the world frame, `samples` normals per texel.
+/// The irradiance map of `env` (E(n) = ∫ L(l) max(0, n·l) dω, the full integral
+/// ([`cosine`], within 6e-5 of π L̄ of the brute-force sum), no spherical-harmonics truncation)
+/// as a `width`×`height` canvas of `mapping` in the world frame, `samples` normals per texel.
 pub fn irradiance_map(
     env: &EnvMap,
     world_to_env: &crate::frame::view::Mat3,
@@ -119,39 +121,19 @@ pub fn irradiance_map(
     height: usize,
     samples: u32,
 ) -> Result<Image> {
-    let face = envtree::face_needed(Material::Lambert);
-    let tree = envtree::EnvTree::build(env, *world_to_env, face)?;
-    let source = IrradianceSource { tree: &tree };
+    let tree = cosine::CosineTree::build(env, *world_to_env, cosine::DEFAULT_FACE)?;
+    let source = cosine::CosineSource {
+        tree: &tree,
+        normal: |d| d,
+        scale: [1.0; 3],
+        channels: tree.channels,
+    };
     let opts = crate::trace::generate::GenerateOptions {
         samples,
         ..Default::default()
     };
     let (img, _) = crate::trace::generate::generate(mapping, width, height, &source, &opts, None)?;
     Ok(img)
-}
-
-struct IrradianceSource<'a> {
-    tree: &'a envtree::EnvTree,
-}
-
-impl crate::trace::generate::RaySource for IrradianceSource<'_> {
-    fn channels(&self) -> usize {
-        self.tree.channels
-    }
-    fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
-        let c = self.tree.channels;
-        let rule = envtree::CutRule::default();
-        let scale = self.tree.mean_brightness();
-        for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
-            let n = brdf::normalize(d.map(|v| v as f64));
-            let lobe = envtree::Lobe::new(Material::Lambert, n, n, rule, scale);
-            let res = self.tree.residual(&lobe);
-            for k in 0..c {
-                o[k] = (std::f64::consts::PI * (self.tree.mean[k] + res[k])) as f32;
-            }
-        }
-        Ok(())
-    }
 }
 
 /// A MatCap bake as users name it: `spheremap bake-matcap` and Python's `bake_matcap` fill the
@@ -235,7 +217,7 @@ pub struct MatcapReport {
     pub size: usize,
     pub channels: usize,
     pub samples: u32,
-    /// How the lobes were integrated: `tree`, `vndf` or `mirror`.
+    /// How the lobes were integrated: `tree`, `vndf`, `mirror` or `cosine` (Lambert).
     pub method: matcap::Method,
     /// The environment tree's cube face (0 for the mirror).
     pub tree_face: usize,

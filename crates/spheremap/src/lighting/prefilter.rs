@@ -31,7 +31,9 @@
 //! across α, up to faces of 512; under [`envtree::AVERAGE_BELOW`] leaves, leaves the lobe
 //! varies across average it over their area, down to [`MIN_LEAVES_PER_ALPHA`] leaves,
 //! α ≈ 0.009, roughness ≈ 0.096).
-//! Narrower lobes take 256 visible-normal samples with bilinear lookups, as MatCaps do.
+//! Narrower lobes take 256 visible-normal samples with bilinear lookups, as MatCaps do.  The
+//! irradiance level is the cosine integral ([`super::cosine`], face by
+//! [`super::cosine::face_for_tolerance`]).
 //!
 //! [`PrefilterMethod::Sampled`] is filtered importance sampling (Křivánek and Colbert 2008) as
 //! Filament's `cmgen` does it: a Hammersley set of the lobe, each sample read trilinearly from
@@ -231,7 +233,7 @@ pub struct LevelReport {
     pub height: usize,
     /// Perceptual roughness (α = roughness²); `null` for the irradiance.
     pub roughness: Option<f64>,
-    /// `tree`, `vndf` or `mirror`.
+    /// `tree`, `vndf`, `mirror`, `sampled` or `cosine` (the irradiance).
     pub method: Method,
     /// The environment tree's cube face (0 for the mirror).
     pub tree_face: usize,
@@ -335,6 +337,18 @@ pub fn prefilter(
             };
             let (img, r) = crate::resample::resample(env, p.mapping, w, h, &opts, progress)?;
             (img, Method::Mirror, 0, r.lookups)
+        } else if material == Material::Lambert && p.method == PrefilterMethod::Tree {
+            // The cosine integral by the environment's moments, /π.
+            let face = super::cosine::face_for_tolerance(p.rule.tol);
+            let tree = super::cosine::CosineTree::build(env, p.world_to_env, face)?;
+            let source = super::cosine::CosineSource {
+                tree: &tree,
+                normal: |d| d,
+                scale: [1.0 / std::f64::consts::PI; 3],
+                channels: tree.channels,
+            };
+            let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
+            (img, Method::Cosine, face, r.rays)
         } else if p.method == PrefilterMethod::Sampled {
             if pyramid.is_none() {
                 pyramid = Some(CubePyramid::build(env, p, progress)?);
