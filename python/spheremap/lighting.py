@@ -108,8 +108,9 @@ def prefilter(
     level ("roughness", "method", "integrals", "seconds", ...).
 
     Level i of L has size N >> i (N = `size`, default 256; cube faces N x N, latlong 2N x N) and
-    perceptual roughness r_i from `roughness_map`: "filament" (r(2 - r) = i/(L - 1)), "threejs"
-    (the roughness three.js's PMREM shader reads from a face of that size) or "linear"; levels
+    perceptual roughness r_i from `roughness_map`: "filament" (r(2 - r) = i/(L - 1); three.js
+    from r187 too), "threejs" (three.js up to r186: the roughness its cube-UV PMREM shader reads
+    from a face of that size) or "linear"; levels
     default down to 8 texels. For every mapping but "sphere" a texel in direction r holds the
     split-sum prefiltered radiance, the integral of L(l) D(h) (r.l) over that of D(h) (r.l)
     (n = v = r; a constant map gives itself). For "sphere" each level is the exact GGX MatCap

@@ -328,8 +328,9 @@ pub struct PrefilterArgs {
     /// Mip levels, each half the last; default down to 8 texels (6 for 256).
     #[arg(long)]
     levels: Option<usize>,
-    /// Level -> roughness: filament (r(2-r) = level/(L-1)), threejs (its PMREM's
-    /// roughnessToMip at log2 of the level's size) or linear.
+    /// Level -> roughness: filament (r(2-r) = level/(L-1); also three.js from r187),
+    /// threejs (three.js up to r186: its cube-UV PMREM's roughnessToMip at log2 of the
+    /// level's size) or linear.
     #[arg(long, default_value = "filament", value_parser = crate::names::core("roughness_map"))]
     roughness_map: String,
     /// One level of the cosine-convolved map ((1/pi) times the irradiance) instead.

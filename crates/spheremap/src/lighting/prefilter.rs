@@ -90,10 +90,12 @@ pub use super::envtree::MIN_LEAVES_PER_ALPHA;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RoughnessMap {
     /// Filament (`cmgen`, and its shader's `perceptualRoughnessToLod`): lod = i/(L − 1),
-    /// r = 1 − √(1 − lod), the inverse of lod = r(2 − r).
+    /// r = 1 − √(1 − lod), the inverse of lod = r(2 − r); three.js from r187 too
+    /// (`PMREMGenerator.lodToRoughness`).
     Filament,
-    /// three.js (`roughnessToMip` of its PMREM shader): the roughness three.js reads from a
-    /// face of 2^m texels, m = log₂ of the level's size; level 0 is the mirror.
+    /// three.js up to r186 (`roughnessToMip` of its cube-UV PMREM shader): the roughness
+    /// three.js reads from a face of 2^m texels, m = log₂ of the level's size; level 0 is the
+    /// mirror.
     Threejs,
     /// r = i/(L − 1).
     Linear,
