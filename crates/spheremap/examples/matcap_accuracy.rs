@@ -114,6 +114,9 @@ fn main() {
                 ("ggx 0.25", Material::Ggx { alpha: 0.0625 }),
                 ("ggx 0.15", Material::Ggx { alpha: 0.0225 }),
                 ("ggx 0.12", Material::Ggx { alpha: 0.0144 }),
+                ("ggx 0.08", Material::Ggx { alpha: 0.0064 }),
+                ("ggx 0.065", Material::Ggx { alpha: 0.004225 }),
+                ("ggx 0.05", Material::Ggx { alpha: 0.0025 }),
             ] {
                 if std::env::var("ONLY").is_ok_and(|o| !name.ends_with(&o)) {
                     continue;

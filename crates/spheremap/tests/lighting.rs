@@ -313,8 +313,8 @@ mod prefilter {
         let env = structured();
         let m = Mapping::parse("latlong", None).unwrap();
         let cube = Mapping::parse("cube", None).unwrap();
-        // Faces of 8 in 4 levels (within 5e-3), and level 1 of 32 in 6 (roughness 0.106, α 3.6
-        // of the finest leaves wide: within 4e-2; every 9th texel).
+        // Faces of 8 in 4 levels, and level 1 of 32 in 6 (roughness 0.106, α 3.6 of the finest
+        // leaves wide; every 9th texel): within 5e-3.
         let mut checks = Vec::new();
         for (f, n, upto) in [(8, 4, 4), (32, 6, 2)] {
             let req = PrefilterRequest {
@@ -333,7 +333,8 @@ mod prefilter {
             let norm = split_sum_norm(alpha);
             let lf = f >> rep.level;
             let mut worst: f64 = 0.0;
-            let (step, bound) = if lf >= 16 { (9, 4e-2) } else { (1, 5e-3) };
+            // Level 1 of 32 (roughness 0.106) is a narrow lobe: measured 2.1e-3.
+            let (step, bound) = if lf >= 16 { (9, 5e-3) } else { (1, 5e-3) };
             for (t, px) in img.data.chunks_exact(3).enumerate().step_by(step) {
                 let (x, y) = (t % lf, t / lf);
                 let uv = [
@@ -408,6 +409,69 @@ mod prefilter {
                 rep.level,
                 rep.method
             );
+        }
+    }
+
+    #[test]
+    fn narrow_matcap_lobes_match_a_midpoint_rule_in_the_lobe() {
+        // Roughness 0.12 and 0.08 (α 4.7 and 2.1 leaves of the 512 face wide): each texel
+        // against a midpoint rule over the half vector (ξ the CDF of D(h)(n·h) in cos²θ_h, φ
+        // the azimuth; f (n·l) dω_l = D(h)(n·h) · G₂ (v·h)/((n·v)(n·h)) dω_h), reading the
+        // map bilinearly.  Dark texels under a bright mean are where a narrow lobe's
+        // discretization shows.
+        use spheremap::lighting::brdf::{smith_g2, tangent_frame};
+        let env = structured();
+        let n = 12;
+        for roughness in [0.12, 0.08] {
+            let alpha: f64 = roughness * roughness;
+            let req = MatcapRequest {
+                material: "ggx".into(),
+                roughness,
+                size: n,
+                samples: 1,
+                ..Default::default()
+            };
+            let (img, _) = req.run_image(&env, None).unwrap();
+            let m = Mapping::parse("latlong", None).unwrap();
+            let v = [0.0, 0.0, 1.0];
+            let mut worst: f64 = 0.0;
+            for (j, i) in [(6, 6), (2, 5), (5, 1), (8, 9), (10, 4), (3, 3), (6, 10)] {
+                let nn = normal(i, j, n).unwrap();
+                // The MatCap's default view looks down −Z with +Y up: view space is the world.
+                let (t, b) = tangent_frame(nn);
+                let nv = nn[2];
+                let (nx, nphi) = (1200, 96);
+                let mut acc = [0.0f64; 3];
+                for a in 0..nx {
+                    let xi = (a as f64 + 0.5) / nx as f64;
+                    let c2 = (1.0 - xi) / (1.0 + (alpha * alpha - 1.0) * xi);
+                    let (ch, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
+                    for p in 0..nphi {
+                        let phi = 2.0 * std::f64::consts::PI * (p as f64 + 0.5) / nphi as f64;
+                        let h = [0, 1, 2]
+                            .map(|q| sh * phi.cos() * t[q] + sh * phi.sin() * b[q] + ch * nn[q]);
+                        let vh = h[2];
+                        let l = [0, 1, 2].map(|q| 2.0 * vh * h[q] - v[q]);
+                        let nl = nn[0] * l[0] + nn[1] * l[1] + nn[2] * l[2];
+                        if nl <= 0.0 || vh <= 0.0 {
+                            continue;
+                        }
+                        let w = smith_g2(alpha, nl, nv) * vh / (nv * ch);
+                        let r = bilinear(&env, m.dir_to_uv(l));
+                        for q in 0..3 {
+                            acc[q] += w * r[q] / (nx * nphi) as f64;
+                        }
+                    }
+                }
+                for (q, want) in acc.iter().enumerate() {
+                    let got = img.data[(j * n + i) * 3 + q] as f64;
+                    worst = worst.max((got - want).abs() / want.abs().max(0.05));
+                }
+            }
+            // Measured: 8.5e-3 at 0.12 (the channel with the bright spot; the others within
+            // 3e-4), and with the map's mean for a control variate instead, 1.7e-2.
+            eprintln!("roughness {roughness}: worst {worst:.2e}");
+            assert!(worst < 1e-2, "roughness {roughness}: {worst}");
         }
     }
 

@@ -197,7 +197,7 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
 /// How `material`'s integrals over `env` are computed, and the tree face they use: the tree at
 /// the resolution the lobe needs ([`envtree::face_needed`]), up to [`TREE_FACE_CAP`]; a lobe
 /// too narrow for that face has its leaves averaged ([`envtree::AVERAGE_BELOW`]) down to
-/// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.096); narrower ones are
+/// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.055); narrower ones are
 /// sampled ([`Method::Vndf`]).
 pub fn plan(env: &EnvMap, material: Material) -> (Method, usize) {
     let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
@@ -383,23 +383,26 @@ impl MatcapSource<'_> {
         let mu = brdf::dot(n, self.v).clamp(0.0, 1.0);
         let e = self.albedo_table.at(mu);
         let mean = self.tree.mean;
-        let res = match (&self.vndf, self.material) {
+        match (&self.vndf, self.material) {
             (Some((sampler, rot)), Material::Ggx { alpha }) => {
                 // Each sample's weight G₂/G₁(v): the visible-normal pdf holds G₁(v).
                 let lambda_v = brdf::smith_lambda(alpha, brdf::dot(self.v, n).max(1e-6));
                 let w =
                     |mu_l| (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, mu_l));
-                vndf_residual(sampler, rot, alpha, n, self.v, mean, r, w)
+                let res = vndf_residual(sampler, rot, alpha, n, self.v, mean, r, w);
+                [0, 1, 2].map(|k| mean[k] * e + res[k])
             }
-            _ => self.tree.residual(&Lobe::new(
-                self.material,
-                n,
-                self.v,
-                self.rule,
-                self.tree.mean_brightness() * e,
-            )),
-        };
-        [0, 1, 2].map(|k| mean[k] * e + res[k])
+            _ => self.tree.integral(
+                &Lobe::new(
+                    self.material,
+                    n,
+                    self.v,
+                    self.rule,
+                    self.tree.mean_brightness() * e,
+                ),
+                e,
+            ),
+        }
     }
 }
 
@@ -486,7 +489,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_plan_trees_lobes_down_to_three_leaves_of_a_512_face() {
+    fn the_plan_trees_lobes_down_to_one_leaf_of_a_512_face() {
         let m = Mapping::parse("latlong", None).unwrap();
         let img = Image::new(512, 256, 3);
         let env = EnvMap::new(m, &img, "env").unwrap();
@@ -497,7 +500,8 @@ mod tests {
         // 16/α wants a 1024 face; the 512 face holds 7.3 leaves across α: averaged leaves.
         assert_eq!(plan(&env, ggx(0.15)), (Method::Tree, 512));
         assert_eq!(plan(&env, ggx(0.1)), (Method::Tree, 512));
-        // Under 3 leaves across α (roughness 0.096): visible-normal samples.
-        assert_eq!(plan(&env, ggx(0.09)).0, Method::Vndf);
+        assert_eq!(plan(&env, ggx(0.06)), (Method::Tree, 512));
+        // Under 1 leaf across α (roughness 0.055): visible-normal samples.
+        assert_eq!(plan(&env, ggx(0.05)).0, Method::Vndf);
     }
 }

@@ -30,7 +30,8 @@
 //! tolerance ([`DEFAULT_TOLERANCE`]).  The tree's finest face resolves the lobe (16 leaves
 //! across α, up to faces of 512; under [`envtree::AVERAGE_BELOW`] leaves, leaves the lobe
 //! varies across average it over their area, down to [`MIN_LEAVES_PER_ALPHA`] leaves,
-//! α ≈ 0.009, roughness ≈ 0.096).
+//! α ≈ 0.003, roughness ≈ 0.055), each such integral normalized by its cut's own sum of the
+//! lobe ([`envtree::Cut::integral`]).
 //! Narrower lobes take 256 visible-normal samples with bilinear lookups, as MatCaps do.  The
 //! irradiance level is the cosine integral ([`super::cosine`], face by
 //! [`super::cosine::face_for_tolerance`]).
@@ -419,22 +420,24 @@ impl RaySource for LevelSource<'_> {
         let scale = self.tree.mean_brightness() * self.norm;
         for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
             let r = brdf::normalize(d.map(|v| v as f64));
-            let res = match (self.material, &self.vndf) {
+            let value = match (self.material, &self.vndf) {
                 (Material::Ggx { alpha }, Some((sampler, rot))) => {
                     // Samples from D(h)(n·h) about n = v = r have density D/4 in l: the
                     // kernel over it is n·l.
-                    matcap::vndf_residual(sampler, rot, alpha, r, r, mean, r, |mu_l| mu_l)
+                    let res =
+                        matcap::vndf_residual(sampler, rot, alpha, r, r, mean, r, |mu_l| mu_l);
+                    [0, 1, 2].map(|k| mean[k] * self.norm + res[k])
                 }
                 (Material::Ggx { alpha }, None) => self
                     .tree
-                    .residual(&Lobe::split_sum(alpha, r, self.rule, scale)),
-                (Material::Lambert, _) => {
-                    self.tree
-                        .residual(&Lobe::new(Material::Lambert, r, r, self.rule, scale))
-                }
+                    .integral(&Lobe::split_sum(alpha, r, self.rule, scale), self.norm),
+                (Material::Lambert, _) => self.tree.integral(
+                    &Lobe::new(Material::Lambert, r, r, self.rule, scale),
+                    self.norm,
+                ),
             };
             for k in 0..c {
-                o[k] = (mean[k] + res[k] / self.norm) as f32;
+                o[k] = (value[k] / self.norm) as f32;
             }
         }
         Ok(())
