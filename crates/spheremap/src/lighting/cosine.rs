@@ -11,8 +11,9 @@
 //! The environment's points (those of [`envtree::sum_points`], the same a brute-force sum over
 //! the map's texels sums) go into the leaves of a world-frame cube of face F; each leaf keeps,
 //! per channel, its power P = Σ L dω and moment M = Σ L l dω, and the same of the solid angle
-//! (Ω = Σ dω, M_Ω = Σ l dω).  Leaves are grouped 2×2 up to one node per face.  With the map's
-//! mean L̄ as a control variate,
+//! (Ω = Σ dω, M_Ω = Σ l dω).  Points holding more than a quarter of a mean leaf's power (a
+//! sun's texels) are kept apart, each a leaf of no extent, exact wherever the horizon passes.
+//! Leaves are grouped 2×2 up to one node per face.  With the map's mean L̄ as a control variate,
 //!
 //! E(n) = π L̄ + Σ over blocks of ∫_block (n·l)⁺ (L − L̄) dω.
 //!
