@@ -25,6 +25,19 @@ fi
 echo "== Python test dependencies"
 python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40" "dask[distributed]>=2024.1" blake3
 
+# Blender's Python module (bpy, CPython 3.11 wheels only), in an environment of its own, for the
+# MatCaps' check against Cycles (tests/test_lighting.py).
+if [ -z "${SPHEREMAP_BPY_PYTHON:-}" ] && python3 -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+  bpy_venv="$PWD/target/bpy-venv"
+  if ! "$bpy_venv/bin/python" -c "import bpy" 2>/dev/null; then
+    echo "== Blender's Python module (bpy) for the Cycles reference"
+    rm -rf "$bpy_venv"
+    python3 -m venv "$bpy_venv"
+    "$bpy_venv/bin/python" -m pip install -q --disable-pip-version-check "bpy==5.0.1"
+  fi
+  export SPHEREMAP_BPY_PYTHON="$bpy_venv/bin/python"
+fi
+
 echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q
 echo "== the core without its optional parts (the ray tracer, the photo routes)"

@@ -11,7 +11,7 @@ equirectangular convention. Each pixel is one ray through its centre (pixel filt
 it holds the MatCap's value at that texel's normal; texels within 0.95 of the rim are compared
 (the polygonal silhouette), after x/(1+x) and sRGB.
 
-    python scripts/verify_cycles.py [--map testdata/hdri/park.exr] [--size 32] [--spp 4096]
+    python scripts/verify_cycles.py [--map testdata/hdri/park.exr] [--size 32] [--spp 1024]
 
 Needs Blender's Python module: `pip install bpy` in a Python 3.11 environment, named by
 $SPHEREMAP_BPY_PYTHON (default: this interpreter); the comparison runs here, with spheremap.
@@ -106,12 +106,20 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--map", default=os.path.join(ROOT, "testdata", "hdri", "park.exr"))
     ap.add_argument("--size", type=int, default=32)
-    ap.add_argument("--spp", type=int, default=4096)
+    ap.add_argument("--spp", type=int, default=1024)
     ap.add_argument("--render", nargs=2, metavar=("ENV", "OUT_DIR"), help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.render:
         render(a.render[0], a.render[1], a.size, a.spp)
         return
+    print(f"{os.path.basename(a.map)}, {a.size}^2, Cycles {a.spp} spp; PSNR over the disc (r < 0.95):")
+    for name, roughness, db, ratio in compare(a.map, a.size, a.spp):
+        print(f"  {name:8s} {roughness:4.2f}: {db:5.1f} dB, mean Cycles/ours {ratio:.4f}")
+
+
+def compare(map_path, size, spp, env=None):
+    """(material, roughness, PSNR in dB, mean of Cycles over mean of spheremap) per material;
+    `env` (an array) replaces the map read from `map_path`."""
     import numpy as np
 
     import spheremap as sm
@@ -120,23 +128,25 @@ def main():
         x = np.clip(x / (1 + x), 0, 1)
         return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
-    env = sm.read_image(a.map)[..., :3]
+    if env is None:
+        env = sm.read_image(map_path)[..., :3]
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         env_path = os.path.join(tmp, "env.exr")
         sm.write_image(env_path, env)
         bpy_python = os.environ.get("SPHEREMAP_BPY_PYTHON", sys.executable)
-        cmd = [bpy_python, os.path.abspath(__file__), "--size", str(a.size), "--spp", str(a.spp)]
+        cmd = [bpy_python, os.path.abspath(__file__), "--size", str(size), "--spp", str(spp)]
         subprocess.run([*cmd, "--render", env_path, tmp], check=True, stdout=subprocess.DEVNULL)
-        s = (np.arange(a.size) + 0.5) / a.size
+        s = (np.arange(size) + 0.5) / size
         x, y = np.meshgrid(2 * s - 1, 1 - 2 * s)
         inside = np.hypot(x, y) < 0.95
-        print(f"{os.path.basename(a.map)}, {a.size}^2, Cycles {a.spp} spp; PSNR over the disc (r < 0.95):")
         for name, roughness in MATERIALS:
             cycles = sm.read_image(os.path.join(tmp, f"{name}_{roughness}.exr"))[..., :3]
-            ours = sm.bake_matcap(env, material=name, roughness=roughness, size=a.size, samples=1)
+            ours = sm.bake_matcap(env, material=name, roughness=roughness, size=size, samples=1)
             mse = float(np.mean((tonemapped(cycles[inside]) - tonemapped(ours[inside])) ** 2))
             ratio = float(np.mean(cycles[inside]) / np.mean(ours[inside]))
-            print(f"  {name:8s} {roughness:4.2f}: {-10 * math.log10(mse):5.1f} dB, mean Cycles/ours {ratio:.4f}")
+            rows.append((name, roughness, -10 * math.log10(mse), ratio))
+    return rows
 
 
 if __name__ == "__main__":
