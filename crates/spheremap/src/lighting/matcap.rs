@@ -198,7 +198,8 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
 /// the resolution the lobe needs ([`envtree::face_needed`]), up to [`TREE_FACE_CAP`]; a lobe
 /// too narrow for that face has its leaves averaged ([`envtree::AVERAGE_BELOW`]) down to
 /// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.055); narrower ones are
-/// sampled ([`Method::Vndf`]).
+/// sampled ([`Method::Vndf`]).  Lambert's integrals are the cosine integral's
+/// ([`super::cosine`], not planned here; this gives the tree that would serve them).
 pub fn plan(env: &EnvMap, material: Material) -> (Method, usize) {
     let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
     let cap = TREE_FACE_CAP.max(src_face);
