@@ -308,6 +308,31 @@ mod prefilter {
         })
     }
 
+    /// A midpoint rule over the GGX half vectors about `n`: `nx` steps of ξ, the CDF of
+    /// D(h)(n·h) in cos²θ_h, by `nphi` of the azimuth; `f(h, n·h, weight)` with the weight
+    /// 1/(nx·nphi), so that Σ f·weight is ∫ D(h)(n·h) F dω_h for f = F.
+    fn half_vectors(
+        alpha: f64,
+        n: [f64; 3],
+        nx: usize,
+        nphi: usize,
+        mut f: impl FnMut([f64; 3], f64, f64),
+    ) {
+        let (t, b) = spheremap::lighting::brdf::tangent_frame(n);
+        let w = 1.0 / (nx * nphi) as f64;
+        for a in 0..nx {
+            let xi = (a as f64 + 0.5) / nx as f64;
+            let c2 = (1.0 - xi) / (1.0 + (alpha * alpha - 1.0) * xi);
+            let (ch, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
+            for p in 0..nphi {
+                let phi = 2.0 * std::f64::consts::PI * (p as f64 + 0.5) / nphi as f64;
+                let h =
+                    [0, 1, 2].map(|q| sh * phi.cos() * t[q] + sh * phi.sin() * b[q] + ch * n[q]);
+                f(h, ch, w);
+            }
+        }
+    }
+
     #[test]
     fn levels_match_a_brute_force_sum_over_the_texels() {
         let env = structured();
@@ -372,29 +397,18 @@ mod prefilter {
                     // coordinates (fine enough that doubling it moves no value by 1e-3). With ξ the CDF of D(h)(n·h) in cos²θ_h and φ the azimuth,
                     // D(h) (n·l)/4 dω_l = (n·l) dξ dφ / 2π.
                     let mut acc = [0.0f64; 3];
-                    let (nx, nphi) = (1600, 128);
-                    let (t, b) = spheremap::lighting::brdf::tangent_frame(r);
-                    for a in 0..nx {
-                        let xi = (a as f64 + 0.5) / nx as f64;
-                        let c2 = (1.0 - xi) / (1.0 + (alpha * alpha - 1.0) * xi);
-                        let (ch_, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
-                        for p in 0..nphi {
-                            let phi = 2.0 * std::f64::consts::PI * (p as f64 + 0.5) / nphi as f64;
-                            let h = [0, 1, 2].map(|q| {
-                                sh * phi.cos() * t[q] + sh * phi.sin() * b[q] + ch_ * r[q]
-                            });
-                            let rh = r[0] * h[0] + r[1] * h[1] + r[2] * h[2];
-                            let l = [0, 1, 2].map(|q| 2.0 * rh * h[q] - r[q]);
-                            let c = r[0] * l[0] + r[1] * l[1] + r[2] * l[2];
-                            if c <= 0.0 {
-                                continue;
-                            }
-                            let v = bilinear(&env, m.dir_to_uv(l));
-                            for ch in 0..3 {
-                                acc[ch] += v[ch] * c / (nx * nphi) as f64;
-                            }
+                    half_vectors(alpha, r, 1600, 128, |h, _, w| {
+                        let rh = r[0] * h[0] + r[1] * h[1] + r[2] * h[2];
+                        let l = [0, 1, 2].map(|q| 2.0 * rh * h[q] - r[q]);
+                        let c = r[0] * l[0] + r[1] * l[1] + r[2] * l[2];
+                        if c <= 0.0 {
+                            return;
                         }
-                    }
+                        let v = bilinear(&env, m.dir_to_uv(l));
+                        for ch in 0..3 {
+                            acc[ch] += v[ch] * c * w;
+                        }
+                    });
                     acc
                 };
                 for ch in 0..3 {
@@ -419,7 +433,7 @@ mod prefilter {
         // the azimuth; f (n·l) dω_l = D(h)(n·h) · G₂ (v·h)/((n·v)(n·h)) dω_h), reading the
         // map bilinearly.  Dark texels under a bright mean are where a narrow lobe's
         // discretization shows.
-        use spheremap::lighting::brdf::{smith_g2, tangent_frame};
+        use spheremap::lighting::brdf::smith_g2;
         let env = structured();
         let n = 12;
         for roughness in [0.12, 0.08] {
@@ -438,31 +452,21 @@ mod prefilter {
             for (j, i) in [(6, 6), (2, 5), (5, 1), (8, 9), (10, 4), (3, 3), (6, 10)] {
                 let nn = normal(i, j, n).unwrap();
                 // The MatCap's default view looks down −Z with +Y up: view space is the world.
-                let (t, b) = tangent_frame(nn);
                 let nv = nn[2];
-                let (nx, nphi) = (1200, 96);
                 let mut acc = [0.0f64; 3];
-                for a in 0..nx {
-                    let xi = (a as f64 + 0.5) / nx as f64;
-                    let c2 = (1.0 - xi) / (1.0 + (alpha * alpha - 1.0) * xi);
-                    let (ch, sh) = (c2.sqrt(), (1.0 - c2).max(0.0).sqrt());
-                    for p in 0..nphi {
-                        let phi = 2.0 * std::f64::consts::PI * (p as f64 + 0.5) / nphi as f64;
-                        let h = [0, 1, 2]
-                            .map(|q| sh * phi.cos() * t[q] + sh * phi.sin() * b[q] + ch * nn[q]);
-                        let vh = h[2];
-                        let l = [0, 1, 2].map(|q| 2.0 * vh * h[q] - v[q]);
-                        let nl = nn[0] * l[0] + nn[1] * l[1] + nn[2] * l[2];
-                        if nl <= 0.0 || vh <= 0.0 {
-                            continue;
-                        }
-                        let w = smith_g2(alpha, nl, nv) * vh / (nv * ch);
-                        let r = bilinear(&env, m.dir_to_uv(l));
-                        for q in 0..3 {
-                            acc[q] += w * r[q] / (nx * nphi) as f64;
-                        }
+                half_vectors(alpha, nn, 1200, 96, |h, ch, w| {
+                    let vh = h[2];
+                    let l = [0, 1, 2].map(|q| 2.0 * vh * h[q] - v[q]);
+                    let nl = nn[0] * l[0] + nn[1] * l[1] + nn[2] * l[2];
+                    if nl <= 0.0 || vh <= 0.0 {
+                        return;
                     }
-                }
+                    let g = smith_g2(alpha, nl, nv) * vh / (nv * ch);
+                    let r = bilinear(&env, m.dir_to_uv(l));
+                    for q in 0..3 {
+                        acc[q] += g * r[q] * w;
+                    }
+                });
                 for (q, want) in acc.iter().enumerate() {
                     let got = img.data[(j * n + i) * 3 + q] as f64;
                     worst = worst.max((got - want).abs() / want.abs().max(0.05));
