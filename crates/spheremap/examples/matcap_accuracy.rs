@@ -6,7 +6,9 @@
 //! Usage: cargo run --release -p spheremap --example matcap_accuracy -- HDRI.exr [...]
 //! `SUN=1` adds a one-texel sun holding a quarter of the map's energy; `TOL=…` overrides the
 //! tree's tolerance; `ONLY=0.15` bakes only the materials whose name ends so; `N` (32) is the
-//! MatCap's size and `KS` (4) the reference's points per texel axis.
+//! MatCap's size and `KS` (4) the reference's points per texel axis; `STRIDE` (1) compares
+//! every so many texels; `TABLE=1` / `TABLE=0` forces the grid of normals on / off (unset:
+//! the bake's own choice).
 use rayon::prelude::*;
 use spheremap::images::codec::{read_image, ReadOptions};
 use spheremap::lighting::brdf::{self, Material};
@@ -47,6 +49,7 @@ fn main() {
             .unwrap_or(d)
     };
     let n = var("N", 32);
+    let stride = var("STRIDE", 1);
     let ll = Mapping::parse("latlong", None).unwrap();
     for path in &args {
         let full = read_image(std::path::Path::new(path), &ReadOptions::default()).unwrap();
@@ -110,6 +113,7 @@ fn main() {
             for (name, mat) in [
                 ("lambert", Material::Lambert),
                 ("ggx 1.0", Material::Ggx { alpha: 1.0 }),
+                ("ggx 0.6", Material::Ggx { alpha: 0.36 }),
                 ("ggx 0.5", Material::Ggx { alpha: 0.25 }),
                 ("ggx 0.25", Material::Ggx { alpha: 0.0625 }),
                 ("ggx 0.15", Material::Ggx { alpha: 0.0225 }),
@@ -133,7 +137,7 @@ fn main() {
                     outside: Outside::Gutter,
                     max_memory: u64::MAX,
                     rule: rule(),
-                    normal_table: Some(std::env::var("TABLE").is_ok()),
+                    normal_table: std::env::var("TABLE").ok().map(|t| t != "0"),
                 };
                 let t0 = std::time::Instant::now();
                 let (out, rep) = matcap::bake(&e, &b, None).unwrap();
@@ -141,6 +145,7 @@ fn main() {
                 let v = [0.0, 0.0, 1.0];
                 let errs: Vec<(f64, usize)> = (0..n * n)
                     .into_par_iter()
+                    .filter(|k| k % stride == 0)
                     .filter_map(|k| {
                         let (i, j) = (k % n, k / n);
                         let x = 2.0 * (i as f64 + 0.5) / n as f64 - 1.0;

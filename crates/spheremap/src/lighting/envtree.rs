@@ -323,6 +323,16 @@ impl EnvTree {
         self.cut(q).integral(self.mean, albedo)
     }
 
+    /// Whether `material`'s lobe is under [`AVERAGE_BELOW`] leaves wide (its leaves averaged).
+    pub fn narrow(&self, material: Material) -> bool {
+        match material {
+            Material::Ggx { alpha } => {
+                alpha * self.face as f64 / std::f64::consts::FRAC_PI_2 < AVERAGE_BELOW
+            }
+            Material::Lambert => false,
+        }
+    }
+
     /// The lobe `q` over a cut of the tree: Σ g P − g L̄ Ω and Σ g Ω.
     pub fn cut(&self, q: &Lobe) -> Cut {
         // Start where faces are 4×4 (or the finest level if coarser).
@@ -336,13 +346,7 @@ impl EnvTree {
         }
         let mut acc = [0.0f64; 3];
         let mut weight = 0.0;
-        // A lobe fewer than AVERAGE_BELOW leaves wide has its leaves averaged.
-        let narrow = match q.material {
-            Material::Ggx { alpha } => {
-                alpha * self.face as f64 / std::f64::consts::FRAC_PI_2 < AVERAGE_BELOW
-            }
-            Material::Lambert => false,
-        };
+        let narrow = self.narrow(q.material);
         while top > 0 {
             top -= 1;
             let (lv, k) = stack[top];
@@ -358,7 +362,7 @@ impl EnvTree {
             let g = q.eval(dir);
             let open = lv > 0 && top + 4 <= stack.len();
             if (open || (lv == 0 && narrow))
-                && q.error(axis, rad, c.abs() < sin_r, g, node) > q.budget
+                && q.error(axis, rad, sin_r, 0.0, c.abs() < sin_r, g, node) > q.budget
             {
                 if !open {
                     // A leaf the lobe varies across: its radiance is taken as even over it,
@@ -406,9 +410,94 @@ impl EnvTree {
         }
     }
 
+    /// The cut that serves every GGX lobe seen from `q.v` whose normal lies within `spread`
+    /// (radians) of `q.n`, in `out` (cleared first): a node is opened while, for the lobe of
+    /// `q.n`, its error estimate with the peak widened to the cone the group's peaks lie in
+    /// (2 × `spread`: the mirror direction turns at most twice as fast as the normal)
+    /// exceeds `q`'s budget, or while it straddles the horizon of any of the normals.  A
+    /// narrow lobe's leaf that still exceeds it goes in as the points [`EnvTree::cut`]
+    /// averages the lobe over, each with an equal share of the leaf.  Each lobe's integral is
+    /// then [`ggx_sums`] over the nodes.
+    pub fn group_cut(&self, q: &Lobe, spread: f64, out: &mut CutNodes) {
+        out.clear();
+        let q = &Lobe {
+            slack: spread.min(std::f64::consts::FRAC_PI_2).sin(),
+            ..*q
+        };
+        let start = self.levels.iter().position(|l| l.m <= 4).unwrap_or(0);
+        let mut stack: [(u8, u32); 512] = [(0, 0); 512];
+        let mut top = 0;
+        for k in (0..self.levels[start].nodes.len()).rev() {
+            stack[top] = (start as u8, k as u32);
+            top += 1;
+        }
+        let v = q.v;
+        let narrow = self.narrow(q.material);
+        let mut points = Vec::new();
+        while top > 0 {
+            top -= 1;
+            let (lv, k) = stack[top];
+            let level = &self.levels[lv as usize];
+            let node = &level.nodes[k as usize];
+            let axis = node.axis.map(|v| v as f64);
+            let c = brdf::dot(axis, q.n);
+            let (sin_r, rad) = (node.sin_r as f64, node.rad as f64);
+            // The node's cone widened by the group's normals, for the horizons.
+            let wide = rad + spread;
+            let sin_w = wide.min(std::f64::consts::FRAC_PI_2).sin();
+            if wide < 1.5 && c <= -sin_w {
+                continue; // wholly below every normal's horizon
+            }
+            let dir = node.dir.map(|v| v as f64);
+            let g = q.eval(dir);
+            let open = lv > 0 && top + 4 <= stack.len();
+            if (open || (lv == 0 && narrow))
+                && q.error(axis, rad, sin_r, 2.0 * spread, c.abs() < sin_w, g, node) > q.budget
+            {
+                if !open {
+                    // A leaf the lobes vary across: its radiance even over it, as s×s
+                    // points of equal shares (the lobe averaged over its area, as in a cut).
+                    let s = self.leaf_points(q, k as usize, &mut points);
+                    let share = 1.0 / (s * s) as f32;
+                    let power = node.power.map(|p| p * share);
+                    let omega = node.omega * share;
+                    for d in &points {
+                        let d = d.map(|x| x as f32);
+                        out.push_point(d, power, omega, v);
+                    }
+                    continue;
+                }
+                let (m, child) = (level.m, &self.levels[lv as usize - 1]);
+                let k = k as usize;
+                let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+                let cm = child.m;
+                for (dj, di) in [(1, 1), (1, 0), (0, 1), (0, 0)] {
+                    stack[top] = (
+                        lv - 1,
+                        (f * cm * cm + (2 * j + dj) * cm + 2 * i + di) as u32,
+                    );
+                    top += 1;
+                }
+                continue;
+            }
+            out.push(node, v);
+        }
+        out.pad();
+    }
+
     /// The lobe `q` averaged over leaf `k` (its face, row and column on the finest level):
-    /// s×s points on the face, s from the leaf's size against the lobe's scale (2 to 16).
+    /// the mean over [`EnvTree::leaf_points`].
     fn leaf_average(&self, q: &Lobe, k: usize) -> f64 {
+        LEAF_POINTS.with_borrow_mut(|points| {
+            let s = self.leaf_points(q, k, points);
+            points.iter().map(|&d| q.eval(d)).sum::<f64>() / (s * s) as f64
+        })
+    }
+
+    /// The s×s points a narrow lobe is averaged over in leaf `k`, evenly spaced on its face
+    /// (`points`, cleared first), s from the leaf's size against the lobe's scale (2 to 16);
+    /// returns s.
+    fn leaf_points(&self, q: &Lobe, k: usize, points: &mut Vec<[f64; 3]>) -> usize {
         let m = self.face;
         let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
         let leaf = std::f64::consts::FRAC_PI_2 / m as f64;
@@ -417,18 +506,169 @@ impl EnvTree {
             Material::Ggx { alpha } => alpha,
         };
         let s = ((8.0 * leaf / scale).ceil() as usize).clamp(2, 16);
-        let mut sum = 0.0;
+        points.clear();
         for b in 0..s {
             for a in 0..s {
                 let u = (i as f64 + (a as f64 + 0.5) / s as f64) / m as f64;
                 let v = (f as f64 + (j as f64 + (b as f64 + 0.5) / s as f64) / m as f64) / 6.0;
-                if let Some(d) = self.cube.uv_to_dir([u, v]) {
-                    sum += q.eval(brdf::normalize(d));
-                }
+                let d = self.cube.uv_to_dir([u, v]).expect("on the cube");
+                points.push(brdf::normalize(d));
             }
         }
-        sum / (s * s) as f64
+        s
     }
+}
+
+thread_local! {
+    static LEAF_POINTS: std::cell::RefCell<Vec<[f64; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The nodes of a cut by field, for many lobes seen from one viewer ([`EnvTree::group_cut`]):
+/// each node's brightness-weighted centroid `l` and Ω-weighted centroid `lo` with their half
+/// vectors toward the viewer, its power and its solid angle; padded to whole lanes with nodes
+/// of no power and no solid angle.
+#[derive(Default)]
+pub struct CutNodes {
+    l: [Vec<f32>; 3],
+    h: [Vec<f32>; 3],
+    lo: [Vec<f32>; 3],
+    ho: [Vec<f32>; 3],
+    power: [Vec<f32>; 3],
+    omega: Vec<f32>,
+}
+
+/// The unit half vector of unit `d` and the viewer `v`.
+fn half(d: [f32; 3], v: [f64; 3]) -> [f32; 3] {
+    let s = [0, 1, 2].map(|k| d[k] as f64 + v[k]);
+    let len = brdf::dot(s, s).sqrt().max(1e-30);
+    s.map(|x| (x / len) as f32)
+}
+
+/// Lanes of the vector code over a cut's nodes.
+const LANES: usize = 16;
+
+impl CutNodes {
+    fn clear(&mut self) {
+        for k in 0..3 {
+            self.l[k].clear();
+            self.h[k].clear();
+            self.lo[k].clear();
+            self.ho[k].clear();
+            self.power[k].clear();
+        }
+        self.omega.clear();
+    }
+
+    /// The cut's nodes (padding included).
+    pub fn len(&self) -> usize {
+        self.omega.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.omega.is_empty()
+    }
+
+    fn push(&mut self, node: &Node, v: [f64; 3]) {
+        let (h, ho) = (half(node.dir, v), half(node.odir, v));
+        for k in 0..3 {
+            self.l[k].push(node.dir[k]);
+            self.h[k].push(h[k]);
+            self.lo[k].push(node.odir[k]);
+            self.ho[k].push(ho[k]);
+            self.power[k].push(node.power[k]);
+        }
+        self.omega.push(node.omega);
+    }
+
+    /// A point of power `power` and solid angle `omega` in direction `d`.
+    fn push_point(&mut self, d: [f32; 3], power: [f32; 3], omega: f32, v: [f64; 3]) {
+        let h = half(d, v);
+        for k in 0..3 {
+            self.l[k].push(d[k]);
+            self.h[k].push(h[k]);
+            self.lo[k].push(d[k]);
+            self.ho[k].push(h[k]);
+            self.power[k].push(power[k]);
+        }
+        self.omega.push(omega);
+    }
+
+    fn pad(&mut self) {
+        while self.omega.len() % LANES != 0 {
+            for k in 0..3 {
+                self.l[k].push(0.0);
+                self.h[k].push(0.0);
+                self.lo[k].push(0.0);
+                self.ho[k].push(0.0);
+                self.power[k].push(0.0);
+            }
+            self.omega.push(0.0);
+        }
+    }
+}
+
+/// Σ g(l) P and Σ g(lo) Ω over a cut's nodes for the GGX lobe α, f·(n·l), at unit normal `n`
+/// seen from `v` (the viewer of the cut): the integral is then L̄ · E + Σ g P − L̄ Σ g Ω, as
+/// [`Cut::integral`] takes it.  Vector code (f32 lanes; the half vectors' n·h by |n − h|², so
+/// that the peak keeps its precision).
+pub fn ggx_sums(nodes: &CutNodes, alpha: f64, n: [f64; 3], v: [f64; 3]) -> ([f64; 3], f64) {
+    let mu_v = brdf::dot(n, v).max(1e-9);
+    let (p, w) = crate::base::cpu::vectorized(
+        #[inline(always)]
+        || ggx_lanes(nodes, alpha as f32, n.map(|x| x as f32), mu_v as f32),
+    );
+    let sum = |a: &[f32; LANES]| a.iter().map(|&x| x as f64).sum::<f64>();
+    ([sum(&p[0]), sum(&p[1]), sum(&p[2])], sum(&w))
+}
+
+#[inline(always)]
+fn ggx_lanes(
+    c: &CutNodes,
+    alpha: f32,
+    n: [f32; 3],
+    mu_v: f32,
+) -> ([[f32; LANES]; 3], [f32; LANES]) {
+    let a2 = alpha * alpha;
+    let av = (mu_v * mu_v * (1.0 - a2) + a2).sqrt();
+    let scale = a2 * 0.5 / std::f32::consts::PI;
+    // f·(n·l) = D(n·h) G₂ / (4 μ_v) with D = α²/(π k²), k = α² + (1 − α²)(1 − (n·h)²), and
+    // G₂/(4 μ_l μ_v) = ½ / (μ_l Λ'_v + μ_v Λ'_l), Λ'_x = √(x² (1 − α²) + α²).
+    let g = |lx: f32, ly: f32, lz: f32, hx: f32, hy: f32, hz: f32| {
+        let mu_l = n[0] * lx + n[1] * ly + n[2] * lz;
+        let (dx, dy, dz) = (n[0] - hx, n[1] - hy, n[2] - hz);
+        let q = dx * dx + dy * dy + dz * dz;
+        let s2 = (q * (1.0 - 0.25 * q)).max(0.0);
+        let k = a2 + (1.0 - a2) * s2;
+        let ml = mu_l.max(0.0);
+        let den = k * k * (ml * av + mu_v * (ml * ml * (1.0 - a2) + a2).sqrt());
+        if mu_l > 0.0 {
+            scale * ml / den
+        } else {
+            0.0
+        }
+    };
+    let mut p = [[0f32; LANES]; 3];
+    let mut w = [0f32; LANES];
+    let len = c.omega.len();
+    let mut i0 = 0;
+    while i0 + LANES <= len {
+        let s = |a: &Vec<f32>| -> [f32; LANES] { a[i0..i0 + LANES].try_into().unwrap() };
+        let (lx, ly, lz) = (s(&c.l[0]), s(&c.l[1]), s(&c.l[2]));
+        let (hx, hy, hz) = (s(&c.h[0]), s(&c.h[1]), s(&c.h[2]));
+        let (ox, oy, oz) = (s(&c.lo[0]), s(&c.lo[1]), s(&c.lo[2]));
+        let (qx, qy, qz) = (s(&c.ho[0]), s(&c.ho[1]), s(&c.ho[2]));
+        let (p0, p1, p2, om) = (s(&c.power[0]), s(&c.power[1]), s(&c.power[2]), s(&c.omega));
+        for i in 0..LANES {
+            let gd = g(lx[i], ly[i], lz[i], hx[i], hy[i], hz[i]);
+            let go = g(ox[i], oy[i], oz[i], qx[i], qy[i], qz[i]);
+            p[0][i] += gd * p0[i];
+            p[1][i] += gd * p1[i];
+            p[2][i] += gd * p2[i];
+            w[i] += go * om[i];
+        }
+        i0 += LANES;
+    }
+    (p, w)
 }
 
 /// A lobe g over a cut of the tree.
@@ -454,6 +694,28 @@ impl Cut {
         } else {
             [0, 1, 2].map(|k| mean[k] * albedo + self.residual[k])
         }
+    }
+}
+
+/// acos to within 2e-8 rad (Abramowitz & Stegun 4.4.46).
+#[inline]
+fn acos_approx(x: f64) -> f64 {
+    let a = x.abs().min(1.0);
+    let p = ((((((-0.001_262_491_1 * a + 0.006_670_090_1) * a - 0.017_088_125_6) * a
+        + 0.030_891_881_0)
+        * a
+        - 0.050_174_304_6)
+        * a
+        + 0.088_978_987_4)
+        * a
+        - 0.214_598_801_6)
+        * a
+        + 1.570_796_305_0;
+    let r = (1.0 - a).sqrt() * p;
+    if x < 0.0 {
+        std::f64::consts::PI - r
+    } else {
+        r
     }
 }
 
@@ -559,6 +821,7 @@ pub enum Kernel {
 
 /// One lobe to integrate: a material seen from `v` at normal `n` (world frame, unit), with the
 /// cut rule and the error a node may leave.
+#[derive(Clone, Copy)]
 pub struct Lobe {
     pub material: Material,
     pub kernel: Kernel,
@@ -569,6 +832,9 @@ pub struct Lobe {
     rule: CutRule,
     /// A node whose estimated error is over this is opened.
     budget: f64,
+    /// For a group's cut: the sine of the group's spread, by which its normals' n·l and n·v
+    /// may differ from this lobe's ([`Lobe::eval_bound`]); 0 for one lobe.
+    slack: f64,
 }
 
 impl Lobe {
@@ -588,6 +854,28 @@ impl Lobe {
             peak,
             rule,
             budget: rule.tol * scale.abs().max(1e-30),
+            slack: 0.0,
+        }
+    }
+
+    /// The lobe at `l`, or for a group's cut ([`Lobe::slack`] > 0) the most any of the
+    /// group's lobes can be there: f·(n·l) with n·l raised and n·v lowered by the slack
+    /// (it grows with n·l and falls with n·v), so that a node under this normal's horizon
+    /// but over a neighbour's still counts.
+    #[inline]
+    fn eval_bound(&self, l: [f64; 3]) -> f64 {
+        match (self.material, self.kernel) {
+            (Material::Ggx { alpha }, Kernel::Brdf) if self.slack > 0.0 => {
+                let mu_l = brdf::dot(self.n, l) + self.slack;
+                if !(mu_l > 0.0) {
+                    return 0.0;
+                }
+                let mu_v = (brdf::dot(self.n, self.v) - self.slack).max(1e-9);
+                let h = brdf::normalize([0, 1, 2].map(|k| l[k] + self.v[k]));
+                let nh = brdf::dot(self.n, h).min(1.0);
+                brdf::ggx_d(alpha, nh) * brdf::ggx_visibility(alpha, mu_l.min(1.0), mu_v) * mu_l
+            }
+            _ => self.eval(l),
         }
     }
 
@@ -622,23 +910,43 @@ impl Lobe {
         brdf::ggx_d(alpha, ((1.0 + c) * 0.5).sqrt()) * c * 0.25
     }
 
-    /// The error of evaluating a node (cone `axis`, radius `rad`) at its representative
-    /// direction, where the lobe is `g`: the node's inner variation × the lobe's change across
-    /// it (first order) plus its residual × the lobe's curvature (second order); the lobe's
-    /// largest value in the node is taken where the node comes nearest the peak.
+    /// The error of evaluating a node (cone `axis`, radius `rad`, its sine `sin_r`) at its
+    /// representative direction, where the lobe is `g`: the node's inner variation × the lobe's
+    /// change across it (first order) plus its residual × the lobe's curvature (second order);
+    /// the lobe's largest value in the node is taken where the node comes nearest the peak.
+    /// `spread` widens the peak to a cone of that radius (a group of lobes whose peaks lie in
+    /// it, [`EnvTree::group_cut`]; 0 for one lobe).
     #[inline]
-    fn error(&self, axis: [f64; 3], rad: f64, straddles: bool, g: f64, node: &Node) -> f64 {
+    #[allow(clippy::too_many_arguments)]
+    fn error(
+        &self,
+        axis: [f64; 3],
+        rad: f64,
+        sin_r: f64,
+        spread: f64,
+        straddles: bool,
+        g: f64,
+        node: &Node,
+    ) -> f64 {
         let cos_t = brdf::dot(axis, self.peak).clamp(-1.0, 1.0);
-        let theta = cos_t.acos();
-        let near = (theta - rad).max(0.0);
-        let g_max = if near == 0.0 {
-            self.eval(self.peak).max(g)
+        // The node's cone widened by the peak's: radius R = rad + spread.
+        let cos_r = (1.0 - sin_r * sin_r).max(0.0).sqrt();
+        let (sin_big, cos_big) = if spread > 0.0 {
+            let (s, c) = spread.sin_cos();
+            (sin_r * c + cos_r * s, cos_r * c - sin_r * s)
         } else {
-            // The node's point nearest the peak: the axis turned toward it by `rad`.
-            let s = theta.sin().max(1e-12);
-            let (a, b) = ((theta - rad).sin() / s, rad.sin() / s);
+            (sin_r, cos_r)
+        };
+        let (near, g_max) = if cos_t >= cos_big || rad + spread >= std::f64::consts::PI {
+            (0.0, self.eval_bound(self.peak).max(g))
+        } else {
+            // The node's point nearest the peak: the axis turned toward it by R.
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt().max(1e-12);
+            let sin_near = sin_t * cos_big - cos_t * sin_big;
+            let (a, b) = (sin_near / sin_t, sin_big / sin_t);
             let d = [0, 1, 2].map(|k| a * axis[k] + b * self.peak[k]);
-            self.eval(d).max(g)
+            let near = acos_approx(cos_t * cos_big + sin_t * sin_big);
+            (near, self.eval_bound(d).max(g))
         };
         if g_max == 0.0 {
             return 0.0;
