@@ -42,13 +42,13 @@ echo "== cargo test"
 cargo test --workspace --exclude spheremap-py -q
 echo "== the core without its optional parts (the ray tracer, the photo routes)"
 cargo check -q -p spheremap --lib --no-default-features
-echo "== the conversion and cosine-integral tests again on the portable code (as CPUs without AVX2 run it)"
+echo "== the conversion, cosine-integral and GGX-sum tests again on the portable code (as CPUs without AVX2 run it)"
 SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --test resample
-SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --lib lighting::cosine
+SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --lib -- lighting::cosine lighting::envtree
 if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
   echo "== and on the AVX2 code (as CPUs without AVX-512 run it)"
   SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --test resample
-  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --lib lighting::cosine
+  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --lib -- lighting::cosine lighting::envtree
 fi
 
 echo "== building the Python wheel (abi3, CPython >= 3.11) and installing it"
