@@ -523,6 +523,89 @@ thread_local! {
     static LEAF_POINTS: std::cell::RefCell<Vec<[f64; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
+/// GGX lobes of one kind that neighbouring normals share cuts of the tree for
+/// ([`EnvTree::shared_integrals`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Shared {
+    pub alpha: f64,
+    /// [`Kernel::Brdf`] seen from `v` (a MatCap), or [`Kernel::SplitSum`] about each normal.
+    pub kernel: Kernel,
+    pub v: [f64; 3],
+    pub rule: CutRule,
+}
+
+/// The widest group of normals that shares a cut, in lobe widths (α) from their mean: a tile
+/// of a MatCap's grid of normals (spaced α/3) is about 1.6 α.
+const GROUP_SPREAD_PER_ALPHA: f64 = 2.0;
+/// The widest group of normals that shares a cut (radians from their mean).
+const MAX_GROUP_SPREAD: f64 = 0.25;
+
+thread_local! {
+    /// Each thread's buffer for a shared cut.
+    static SHARED_CUT: std::cell::RefCell<CutNodes> = Default::default();
+}
+
+impl EnvTree {
+    /// ∫ g L dω for the lobes of `s` at each of `ns` (unit normals, neighbours: a tile of a
+    /// grid, a run of a row's texels), `norm(n)` each lobe's exact integral (the albedo E, or
+    /// W(α)): one cut for all of them ([`EnvTree::group_cut`]), halved while they spread
+    /// over more than 2 α, each summed over it in vector code ([`ggx_sums`], [`split_sums`]).
+    pub fn shared_integrals(
+        &self,
+        s: &Shared,
+        ns: &[[f64; 3]],
+        norm: impl Fn([f64; 3]) -> f64 + Copy,
+    ) -> Vec<[f64; 3]> {
+        let material = Material::Ggx { alpha: s.alpha };
+        let sum = ns
+            .iter()
+            .fold([0.0; 3], |a, n| [0, 1, 2].map(|k| a[k] + n[k]));
+        let len = brdf::dot(sum, sum).sqrt();
+        let c = sum.map(|x| x / len.max(1e-300));
+        let spread = ns
+            .iter()
+            .map(|&n| brdf::dot(n, c).clamp(-1.0, 1.0).acos())
+            .fold(0.0, f64::max);
+        if ns.len() > 1 && !(spread <= (GROUP_SPREAD_PER_ALPHA * s.alpha).min(MAX_GROUP_SPREAD)) {
+            // Too far apart to share a cut well: halves.
+            let (a, b) = ns.split_at(ns.len() / 2);
+            let mut out = self.shared_integrals(s, a, norm);
+            out.extend(self.shared_integrals(s, b, norm));
+            return out;
+        }
+        let norms: Vec<f64> = ns.iter().map(|&n| norm(n)).collect();
+        let smallest = norms.iter().copied().fold(f64::INFINITY, f64::min);
+        let scale = self.mean_brightness() * smallest;
+        let lobe = match s.kernel {
+            Kernel::Brdf => Lobe::new(material, c, s.v, s.rule, scale),
+            Kernel::SplitSum => Lobe::split_sum(s.alpha, c, s.rule, scale),
+        };
+        if ns.len() == 1 {
+            return vec![self.integral(&lobe, norms[0])];
+        }
+        let mean = self.mean;
+        let narrow = self.narrow(material);
+        SHARED_CUT.with_borrow_mut(|nodes| {
+            self.group_cut(&lobe, spread, nodes);
+            ns.iter()
+                .zip(&norms)
+                .map(|(&n, &e)| {
+                    let (p, w) = match s.kernel {
+                        Kernel::Brdf => ggx_sums(nodes, s.alpha, n, s.v),
+                        Kernel::SplitSum => split_sums(nodes, s.alpha, n),
+                    };
+                    Cut {
+                        residual: [0, 1, 2].map(|k| p[k] - mean[k] * w),
+                        weight: w,
+                        narrow,
+                    }
+                    .integral(mean, e)
+                })
+                .collect()
+        })
+    }
+}
+
 /// The nodes of a cut by field, for many lobes seen from one viewer ([`EnvTree::group_cut`]):
 /// each node's brightness-weighted centroid `l` and Ω-weighted centroid `lo` with their half
 /// vectors toward the viewer, its power and its solid angle; padded to whole lanes with nodes
@@ -619,6 +702,56 @@ pub fn ggx_sums(nodes: &CutNodes, alpha: f64, n: [f64; 3], v: [f64; 3]) -> ([f64
     );
     let sum = |a: &[f32; LANES]| a.iter().map(|&x| x as f64).sum::<f64>();
     ([sum(&p[0]), sum(&p[1]), sum(&p[2])], sum(&w))
+}
+
+/// Σ k(l) P and Σ k(lo) Ω over a cut's nodes for the split-sum kernel about `r`,
+/// k = D(h)(r·l)⁺/4 with h = normalize(l + r) (as [`Lobe::split_sum`]); vector code, 1 − (r·h)²
+/// taken as |r − l|²/4 so that a narrow peak keeps its precision.
+pub fn split_sums(nodes: &CutNodes, alpha: f64, r: [f64; 3]) -> ([f64; 3], f64) {
+    let (p, w) = crate::base::cpu::vectorized(
+        #[inline(always)]
+        || split_lanes(nodes, alpha as f32, r.map(|x| x as f32)),
+    );
+    let sum = |a: &[f32; LANES]| a.iter().map(|&x| x as f64).sum::<f64>();
+    ([sum(&p[0]), sum(&p[1]), sum(&p[2])], sum(&w))
+}
+
+#[inline(always)]
+fn split_lanes(c: &CutNodes, alpha: f32, r: [f32; 3]) -> ([[f32; LANES]; 3], [f32; LANES]) {
+    let a2 = alpha * alpha;
+    let scale = a2 * 0.25 / std::f32::consts::PI;
+    // (r·h)² = (1 + r·l)/2, so 1 − (r·h)² = (1 − r·l)/2 = |r − l|²/4 for unit l.
+    let k = |lx: f32, ly: f32, lz: f32| {
+        let cos = r[0] * lx + r[1] * ly + r[2] * lz;
+        let (dx, dy, dz) = (r[0] - lx, r[1] - ly, r[2] - lz);
+        let s2 = 0.25 * (dx * dx + dy * dy + dz * dz);
+        let kk = a2 + (1.0 - a2) * s2;
+        if cos > 0.0 {
+            scale * cos / (kk * kk)
+        } else {
+            0.0
+        }
+    };
+    let mut p = [[0f32; LANES]; 3];
+    let mut w = [0f32; LANES];
+    let len = c.omega.len();
+    let mut i0 = 0;
+    while i0 + LANES <= len {
+        let s = |a: &Vec<f32>| -> [f32; LANES] { a[i0..i0 + LANES].try_into().unwrap() };
+        let (lx, ly, lz) = (s(&c.l[0]), s(&c.l[1]), s(&c.l[2]));
+        let (ox, oy, oz) = (s(&c.lo[0]), s(&c.lo[1]), s(&c.lo[2]));
+        let (p0, p1, p2, om) = (s(&c.power[0]), s(&c.power[1]), s(&c.power[2]), s(&c.omega));
+        for i in 0..LANES {
+            let gd = k(lx[i], ly[i], lz[i]);
+            let go = k(ox[i], oy[i], oz[i]);
+            p[0][i] += gd * p0[i];
+            p[1][i] += gd * p1[i];
+            p[2][i] += gd * p2[i];
+            w[i] += go * om[i];
+        }
+        i0 += LANES;
+    }
+    (p, w)
 }
 
 #[inline(always)]
@@ -860,8 +993,8 @@ impl Lobe {
 
     /// The lobe at `l`, or for a group's cut ([`Lobe::slack`] > 0) the most any of the
     /// group's lobes can be there: f·(n·l) with n·l raised and n·v lowered by the slack
-    /// (it grows with n·l and falls with n·v), so that a node under this normal's horizon
-    /// but over a neighbour's still counts.
+    /// (it grows with n·l and falls with n·v; the split-sum kernel's cosine raised), so that
+    /// a node under this normal's horizon but over a neighbour's still counts.
     #[inline]
     fn eval_bound(&self, l: [f64; 3]) -> f64 {
         match (self.material, self.kernel) {
@@ -874,6 +1007,16 @@ impl Lobe {
                 let h = brdf::normalize([0, 1, 2].map(|k| l[k] + self.v[k]));
                 let nh = brdf::dot(self.n, h).min(1.0);
                 brdf::ggx_d(alpha, nh) * brdf::ggx_visibility(alpha, mu_l.min(1.0), mu_v) * mu_l
+            }
+            (Material::Ggx { alpha }, Kernel::SplitSum) if self.slack > 0.0 => {
+                // D at the normal's own half vector, the cosine raised by the slack.
+                let c = brdf::dot(self.n, l);
+                if !(c + self.slack > 0.0) {
+                    return 0.0;
+                }
+                brdf::ggx_d(alpha, ((1.0 + c) * 0.5).max(0.0).sqrt())
+                    * (c + self.slack).min(1.0)
+                    * 0.25
             }
             _ => self.eval(l),
         }
@@ -968,11 +1111,12 @@ impl Lobe {
 mod tests {
     use super::*;
 
-    /// The vector sums over a cut's nodes against the f64 lobe, point by point: nodes all
+    /// The vector sums over a cut's nodes (the MatCap's lobe and the split-sum kernel)
+    /// against the f64 lobe, point by point: nodes all
     /// round the sphere (under the horizon, grazing, at the peak), one whose two centroids
     /// differ, and lobes from narrow to broad at normals from the viewer to the rim.
     #[test]
-    fn ggx_sums_match_the_scalar_lobe() {
+    fn vector_sums_match_the_scalar_lobe() {
         let v = [0.0, 0.0, 1.0];
         let mut nodes = CutNodes::default();
         let mut expect = Vec::new();
@@ -984,14 +1128,19 @@ mod tests {
             let d = [r * phi.cos(), r * phi.sin(), z];
             let power = [0.5 + (k % 7) as f64, 1.0 + (k % 3) as f64, 0.25];
             let omega = 1e-3 * (1.0 + (k % 5) as f64);
-            nodes.push_point(d.map(|x| x as f32), power.map(|x| x as f32), omega as f32, v);
+            nodes.push_point(
+                d.map(|x| x as f32),
+                power.map(|x| x as f32),
+                omega as f32,
+                v,
+            );
             expect.push((d, power, omega));
         }
         nodes.pad();
         assert_eq!(nodes.len() % LANES, 0);
         for alpha in [0.02, 0.0625, 0.36, 1.0] {
             let m = Material::Ggx { alpha };
-            for theta in [0.0f64, 0.4, 1.0, 1.45, 1.5707] {
+            for theta in [0.0f64, 0.4, 1.0, 1.45, 1.56] {
                 let n = [theta.sin() * 0.6, theta.sin() * 0.8, theta.cos()];
                 let (p, w) = ggx_sums(&nodes, alpha, n, v);
                 let (mut pe, mut we) = ([0.0; 3], 0.0);
@@ -1015,6 +1164,29 @@ mod tests {
                 assert!(
                     (w - we).abs() <= 2e-5 * we.abs().max(1e-6),
                     "α {alpha} θ {theta}: Σ g Ω {w} vs {we}"
+                );
+                // The split-sum kernel about n.
+                let q = Lobe::split_sum(alpha, n, CutRule::default(), 1.0);
+                let (p, w) = split_sums(&nodes, alpha, n);
+                let (mut pe, mut we) = ([0.0; 3], 0.0);
+                for &(d, power, omega) in &expect {
+                    let g = q.eval(brdf::normalize(d.map(|x| x as f32 as f64)));
+                    for k in 0..3 {
+                        pe[k] += g * power[k];
+                    }
+                    we += g * omega;
+                }
+                for k in 0..3 {
+                    assert!(
+                        (p[k] - pe[k]).abs() <= 2e-5 * pe[k].abs().max(1e-3),
+                        "split sum α {alpha} θ {theta} channel {k}: {} vs {}",
+                        p[k],
+                        pe[k]
+                    );
+                }
+                assert!(
+                    (w - we).abs() <= 2e-5 * we.abs().max(1e-6),
+                    "split sum α {alpha} θ {theta}: {w} vs {we}"
                 );
             }
         }

@@ -47,17 +47,6 @@ const GRID_PER_WIDTH: f64 = 3.0;
 const TILE: usize = 8;
 /// Consecutive rays of a row (without a grid of normals) that share a cut.
 const GROUP_RAYS: usize = 16;
-/// The widest group of normals that shares a cut, in lobe widths (α) from their mean: a
-/// tile of the grid of normals (spaced α/4) is about 1.2 α.
-const GROUP_SPREAD_PER_ALPHA: f64 = 2.0;
-/// The widest group of normals that shares a cut (radians from their mean).
-const MAX_GROUP_SPREAD: f64 = 0.25;
-
-thread_local! {
-    /// Each thread's buffer for a shared cut.
-    static CUT: std::cell::RefCell<envtree::CutNodes> = Default::default();
-}
-
 /// Visible-normal samples per integral for lobes narrower than the tree resolves.
 pub const VNDF_SAMPLES: usize = 256;
 
@@ -453,53 +442,14 @@ impl MatcapSource<'_> {
         if self.vndf.is_some() || ns.len() < 2 {
             return each();
         }
-        let s = ns
-            .iter()
-            .fold([0.0; 3], |a, n| [0, 1, 2].map(|k| a[k] + n[k]));
-        let len = brdf::dot(s, s).sqrt();
-        if !(len > 0.0) {
-            return each();
-        }
-        let c = s.map(|x| x / len);
-        let spread = ns
-            .iter()
-            .map(|&n| brdf::dot(n, c).clamp(-1.0, 1.0).acos())
-            .fold(0.0, f64::max);
-        if spread > (GROUP_SPREAD_PER_ALPHA * alpha).min(MAX_GROUP_SPREAD) {
-            // Too far apart to share a cut well: halves.
-            let (a, b) = ns.split_at(ns.len() / 2);
-            let mut out = self.radiances(a);
-            out.extend(self.radiances(b));
-            return out;
-        }
-        let es: Vec<f64> = ns
-            .iter()
-            .map(|&n| self.albedo_table.at(brdf::dot(n, self.v).clamp(0.0, 1.0)))
-            .collect();
-        let e_min = es.iter().copied().fold(f64::INFINITY, f64::min);
-        let lobe = Lobe::new(
-            self.material,
-            c,
-            self.v,
-            self.rule,
-            self.tree.mean_brightness() * e_min,
-        );
-        CUT.with_borrow_mut(|nodes| {
-            self.tree.group_cut(&lobe, spread, nodes);
-            let mean = self.tree.mean;
-            let narrow = self.tree.narrow(self.material);
-            ns.iter()
-                .zip(&es)
-                .map(|(&n, &e)| {
-                    let (p, w) = envtree::ggx_sums(nodes, alpha, n, self.v);
-                    envtree::Cut {
-                        residual: [0, 1, 2].map(|k| p[k] - mean[k] * w),
-                        weight: w,
-                        narrow,
-                    }
-                    .integral(mean, e)
-                })
-                .collect()
+        let shared = envtree::Shared {
+            alpha,
+            kernel: envtree::Kernel::Brdf,
+            v: self.v,
+            rule: self.rule,
+        };
+        self.tree.shared_integrals(&shared, ns, |n| {
+            self.albedo_table.at(brdf::dot(n, self.v).clamp(0.0, 1.0))
         })
     }
 

@@ -400,6 +400,9 @@ pub fn prefilter(
     Ok(out)
 }
 
+/// Consecutive texels of a row whose lobes share a cut of the tree.
+const GROUP_RAYS: usize = 16;
+
 /// A level's texel in direction r: LD(r) (GGX) or the cosine-convolved radiance (Lambert).
 struct LevelSource<'a> {
     tree: &'a EnvTree,
@@ -418,6 +421,28 @@ impl RaySource for LevelSource<'_> {
         let c = self.tree.channels;
         let mean = self.tree.mean;
         let scale = self.tree.mean_brightness() * self.norm;
+        if let (Material::Ggx { alpha }, None) = (self.material, &self.vndf) {
+            // A row's texels come in order: runs of them share a cut of the tree.
+            let shared = envtree::Shared {
+                alpha,
+                kernel: envtree::Kernel::SplitSum,
+                v: [0.0; 3],
+                rule: self.rule,
+            };
+            for (ds, os) in dirs.chunks(GROUP_RAYS).zip(out.chunks_mut(GROUP_RAYS * c)) {
+                let rs: Vec<[f64; 3]> = ds
+                    .iter()
+                    .map(|d| brdf::normalize(d.map(|v| v as f64)))
+                    .collect();
+                let values = self.tree.shared_integrals(&shared, &rs, |_| self.norm);
+                for (value, o) in values.iter().zip(os.chunks_exact_mut(c)) {
+                    for k in 0..c {
+                        o[k] = (value[k] / self.norm) as f32;
+                    }
+                }
+            }
+            return Ok(());
+        }
         for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
             let r = brdf::normalize(d.map(|v| v as f64));
             let value = match (self.material, &self.vndf) {
