@@ -21,9 +21,9 @@
 //! material's directional albedo times the mean radiance) plus the residual over a cut fine
 //! enough for the lobe.  Neighbouring normals (a tile of the grid of normals, a run of a row's
 //! samples) share one cut opened for all of them ([`EnvTree::group_cut`]), which each sums in
-//! vector code ([`envtree::ggx_sums`]).  A GGX lobe narrower than a few of the tree's finest texels is instead
-//! integrated by 256 visible-normal samples (Heitz 2018) with bilinear lookups in the source
-//! map, with the same L̄·E control variate.  Roughness 0 is the mirror: the bake is then the
+//! vector code ([`envtree::ggx_sums`]).  A GGX lobe narrower than the tree's finest leaves is
+//! split: its core by 256 visible-normal samples (Heitz 2018) with bilinear lookups in the
+//! source map, its tail on the tree ([`EnvTree::tail`]).  Roughness 0 is the mirror: the bake is then the
 //! conversion to the sphere map of the view (`convert --to sphere`), times the albedo.
 
 use super::brdf::{self, Albedo, Material};
@@ -47,7 +47,7 @@ const GRID_PER_WIDTH: f64 = 3.0;
 const TILE: usize = 8;
 /// Consecutive rays of a row (without a grid of normals) that share a cut.
 const GROUP_RAYS: usize = 16;
-/// Visible-normal samples per integral for lobes narrower than the tree resolves.
+/// Visible-normal samples per integral for the core of lobes narrower than the tree resolves.
 pub const VNDF_SAMPLES: usize = 256;
 
 /// What to bake (the resolved options of [`MatcapRequest`](super::MatcapRequest)).
@@ -79,7 +79,8 @@ pub struct Bake {
 pub enum Method {
     /// The environment's tree.
     Tree,
-    /// Visible-normal sampling with bilinear lookups (narrow GGX lobes).
+    /// Narrow GGX lobes: visible-normal samples with bilinear lookups for the core, the tree
+    /// for the tail.
     Vndf,
     /// Roughness 0: the sphere map of the view.
     Mirror,
@@ -206,7 +207,7 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
 /// the resolution the lobe needs ([`envtree::face_needed`]), up to [`TREE_FACE_CAP`]; a lobe
 /// too narrow for that face has its leaves averaged ([`envtree::AVERAGE_BELOW`]) down to
 /// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.055); narrower ones are
-/// sampled ([`Method::Vndf`]).  Lambert's integrals are the cosine integral's
+/// split between samples and the tree ([`Method::Vndf`]).  Lambert's integrals are the cosine integral's
 /// ([`super::cosine`], not planned here; this gives the tree that would serve them).
 pub fn plan(env: &EnvMap, material: Material) -> (Method, usize) {
     let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
@@ -457,15 +458,24 @@ impl MatcapSource<'_> {
     fn radiance(&self, n: [f64; 3], r: [f64; 3]) -> [f64; 3] {
         let mu = brdf::dot(n, self.v).clamp(0.0, 1.0);
         let e = self.albedo_table.at(mu);
-        let mean = self.tree.mean;
         match (&self.vndf, self.material) {
             (Some((sampler, rot)), Material::Ggx { alpha }) => {
                 // Each sample's weight G₂/G₁(v): the visible-normal pdf holds G₁(v).
                 let lambda_v = brdf::smith_lambda(alpha, brdf::dot(self.v, n).max(1e-6));
                 let w =
                     |mu_l| (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, mu_l));
-                let res = vndf_residual(sampler, rot, alpha, n, self.v, mean, r, w);
-                [0, 1, 2].map(|k| mean[k] * e + res[k])
+                // The lobe's core by samples, its tail on the tree, each over L itself; the
+                // tail is the lobe's albedo less the samples' share of it ([`EnvTree::tail`]).
+                let nv = brdf::dot(n, self.v);
+                let peak = [0, 1, 2].map(|k| 2.0 * nv * n[k] - self.v[k]);
+                let radius = envtree::core_radius(alpha, self.tree.face);
+                let core = Some((peak, radius.cos()));
+                let (res, w_core) =
+                    vndf_residual(sampler, rot, alpha, n, self.v, [0.0; 3], r, core, w);
+                let scale = self.tree.mean_brightness() * e;
+                let lobe = Lobe::new(self.material, n, self.v, self.rule, scale);
+                let tail = self.tree.tail(&lobe, radius, e - w_core);
+                [0, 1, 2].map(|k| res[k] + tail[k])
             }
             _ => self.tree.integral(
                 &Lobe::new(
@@ -518,8 +528,11 @@ impl RaySource for MatcapSource<'_> {
 
 /// Σ (L(lᵢ) − L̄) w(n·lᵢ) / N over N visible-normal samples lᵢ (GGX α seen from `v` at normal
 /// `n`, world frame; `rot` takes world directions to the map's): the residual of a narrow GGX
-/// lobe, `weight` the lobe over the sampling density.  The points are a Hammersley set, turned
-/// per integral by a hash of `key`.
+/// lobe (`mean` L̄; zero for the integral itself), `weight` the lobe over the sampling density.
+/// With `core` = (the lobe's peak, cos θ) only the samples within θ of the peak count (the
+/// rest of the lobe is the tree's, [`EnvTree::tail`]).  Also returns Σ w / N over the samples
+/// that count (the lobe's integral over them).  The points are a Hammersley set, turned per
+/// integral by a hash of `key`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn vndf_residual(
     sampler: &Sampler,
@@ -529,8 +542,9 @@ pub(super) fn vndf_residual(
     v: [f64; 3],
     mean: [f64; 3],
     key: [f64; 3],
+    core: Option<([f64; 3], f64)>,
     weight: impl Fn(f64) -> f64,
-) -> [f64; 3] {
+) -> ([f64; 3], f64) {
     let (t, b) = brdf::tangent_frame(n);
     let vl = [brdf::dot(v, t), brdf::dot(v, b), brdf::dot(v, n).max(1e-6)];
     let lc = envtree::light_channels(sampler.channels());
@@ -539,6 +553,7 @@ pub(super) fn vndf_residual(
     });
     let shift = (h >> 8) as f64 / (1u32 << 24) as f64;
     let mut acc = [0.0f64; 3];
+    let mut sum_w = 0.0;
     let mut px = [0f32; 4];
     for i in 0..VNDF_SAMPLES {
         let u1 = (i as f64 + 0.5) / VNDF_SAMPLES as f64;
@@ -551,13 +566,20 @@ pub(super) fn vndf_residual(
         }
         let w = weight(ll[2]);
         let l = [0, 1, 2].map(|k| ll[0] * t[k] + ll[1] * b[k] + ll[2] * n[k]);
+        if let Some((peak, cos_core)) = core {
+            if brdf::dot(l, peak) < cos_core {
+                continue;
+            }
+        }
         let e = [0, 1, 2].map(|i| (rot[i][0] * l[0] + rot[i][1] * l[1] + rot[i][2] * l[2]) as f32);
         sampler.sample(e, &mut px);
         for k in 0..lc {
             acc[k] += (px[k] as f64 - mean[k]) * w;
         }
+        sum_w += w;
     }
-    acc.map(|a| a / VNDF_SAMPLES as f64)
+    let n = VNDF_SAMPLES as f64;
+    (acc.map(|a| a / n), sum_w / n)
 }
 
 /// Checks an albedo: three finite values ≥ 0.

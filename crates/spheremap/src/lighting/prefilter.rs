@@ -419,7 +419,6 @@ impl RaySource for LevelSource<'_> {
     }
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let c = self.tree.channels;
-        let mean = self.tree.mean;
         let scale = self.tree.mean_brightness() * self.norm;
         if let (Material::Ggx { alpha }, None) = (self.material, &self.vndf) {
             // A row's texels come in order: runs of them share a cut of the tree.
@@ -448,10 +447,23 @@ impl RaySource for LevelSource<'_> {
             let value = match (self.material, &self.vndf) {
                 (Material::Ggx { alpha }, Some((sampler, rot))) => {
                     // Samples from D(h)(n·h) about n = v = r have density D/4 in l: the
-                    // kernel over it is n·l.
-                    let res =
-                        matcap::vndf_residual(sampler, rot, alpha, r, r, mean, r, |mu_l| mu_l);
-                    [0, 1, 2].map(|k| mean[k] * self.norm + res[k])
+                    // kernel over it is n·l.  They take the lobe's core, the tree its tail
+                    // (as for a MatCap).
+                    let radius = envtree::core_radius(alpha, self.tree.face);
+                    let (res, w_core) = matcap::vndf_residual(
+                        sampler,
+                        rot,
+                        alpha,
+                        r,
+                        r,
+                        [0.0; 3],
+                        r,
+                        Some((r, radius.cos())),
+                        |mu_l| mu_l,
+                    );
+                    let lobe = Lobe::split_sum(alpha, r, self.rule, scale);
+                    let tail = self.tree.tail(&lobe, radius, self.norm - w_core);
+                    [0, 1, 2].map(|k| tail[k] + res[k])
                 }
                 (Material::Ggx { alpha }, None) => self
                     .tree
