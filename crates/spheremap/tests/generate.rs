@@ -194,6 +194,39 @@ fn deterministic_for_a_seed_and_parallel() {
     assert_ne!(a, c);
 }
 
+/// A source that takes several rows a call makes the same image as one row a call, with
+/// footprint samples, on a disc mapping (rows that miss the map, texels skipped) and with a
+/// last call of fewer rows.
+#[test]
+fn rows_per_call_leaves_the_image_unchanged() {
+    struct Rows<'a>(&'a scene::Scene, usize);
+    impl RaySource for Rows<'_> {
+        fn channels(&self) -> usize {
+            self.0.channels()
+        }
+        fn trace(&self, o: &[[f32; 3]], d: &[[f32; 3]], out: &mut [f32]) -> spheremap::Result<()> {
+            self.0.trace(o, d, out)
+        }
+        fn rows_per_call(&self) -> usize {
+            self.1
+        }
+    }
+    let sc = scene::demo_scene();
+    for samples in [1, 4] {
+        let o = GenerateOptions {
+            pos: [0.0, 1.0, 0.0],
+            ..opts(samples)
+        };
+        let a = generate(SPHERE, 37, 37, &Rows(&sc, 1), &o, None).unwrap();
+        for rows in [3, 4, 37, 100] {
+            let b = generate(SPHERE, 37, 37, &Rows(&sc, rows), &o, None).unwrap();
+            assert_eq!(a.0, b.0, "{rows} rows a call, {samples} samples");
+            assert_eq!(a.1.rays, b.1.rays);
+            assert_eq!(a.1.texels, b.1.texels);
+        }
+    }
+}
+
 fn rms(a: &Image, b: &Image) -> f64 {
     let s: f64 = a
         .data

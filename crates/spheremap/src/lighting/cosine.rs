@@ -17,7 +17,8 @@
 //!
 //! E(n) = π L̄ + Σ over blocks of ∫_block (n·l)⁺ (L − L̄) dω.
 //!
-//! Normals are taken in groups of neighbours (consecutive texels of a row).  For a group's
+//! Normals are taken in groups of 16 neighbours (4×4 tiles of a canvas's texels, in the
+//! order of a Z-order curve on the cube, [`spatial_key`]).  For a group's
 //! bounding cone, the tree is cut into nodes wholly above every normal's horizon — their
 //! M − L̄ M_Ω summed once for the group, then one dot product per normal —, nodes wholly below
 //! (dropped) and the leaves of the band between, which each normal takes one by one: wholly
@@ -76,8 +77,34 @@ fn mean_brightness(env: &EnvMap) -> f64 {
     }
 }
 
-/// Normals per group (consecutive directions of a row).
-const GROUP: usize = 8;
+/// Normals per group (neighbours by [`spatial_key`]): the lanes of the band's vector code.
+const GROUP: usize = 16;
+
+/// A key whose order keeps neighbouring directions together: the cube face of `n`, then the
+/// Morton (Z-order) code of its position on the face in 2¹⁶ steps, so that the 4×4 texel
+/// tiles of a cube face of any power-of-two size follow one another.
+fn spatial_key(n: [f64; 3]) -> u64 {
+    let a = n.map(f64::abs);
+    let axis = if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    };
+    let m = a[axis].max(f64::MIN_POSITIVE);
+    let face = 2 * axis as u64 + (n[axis] < 0.0) as u64;
+    let q = |v: f64| (((v / m).clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0) as u32;
+    let (u, v) = (q(n[(axis + 1) % 3]), q(n[(axis + 2) % 3]));
+    let spread = |x: u32| {
+        let mut x = x as u64 & 0xffff;
+        x = (x | (x << 8)) & 0x00ff_00ff;
+        x = (x | (x << 4)) & 0x0f0f_0f0f;
+        x = (x | (x << 2)) & 0x3333_3333;
+        (x | (x << 1)) & 0x5555_5555
+    };
+    (face << 32) | (spread(v) << 1) | spread(u)
+}
 
 /// A group whose normals spread wider than this (radians) is taken normal by normal.
 const GROUP_MAX_RADIUS: f64 = 0.2;
@@ -92,14 +119,28 @@ struct Node {
 }
 
 /// A leaf as the band reads it: per channel (0..3) and for the solid angle (3): the moment
-/// M, the power P and the spread ρ.
+/// M, (P ρ)⁺ (the power P times the spread ρ; 0 for power that is not positive) and its
+/// reciprocal (of at least `f32::MIN_POSITIVE`).
 #[derive(Clone, Copy, Debug, Default)]
 struct Leaf {
     axis: [f32; 3],
     sin_r: f32,
     m: [[f32; 3]; 4],
-    p: [f32; 4],
-    rho: [f32; 4],
+    pr: [f32; 4],
+    inv_pr: [f32; 4],
+}
+
+impl Leaf {
+    fn new(axis: [f32; 3], sin_r: f32, m: [[f32; 3]; 4], p: [f32; 4], rho: [f32; 4]) -> Leaf {
+        let pr = [0, 1, 2, 3].map(|c| (p[c] * rho[c]).max(0.0));
+        Leaf {
+            axis,
+            sin_r,
+            m,
+            pr,
+            inv_pr: pr.map(|v| 1.0 / v.max(f32::MIN_POSITIVE)),
+        }
+    }
 }
 
 /// What a leaf sums while the tree is built.
@@ -222,21 +263,23 @@ impl CosineTree {
             .enumerate()
             .map(|(k, a)| {
                 let (axis, rad) = envtree::cone(&cube, face, k);
-                Leaf {
-                    axis: axis.map(|v| v as f32),
-                    sin_r: rad.sin() as f32,
-                    m: a.m.map(|m| m.map(|v| v as f32)),
-                    p: a.p.map(|v| v as f32),
-                    rho: [0, 1, 2, 3].map(|c| spread(a.m[c], a.p[c])),
-                }
+                Leaf::new(
+                    axis.map(|v| v as f32),
+                    rad.sin() as f32,
+                    a.m.map(|m| m.map(|v| v as f32)),
+                    a.p.map(|v| v as f32),
+                    [0, 1, 2, 3].map(|c| spread(a.m[c], a.p[c])),
+                )
             })
             .collect();
-        leaves.extend(hot.iter().map(|&(_, _, d, p)| Leaf {
-            axis: d.map(|v| v as f32),
-            sin_r: 0.0,
-            m: p.map(|p| d.map(|v| (v * p) as f32)),
-            p: p.map(|v| v as f32),
-            rho: [0.0; 4],
+        leaves.extend(hot.iter().map(|&(_, _, d, p)| {
+            Leaf::new(
+                d.map(|v| v as f32),
+                0.0,
+                p.map(|p| d.map(|v| (v * p) as f32)),
+                p.map(|v| v as f32),
+                [0.0; 4],
+            )
         }));
         let mut levels = Vec::new();
         let mut m = face;
@@ -282,11 +325,19 @@ impl CosineTree {
     }
 
     /// E(n) = ∫ L(l) (n·l)⁺ dω for each unit normal of `normals` (world frame), into `out`.
-    /// Neighbouring normals (as a row's texels are) share the work.
+    /// Neighbouring normals share the work: they are taken in groups of [`GROUP`] in the
+    /// order of [`spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of texels).
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        let mut order: Vec<u32> = (0..normals.len() as u32).collect();
+        order.sort_by_cached_key(|&i| spatial_key(normals[i as usize]));
         let mut band = Vec::new();
         let mut stack = Vec::new();
-        for (ns, os) in normals.chunks(GROUP).zip(out.chunks_mut(GROUP)) {
+        let mut ns = Vec::with_capacity(GROUP);
+        let mut os = vec![[0.0; 3]; GROUP];
+        for idx in order.chunks(GROUP) {
+            ns.clear();
+            ns.extend(idx.iter().map(|&i| normals[i as usize]));
+            let os = &mut os[..ns.len()];
             let s = ns
                 .iter()
                 .fold([0.0; 3], |s, n| [0, 1, 2].map(|q| s[q] + n[q]));
@@ -308,7 +359,10 @@ impl CosineTree {
                     );
                 }
             } else {
-                self.group(ns, axis, rg, os, &mut band, &mut stack);
+                self.group(&ns, axis, rg, os, &mut band, &mut stack);
+            }
+            for (&i, o) in idx.iter().zip(os.iter()) {
+                out[i as usize] = *o;
             }
         }
     }
@@ -403,7 +457,7 @@ fn band_sum_dispatch(
             n: &[[f32; GROUP]; 3],
             m: [f32; 3],
         ) -> [[f32; GROUP]; 3] {
-            band_sum(l, b, n, m)
+            band_sum::<true>(l, b, n, m)
         }
         #[target_feature(enable = "avx2,fma")]
         unsafe fn avx2(
@@ -412,7 +466,7 @@ fn band_sum_dispatch(
             n: &[[f32; GROUP]; 3],
             m: [f32; 3],
         ) -> [[f32; GROUP]; 3] {
-            band_sum(l, b, n, m)
+            band_sum::<true>(l, b, n, m)
         }
         match simd() {
             // SAFETY: the features were detected at run time.
@@ -422,12 +476,30 @@ fn band_sum_dispatch(
             Simd::Portable => {}
         }
     }
-    band_sum(leaves, band, nx, mean)
+    band_sum::<false>(leaves, band, nx, mean)
 }
 
-/// Σ over the band's leaves of ∫ (n·l)⁺ (L − L̄) dω for the 8 normals `nx` (by coordinate).
+/// a·b + c, fused where `FMA` (code compiled for a CPU with fused multiply-add; elsewhere
+/// `mul_add` would be a library call).
 #[inline(always)]
-fn band_sum(
+fn fma<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
+/// n·m for lane `i` of `nx`.
+#[inline(always)]
+fn dot_lane<const FMA: bool>(nx: &[[f32; GROUP]; 3], i: usize, m: [f32; 3]) -> f32 {
+    fma::<FMA>(nx[2][i], m[2], fma::<FMA>(nx[1][i], m[1], nx[0][i] * m[0]))
+}
+
+/// Σ over the band's leaves of ∫ (n·l)⁺ (L − L̄) dω for the [`GROUP`] normals `nx` (by
+/// coordinate).
+#[inline(always)]
+fn band_sum<const FMA: bool>(
     leaves: &[Leaf],
     band: &[u32],
     nx: &[[f32; GROUP]; 3],
@@ -439,25 +511,37 @@ fn band_sum(
         // Lane by lane, branch-free (so that it runs as vector code): where the leaf is
         // wholly above the lane's horizon, n·M exactly; crossed, the discs; below, 0.
         let mut g = [0f32; GROUP];
+        let mut inv_g = [0f32; GROUP];
         let mut keep = [0f32; GROUP];
         let mut lin = [0f32; GROUP];
         let mut t_o = [0f32; GROUP];
         let mut geo = [0f32; GROUP];
         for i in 0..GROUP {
-            let h0 = nx[0][i] * leaf.axis[0] + nx[1][i] * leaf.axis[1] + nx[2][i] * leaf.axis[2];
-            g[i] = (1.0 - h0 * h0).max(0.0).sqrt();
+            let h0 = dot_lane::<FMA>(nx, i, leaf.axis);
+            g[i] = fma::<FMA>(-h0, h0, 1.0).max(0.0).sqrt();
+            inv_g[i] = 1.0 / g[i].max(f32::MIN_POSITIVE);
             keep[i] = if h0 <= -leaf.sin_r { 0.0 } else { 1.0 };
             lin[i] = if h0 >= leaf.sin_r { 1.0 } else { 0.0 };
-            t_o[i] = nx[0][i] * leaf.m[3][0] + nx[1][i] * leaf.m[3][1] + nx[2][i] * leaf.m[3][2];
-            geo[i] = disc(leaf.p[3], t_o[i], leaf.rho[3] * g[i]);
+            t_o[i] = dot_lane::<FMA>(nx, i, leaf.m[3]);
+            // t / (Pρ g) as (t / Pρ) / g: no 0 × ∞ where Pρ is 0 (a point).
+            let u = t_o[i] * leaf.inv_pr[3] * inv_g[i];
+            geo[i] = disc::<FMA>(leaf.pr[3] * g[i], u, t_o[i]);
         }
         for ch in 0..3 {
-            let (m, p, rho, mc) = (leaf.m[ch], leaf.p[ch], leaf.rho[ch], mean[ch]);
+            let (m, pr, inv_pr, mc) = (leaf.m[ch], leaf.pr[ch], leaf.inv_pr[ch], mean[ch]);
             for i in 0..GROUP {
-                let t = nx[0][i] * m[0] + nx[1][i] * m[1] + nx[2][i] * m[2];
-                let crossed = disc(p, t, rho * g[i]) - mc * geo[i];
-                let exact = t - mc * t_o[i];
-                acc[ch][i] += keep[i] * (crossed + lin[i] * (exact - crossed));
+                let t = dot_lane::<FMA>(nx, i, m);
+                let crossed = fma::<FMA>(
+                    -mc,
+                    geo[i],
+                    disc::<FMA>(pr * g[i], t * inv_pr * inv_g[i], t),
+                );
+                let exact = fma::<FMA>(-mc, t_o[i], t);
+                acc[ch][i] = fma::<FMA>(
+                    keep[i],
+                    fma::<FMA>(lin[i], exact - crossed, crossed),
+                    acc[ch][i],
+                );
             }
         }
     }
@@ -467,19 +551,20 @@ fn band_sum(
 /// ∫ (n·l)⁺ L dω of light of power `p` whose n·l has mean `t`/`p` and is spread as an even
 /// disc of radius `w` across the horizon: p · w · f(μ/w), f the clamped mean of the semicircle
 /// law, f(u) = (2/π)(u A(u) + B(u)), A(u) = π/4 + (u√(1−u²) + asin u)/2, B(u) = (1−u²)^{3/2}/3
-/// (u for u ≥ 1, 0 for u ≤ −1).  Power that is not positive (a map with negative values) is
-/// clamped as a point.
+/// (u for u ≥ 1, 0 for u ≤ −1).  Given `pw` = (P w)⁺ and `u` = t / (P w) (from reciprocals
+/// kept per leaf and lane; any value where P w is 0).  Power that is not positive (a map with
+/// negative values) is clamped as a point.
 #[inline(always)]
-fn disc(p: f32, t: f32, w: f32) -> f32 {
-    // Branch-free: with pw = P·w, P·w·f(u) for |u| < 1, and past the ends t (u ≥ 1) or 0; the
-    // fit's end values are within 4.2e-6 of 1 and 0.  No positive spread: (t)⁺, a point.
-    let pw = (p * w).max(0.0);
-    let uc = (t / pw.max(f32::MIN_POSITIVE)).clamp(-1.0, 1.0);
+fn disc<const FMA: bool>(pw: f32, u: f32, t: f32) -> f32 {
+    // Branch-free: P·w·f(u) for |u| < 1, and past the ends t (u ≥ 1) or 0; the fit's end
+    // values are within 4.2e-6 of 1 and 0.  No positive spread: (t)⁺, a point.
+    let uc = u.clamp(-1.0, 1.0);
     let x = uc * uc;
-    let even = DISC_EVEN[0]
-        + x * (DISC_EVEN[1]
-            + x * (DISC_EVEN[2] + x * (DISC_EVEN[3] + x * (DISC_EVEN[4] + x * DISC_EVEN[5]))));
-    pw * (0.5 * uc + even) + (t - pw).max(0.0)
+    let even = DISC_EVEN[..5]
+        .iter()
+        .rev()
+        .fold(DISC_EVEN[5], |acc, &c| fma::<FMA>(acc, x, c));
+    fma::<FMA>(pw, fma::<FMA>(0.5, uc, even), (t - pw).max(0.0))
 }
 
 /// The even part of f(u) − u/2 as a polynomial in u² (least squares on Chebyshev nodes; f(u)
@@ -522,6 +607,10 @@ impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> crate::trace::generate::RaySource for C
     fn channels(&self) -> usize {
         self.channels
     }
+    fn rows_per_call(&self) -> usize {
+        // Tiles of 4×4 texels for the groups of normals.
+        4
+    }
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let normals: Vec<[f64; 3]> = dirs
             .iter()
@@ -548,9 +637,13 @@ mod tests {
     #[test]
     fn the_disc_is_the_semicircle_law_clamped() {
         // f(1) = 1 (wholly above: μ), f(−1) = 0, f(0) = 2/(3π), to the fit's 4.2e-6.
-        assert!((disc(1.0, 1.0, 1.0) - 1.0).abs() < 5e-6);
-        assert!(disc(1.0, -1.0, 1.0).abs() < 5e-6);
-        assert!((disc(1.0, 0.0, 1.0) as f64 - 2.0 / (3.0 * PI)).abs() < 5e-6);
+        assert!((disc::<false>(1.0, 1.0, 1.0) - 1.0).abs() < 5e-6);
+        assert!(disc::<false>(1.0, -1.0, -1.0).abs() < 5e-6);
+        assert!((disc::<false>(1.0, 0.0, 0.0) as f64 - 2.0 / (3.0 * PI)).abs() < 5e-6);
+        // No spread: a point, (t)⁺.
+        assert_eq!(disc::<false>(0.0, f32::INFINITY, 0.3), 0.3);
+        assert_eq!(disc::<false>(0.0, f32::NEG_INFINITY, -0.3), 0.0);
+        assert_eq!(disc::<false>(0.0, 0.0, 0.0), 0.0);
         // The semicircle law's clamped mean by a fine midpoint rule.
         for u in [-0.7, -0.2, 0.3, 0.9] {
             let n = 200_000;
@@ -562,7 +655,7 @@ mod tests {
                 wsum += wt;
             }
             let want = s / wsum;
-            let got = disc(1.0, u as f32, 1.0) as f64;
+            let got = disc::<false>(1.0, u as f32, u as f32) as f64;
             assert!((got - want).abs() < 5e-6, "u {u}: {got} vs {want}");
         }
     }

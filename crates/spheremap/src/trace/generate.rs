@@ -54,10 +54,18 @@ use std::sync::Mutex;
 ///
 /// `trace` gets ray origins and unit directions (world frame) and writes `channels()` values
 /// per ray into `out` (`out.len() == directions.len() * channels()`).  It is called from
-/// several threads at once, with batches of a few thousand rays (one output row).
+/// several threads at once, with batches of a few thousand rays (one output row, or
+/// [`RaySource::rows_per_call`] consecutive rows).
 pub trait RaySource: Sync {
     fn channels(&self) -> usize;
     fn trace(&self, origins: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()>;
+    /// Consecutive output rows whose rays one `trace` call takes (the first row a multiple of
+    /// it; the rays row by row, each row's in order): more than 1 for a source whose work is
+    /// shared between neighbouring rays in two dimensions.  The image is the same whatever
+    /// it is.
+    fn rows_per_call(&self) -> usize {
+        1
+    }
 }
 
 /// A per-ray closure as a [`RaySource`]: `f(origin, direction, out)`.
@@ -380,12 +388,12 @@ pub(crate) fn centre_on_map(m: Mapping, w: usize, h: usize, x: usize, y: usize) 
         .is_some()
 }
 
-/// One row's worth of rays and where their colours go.
+/// One call's rays and where their colours go.
 #[derive(Default)]
 struct Batch {
     origins: Vec<[f32; 3]>,
     dirs: Vec<[f32; 3]>,
-    /// (texel index in the row, weight) per ray.
+    /// (texel index in the call's rows, weight) per ray.
     owner: Vec<(u32, f32)>,
     colours: Vec<f32>,
 }
@@ -406,28 +414,33 @@ fn run<T: Real>(
     let texels = AtomicU64::new(0);
     let max_n = AtomicUsize::new(0);
     let failure: Mutex<Option<Error>> = Mutex::new(None);
+    let rows = source.rows_per_call().clamp(1, h.max(1));
     out.data
-        .par_chunks_mut(w * c)
+        .par_chunks_mut(rows * w * c)
         .enumerate()
-        .for_each_init(Batch::default, |b, (y, row)| {
+        .for_each_init(Batch::default, |b, (chunk, block)| {
             if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
                 return;
             }
             b.origins.clear();
             b.dirs.clear();
             b.owner.clear();
-            // Per texel of the row: Σ weights (rays or not).
-            let mut wsum = vec![0f64; w];
+            let n_rows = block.len() / (w * c);
+            // Per texel of the rows: Σ weights (rays or not).
+            let mut wsum = vec![0f64; n_rows * w];
             let mut n_texels = 0u64;
             let mut row_max = 0usize;
-            for (x0, x1) in row_spans(m, w, h, y) {
-                for x in x0..x1 {
-                    if opts.samples == 1 && !centre_on_map(m, w, h, x, y) {
-                        continue;
+            for r in 0..n_rows {
+                let y = chunk * rows + r;
+                for (x0, x1) in row_spans(m, w, h, y) {
+                    for x in x0..x1 {
+                        if opts.samples == 1 && !centre_on_map(m, w, h, x, y) {
+                            continue;
+                        }
+                        n_texels += 1;
+                        let n = texel_rays(&d, x, y, r * w + x, opts, b, &mut wsum[r * w + x]);
+                        row_max = row_max.max(n);
                     }
-                    n_texels += 1;
-                    let n = texel_rays(&d, x, y, opts, b, &mut wsum[x]);
-                    row_max = row_max.max(n);
                 }
             }
             let k = b.dirs.len();
@@ -444,16 +457,16 @@ fn run<T: Real>(
                     return;
                 }
             }
-            let mut acc = vec![0f64; w * c];
+            let mut acc = vec![0f64; n_rows * w * c];
             for (i, &(x, wt)) in b.owner.iter().enumerate() {
                 for ch in 0..c {
                     acc[x as usize * c + ch] += wt as f64 * b.colours[i * c + ch] as f64;
                 }
             }
-            for x in 0..w {
+            for x in 0..n_rows * w {
                 if wsum[x] > 0.0 {
                     for ch in 0..c {
-                        row[x * c + ch] = (acc[x * c + ch] / wsum[x]) as f32;
+                        block[x * c + ch] = (acc[x * c + ch] / wsum[x]) as f32;
                     }
                 }
             }
@@ -461,7 +474,7 @@ fn run<T: Real>(
             texels.fetch_add(n_texels, Ordering::Relaxed);
             max_n.fetch_max(row_max, Ordering::Relaxed);
             if let Some(p) = progress {
-                p.done.fetch_add(1, Ordering::Relaxed);
+                p.done.fetch_add(n_rows, Ordering::Relaxed);
             }
         });
     if let Some(e) = failure.into_inner().unwrap_or_else(|p| p.into_inner()) {
@@ -474,12 +487,13 @@ fn run<T: Real>(
     })
 }
 
-/// Queues the rays of texel (x, y); adds the texel's total weight to `wsum`; returns the
-/// number of samples it took.
+/// Queues the rays of texel (x, y), `slot` its index in the batch's rows; adds the texel's
+/// total weight to `wsum`; returns the number of samples it took.
 fn texel_rays<T: Real>(
     d: &Dst<T>,
     x: usize,
     y: usize,
+    slot: usize,
     opts: &GenerateOptions,
     b: &mut Batch,
     wsum: &mut f64,
@@ -490,7 +504,7 @@ fn texel_rays<T: Real>(
         let v = v.map(|a| a.to_f64());
         let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         b.dirs.push(v.map(|a| (a / l) as f32));
-        b.owner.push((x as u32, wt as f32));
+        b.owner.push((slot as u32, wt as f32));
     };
     if opts.samples == 1 {
         push(dir(cx, cy).0, 1.0);
