@@ -18,7 +18,7 @@
 //! E(n) = π L̄ + Σ over blocks of ∫_block (n·l)⁺ (L − L̄) dω.
 //!
 //! Normals are taken in groups of 16 neighbours (4×4 tiles of a canvas's texels, in the
-//! order of a Z-order curve on the cube, [`spatial_key`]).  For a group's
+//! order of a Z-order curve on the cube, [`envtree::spatial_key`]).  For a group's
 //! bounding cone, the tree is cut into nodes wholly above every normal's horizon — their
 //! M − L̄ M_Ω summed once for the group, then one dot product per normal —, nodes wholly below
 //! (dropped) and the leaves of the band between, which each normal takes one by one: wholly
@@ -77,34 +77,8 @@ fn mean_brightness(env: &EnvMap) -> f64 {
     }
 }
 
-/// Normals per group (neighbours by [`spatial_key`]): the lanes of the band's vector code.
+/// Normals per group (neighbours by [`envtree::spatial_key`]): the lanes of the band's vector code.
 const GROUP: usize = 16;
-
-/// A key whose order keeps neighbouring directions together: the cube face of `n`, then the
-/// Morton (Z-order) code of its position on the face in 2¹⁶ steps, so that the 4×4 texel
-/// tiles of a cube face of any power-of-two size follow one another.
-fn spatial_key(n: [f64; 3]) -> u64 {
-    let a = n.map(f64::abs);
-    let axis = if a[0] >= a[1] && a[0] >= a[2] {
-        0
-    } else if a[1] >= a[2] {
-        1
-    } else {
-        2
-    };
-    let m = a[axis].max(f64::MIN_POSITIVE);
-    let face = 2 * axis as u64 + (n[axis] < 0.0) as u64;
-    let q = |v: f64| (((v / m).clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0) as u32;
-    let (u, v) = (q(n[(axis + 1) % 3]), q(n[(axis + 2) % 3]));
-    let spread = |x: u32| {
-        let mut x = x as u64 & 0xffff;
-        x = (x | (x << 8)) & 0x00ff_00ff;
-        x = (x | (x << 4)) & 0x0f0f_0f0f;
-        x = (x | (x << 2)) & 0x3333_3333;
-        (x | (x << 1)) & 0x5555_5555
-    };
-    (face << 32) | (spread(v) << 1) | spread(u)
-}
 
 /// A group whose normals spread wider than this (radians) is taken normal by normal.
 const GROUP_MAX_RADIUS: f64 = 0.2;
@@ -326,10 +300,9 @@ impl CosineTree {
 
     /// E(n) = ∫ L(l) (n·l)⁺ dω for each unit normal of `normals` (world frame), into `out`.
     /// Neighbouring normals share the work: they are taken in groups of [`GROUP`] in the
-    /// order of [`spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of texels).
+    /// order of [`envtree::spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of texels).
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
-        let mut order: Vec<u32> = (0..normals.len() as u32).collect();
-        order.sort_by_cached_key(|&i| spatial_key(normals[i as usize]));
+        let order = envtree::spatial_order(normals);
         let mut band = Vec::new();
         let mut stack = Vec::new();
         let mut ns = Vec::with_capacity(GROUP);

@@ -587,9 +587,45 @@ pub struct Shared {
     pub rule: CutRule,
 }
 
+/// A key whose order keeps neighbouring directions together: the cube face of `n`, then the
+/// Morton (Z-order) code of its position on the face in 2¹⁶ steps, so that the 4×4 texel
+/// tiles of a cube face of any power-of-two size follow one another.
+pub(crate) fn spatial_key(n: [f64; 3]) -> u64 {
+    let a = n.map(f64::abs);
+    let axis = if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    };
+    let m = a[axis].max(f64::MIN_POSITIVE);
+    let face = 2 * axis as u64 + (n[axis] < 0.0) as u64;
+    let q = |v: f64| (((v / m).clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0) as u32;
+    let (u, v) = (q(n[(axis + 1) % 3]), q(n[(axis + 2) % 3]));
+    let spread = |x: u32| {
+        let mut x = x as u64 & 0xffff;
+        x = (x | (x << 8)) & 0x00ff_00ff;
+        x = (x | (x << 4)) & 0x0f0f_0f0f;
+        x = (x | (x << 2)) & 0x3333_3333;
+        (x | (x << 1)) & 0x5555_5555
+    };
+    (face << 32) | (spread(v) << 1) | spread(u)
+}
+
+/// The indices of `ns` in the order of [`spatial_key`]: groups of consecutive ones are
+/// neighbours.
+pub(crate) fn spatial_order(ns: &[[f64; 3]]) -> Vec<u32> {
+    let mut order: Vec<u32> = (0..ns.len() as u32).collect();
+    order.sort_by_cached_key(|&i| spatial_key(ns[i as usize]));
+    order
+}
+
 /// The widest group of normals that shares a cut, in lobe widths (α) from their mean: a tile
-/// of a MatCap's grid of normals (spaced α/3) is about 1.6 α.
-const GROUP_SPREAD_PER_ALPHA: f64 = 2.0;
+/// of a MatCap's grid of normals (spaced α/3) is about 1.6 α; a 4×4 tile of the 128² level of
+/// a prefiltered chain (roughness 0.106) about 2.3 α.  (That level of `park.exr`'s chain: 5.8 s
+/// with groups of at most 2 α, 4.4 s with 4 α, at the same accuracy.)
+const GROUP_SPREAD_PER_ALPHA: f64 = 4.0;
 /// The widest group of normals that shares a cut (radians from their mean).
 const MAX_GROUP_SPREAD: f64 = 0.25;
 

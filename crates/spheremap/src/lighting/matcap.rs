@@ -45,7 +45,7 @@ const GRID_PER_WIDTH: f64 = 3.0;
 
 /// Points of the grid of normals per side of a tile that shares one cut of the tree.
 const TILE: usize = 8;
-/// Consecutive rays of a row (without a grid of normals) that share a cut.
+/// Neighbouring rays (without a grid of normals: 2×2 texels of 4 samples) that share a cut.
 const GROUP_RAYS: usize = 16;
 /// Visible-normal samples per integral for the core of lobes narrower than the tree resolves.
 pub const VNDF_SAMPLES: usize = 256;
@@ -495,6 +495,10 @@ impl RaySource for MatcapSource<'_> {
     fn channels(&self) -> usize {
         self.channels
     }
+    fn rows_per_call(&self) -> usize {
+        // Tiles of texels share cuts.
+        4
+    }
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let normal = |d: &[f32; 3]| normal_of(brdf::normalize(d.map(|v| v as f64)), self.v);
         if let Some(t) = &self.table {
@@ -507,19 +511,19 @@ impl RaySource for MatcapSource<'_> {
             }
             return Ok(());
         }
-        // A row's rays come texel by texel: runs of them are neighbouring normals that
-        // share a cut.
-        for (ds, os) in dirs
-            .chunks(GROUP_RAYS)
-            .zip(out.chunks_mut(GROUP_RAYS * self.channels))
-        {
-            let ns: Vec<[f64; 3]> = ds.iter().map(normal).collect();
-            for (value, o) in self
-                .radiances(&ns)
-                .into_iter()
-                .zip(os.chunks_exact_mut(self.channels))
-            {
-                put(o, value, self.tree.channels, self.albedo);
+        // Neighbouring normals share a cut: the rays of a few rows, in the order of a Z-order
+        // curve on the cube of normals.
+        let normals: Vec<[f64; 3]> = dirs.iter().map(normal).collect();
+        let c = self.channels;
+        for idx in envtree::spatial_order(&normals).chunks(GROUP_RAYS) {
+            let ns: Vec<[f64; 3]> = idx.iter().map(|&i| normals[i as usize]).collect();
+            for (value, &i) in self.radiances(&ns).into_iter().zip(idx) {
+                put(
+                    &mut out[i as usize * c..][..c],
+                    value,
+                    self.tree.channels,
+                    self.albedo,
+                );
             }
         }
         Ok(())

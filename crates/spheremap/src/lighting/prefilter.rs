@@ -400,7 +400,7 @@ pub fn prefilter(
     Ok(out)
 }
 
-/// Consecutive texels of a row whose lobes share a cut of the tree.
+/// Neighbouring texels (a 4×4 tile) whose lobes share a cut of the tree.
 const GROUP_RAYS: usize = 16;
 
 /// A level's texel in direction r: LD(r) (GGX) or the cosine-convolved radiance (Lambert).
@@ -417,26 +417,33 @@ impl RaySource for LevelSource<'_> {
     fn channels(&self) -> usize {
         self.tree.channels
     }
+    fn rows_per_call(&self) -> usize {
+        // Tiles of 4×4 texels share cuts.
+        4
+    }
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let c = self.tree.channels;
         let scale = self.tree.mean_brightness() * self.norm;
         if let (Material::Ggx { alpha }, None) = (self.material, &self.vndf) {
-            // A row's texels come in order: runs of them share a cut of the tree.
+            // Neighbours share a cut of the tree: the texels of a few rows in 4×4 tiles (the
+            // order of a Z-order curve on the cube).
             let shared = envtree::Shared {
                 alpha,
                 kernel: envtree::Kernel::SplitSum,
                 v: [0.0; 3],
                 rule: self.rule,
             };
-            for (ds, os) in dirs.chunks(GROUP_RAYS).zip(out.chunks_mut(GROUP_RAYS * c)) {
-                let rs: Vec<[f64; 3]> = ds
-                    .iter()
-                    .map(|d| brdf::normalize(d.map(|v| v as f64)))
-                    .collect();
-                let values = self.tree.shared_integrals(&shared, &rs, |_| self.norm);
-                for (value, o) in values.iter().zip(os.chunks_exact_mut(c)) {
+            let rs: Vec<[f64; 3]> = dirs
+                .iter()
+                .map(|d| brdf::normalize(d.map(|v| v as f64)))
+                .collect();
+            let order = envtree::spatial_order(&rs);
+            for idx in order.chunks(GROUP_RAYS) {
+                let ns: Vec<[f64; 3]> = idx.iter().map(|&i| rs[i as usize]).collect();
+                let values = self.tree.shared_integrals(&shared, &ns, |_| self.norm);
+                for (value, &i) in values.iter().zip(idx) {
                     for k in 0..c {
-                        o[k] = (value[k] / self.norm) as f32;
+                        out[i as usize * c + k] = (value[k] / self.norm) as f32;
                     }
                 }
             }
