@@ -74,6 +74,7 @@ def main():
     for label, kw in [
         ("prefilter cube 256, tree 1e-4", {}),
         ("prefilter cube 256, tree 1e-3", dict(tolerance=1e-3)),
+        ("prefilter cube 256, tree 1e-2", dict(tolerance=1e-2)),
         ("prefilter cube 256, sampled", dict(method="sampled")),
         ("prefilter irradiance 32, tree", dict(irradiance=True)),
         ("prefilter irradiance 32, sampled", dict(irradiance=True, method="sampled")),
