@@ -431,9 +431,9 @@ mod prefilter {
         // Roughness 0.05 (α 0.0025, narrower than a leaf: visible-normal samples for the
         // lobe's core, the tree for its tail): a dark map with one texel 10⁴ times brighter,
         // 20 α from the peak of the centre texel's lobe (its tent wholly in the tail), where
-        // samples of the whole lobe would rarely land.  The reference: the dark level times the lobe's albedo
-        // plus the bright texel's bilinear tent summed over 64×64 points per texel of its
-        // support, each with its exact solid angle.
+        // samples of the whole lobe would rarely land.  The reference: the dark level times
+        // the lobe's albedo plus the bright texel's bilinear tent summed over 64×64 points per
+        // texel of its support, each with its exact solid angle.
         use spheremap::lighting::brdf::{eval_cos, normalize};
         let (w, h) = (256, 128);
         let (dark, bright) = (0.05f32, 500.0f32);

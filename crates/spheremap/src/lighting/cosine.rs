@@ -77,7 +77,8 @@ fn mean_brightness(env: &EnvMap) -> f64 {
     }
 }
 
-/// Normals per group (neighbours by [`envtree::spatial_key`]): the lanes of the band's vector code.
+/// Normals per group (neighbours by [`envtree::spatial_key`]): the lanes of the band's vector
+/// code.
 const GROUP: usize = 16;
 
 /// A group whose normals spread wider than this (radians) is taken normal by normal.
@@ -300,7 +301,8 @@ impl CosineTree {
 
     /// E(n) = ∫ L(l) (n·l)⁺ dω for each unit normal of `normals` (world frame), into `out`.
     /// Neighbouring normals share the work: they are taken in groups of [`GROUP`] in the
-    /// order of [`envtree::spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of texels).
+    /// order of [`envtree::spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of
+    /// texels).
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let order = envtree::spatial_order(normals);
         let mut band = Vec::new();

@@ -19,12 +19,13 @@
 //!
 //! Each integral is computed on the environment's tree ([`super::envtree`]): L̄·E(n·v) (the
 //! material's directional albedo times the mean radiance) plus the residual over a cut fine
-//! enough for the lobe.  Neighbouring normals (a tile of the grid of normals, a run of a row's
+//! enough for the lobe.  Neighbouring normals (a tile of the grid of normals, 2×2 texels'
 //! samples) share one cut opened for all of them ([`EnvTree::group_cut`]), which each sums in
 //! vector code ([`envtree::ggx_sums`]).  A GGX lobe narrower than the tree's finest leaves is
 //! split: its core by 256 visible-normal samples (Heitz 2018) with bilinear lookups in the
-//! source map, its tail on the tree ([`EnvTree::tail`]).  Roughness 0 is the mirror: the bake is then the
-//! conversion to the sphere map of the view (`convert --to sphere`), times the albedo.
+//! source map, its tail on the tree ([`EnvTree::tail`]).  Roughness 0 is the mirror: the bake
+//! is then the conversion to the sphere map of the view (`convert --to sphere`), times the
+//! albedo.
 
 use super::brdf::{self, Albedo, Material};
 use super::envtree::{self, CutRule, EnvTree, Lobe};
@@ -207,8 +208,9 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
 /// the resolution the lobe needs ([`envtree::face_needed`]), up to [`TREE_FACE_CAP`]; a lobe
 /// too narrow for that face has its leaves averaged ([`envtree::AVERAGE_BELOW`]) down to
 /// [`envtree::MIN_LEAVES_PER_ALPHA`] leaves across α (roughness ≈ 0.055); narrower ones are
-/// split between samples and the tree ([`Method::Vndf`]).  Lambert's integrals are the cosine integral's
-/// ([`super::cosine`], not planned here; this gives the tree that would serve them).
+/// split between samples and the tree ([`Method::Vndf`]).  Lambert's integrals are the cosine
+/// integral's ([`super::cosine`], not planned here; this gives the tree that would serve
+/// them).
 pub fn plan(env: &EnvMap, material: Material) -> (Method, usize) {
     let src_face = envtree::face_for(env.width, env.height, TREE_FACE_CAP);
     let cap = TREE_FACE_CAP.max(src_face);

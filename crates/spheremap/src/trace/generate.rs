@@ -61,8 +61,8 @@ pub trait RaySource: Sync {
     fn trace(&self, origins: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()>;
     /// Consecutive output rows whose rays one `trace` call takes (the first row a multiple of
     /// it; the rays row by row, each row's in order): more than 1 for a source whose work is
-    /// shared between neighbouring rays in two dimensions.  The image is the same whatever
-    /// it is.
+    /// shared between neighbouring rays in two dimensions.  The rays and their weights are
+    /// the same whatever it is.
     fn rows_per_call(&self) -> usize {
         1
     }
