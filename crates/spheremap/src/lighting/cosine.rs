@@ -48,6 +48,44 @@ pub const DEFAULT_FACE: usize = 32;
 /// would not be).
 const HOT: f64 = 0.25;
 
+/// The Z-order (Morton) index of texel (i, j) of a face: i's bits even, j's odd.
+fn morton(i: usize, j: usize) -> usize {
+    let spread = |v: usize| {
+        let mut x = v as u64 & 0xffff_ffff;
+        x = (x | (x << 16)) & 0x0000_ffff_0000_ffff;
+        x = (x | (x << 8)) & 0x00ff_00ff_00ff_00ff;
+        x = (x | (x << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+        x = (x | (x << 2)) & 0x3333_3333_3333_3333;
+        ((x | (x << 1)) & 0x5555_5555_5555_5555) as usize
+    };
+    spread(i) | (spread(j) << 1)
+}
+
+/// A node's index in the tree's levels (face after face, each in Z-order, so that the four
+/// children of node k are 4k … 4k + 3) from its row-major index k = (f m + j) m + i on a cube
+/// of face m.
+fn z_index(m: usize, k: usize) -> usize {
+    let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+    f * m * m + morton(i, j)
+}
+
+/// The row-major index of the node at Z-order index `z` on a cube of face m (the inverse of
+/// [`z_index`]).
+fn row_major(m: usize, z: usize) -> usize {
+    let (f, r) = (z / (m * m), z % (m * m));
+    let pick = |mut x: usize| {
+        let (mut v, mut bit) = (0, 0);
+        while x > 0 {
+            v |= (x & 1) << bit;
+            x >>= 2;
+            bit += 1;
+        }
+        v
+    };
+    let (i, j) = (pick(r), pick(r >> 1));
+    (f * m + j) * m + i
+}
+
 /// The map's mean brightness over the sphere, Σ brightness × dω / Σ dω over its texels.
 fn mean_brightness(env: &EnvMap) -> f64 {
     use rayon::prelude::*;
@@ -80,6 +118,13 @@ fn mean_brightness(env: &EnvMap) -> f64 {
 /// Normals per group (neighbours by [`envtree::spatial_key`]): the lanes of the band's vector
 /// code.
 const GROUP: usize = 16;
+
+/// Room for the nodes a group's walk down the tree keeps (6 roots and at most 3 more a
+/// level; [`MAX_FACE`] has 13 levels).
+const STACK: usize = 64;
+
+/// The finest leaves' face [`CosineTree::build`] takes.
+pub const MAX_FACE: usize = 4096;
 
 /// A group whose normals spread wider than this (radians) is taken normal by normal.
 const GROUP_MAX_RADIUS: f64 = 0.2;
@@ -138,9 +183,9 @@ impl Acc {
 
 /// The environment summed for cosine integrals (see the module's notes).
 pub struct CosineTree {
-    /// Each level's face size and nodes, finest (the leaves) first.
+    /// Each level's face size and nodes ([`z_index`] order), finest (the leaves) first.
     levels: Vec<(usize, Vec<Node>)>,
-    /// The leaves of the finest level, then the points kept apart.
+    /// The leaves of the finest level ([`z_index`] order), then the points kept apart.
     leaves: Vec<Leaf>,
     /// Per leaf: its points apart (the first's index in `leaves`, how many).
     apart: Vec<(u32, u32)>,
@@ -156,7 +201,7 @@ impl CosineTree {
     /// Sums `env` (`world_to_env` takes world directions to its frame) into leaves of a
     /// world-frame cube of face `face` (a power of two).
     pub fn build(env: &EnvMap, world_to_env: [[f64; 3]; 3], face: usize) -> Result<CosineTree> {
-        let face = face.max(1).next_power_of_two();
+        let face = face.clamp(1, MAX_FACE).next_power_of_two();
         let cube = Mapping::parse("cube", None)?;
         let channels = light_channels(env.channels);
         // Points holding more than HOT × a mean leaf's power (by the map's mean brightness,
@@ -184,6 +229,7 @@ impl CosineTree {
                 )
             },
             |leaf, (a, h)| {
+                let leaf = z_index(face, leaf);
                 acc[leaf].add(&a);
                 if let Some((b, d, p)) = h {
                     hot.push((b, leaf, d, p));
@@ -237,7 +283,7 @@ impl CosineTree {
             .iter()
             .enumerate()
             .map(|(k, a)| {
-                let (axis, rad) = envtree::cone(&cube, face, k);
+                let (axis, rad) = envtree::cone(&cube, face, row_major(face, k));
                 Leaf::new(
                     axis.map(|v| v as f32),
                     rad.sin() as f32,
@@ -263,7 +309,7 @@ impl CosineTree {
                 .iter()
                 .enumerate()
                 .map(|(k, a)| {
-                    let (axis, rad) = envtree::cone(&cube, m, k);
+                    let (axis, rad) = envtree::cone(&cube, m, row_major(m, k));
                     Node {
                         axis,
                         sin_r: rad.sin(),
@@ -276,18 +322,18 @@ impl CosineTree {
             if m == 1 {
                 break;
             }
-            let half = m / 2;
-            acc = (0..6 * half * half)
-                .map(|k| {
-                    let (f, j, i) = (k / (half * half), (k / half) % half, k % half);
-                    let mut r = Acc::default();
-                    for (dj, di) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                        r.add(&acc[f * m * m + (2 * j + dj) * m + 2 * i + di]);
+            // In Z-order a node's four children are 4k … 4k + 3.
+            acc = acc
+                .chunks_exact(4)
+                .map(|c| {
+                    let mut r = c[0];
+                    for a in &c[1..] {
+                        r.add(a);
                     }
                     r
                 })
                 .collect();
-            m = half;
+            m /= 2;
         }
         Ok(CosineTree {
             levels,
@@ -305,8 +351,7 @@ impl CosineTree {
     /// texels).
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let order = envtree::spatial_order(normals);
-        let mut band = Vec::new();
-        let mut stack = Vec::new();
+        let mut band = vec![0u32; self.leaves.len() + 4];
         let mut ns = Vec::with_capacity(GROUP);
         let mut os = vec![[0.0; 3]; GROUP];
         for idx in order.chunks(GROUP) {
@@ -330,11 +375,10 @@ impl CosineTree {
                         0.0,
                         std::slice::from_mut(o),
                         &mut band,
-                        &mut stack,
                     );
                 }
             } else {
-                self.group(&ns, axis, rg, os, &mut band, &mut stack);
+                self.group(&ns, axis, rg, os, &mut band);
             }
             for (&i, o) in idx.iter().zip(os.iter()) {
                 out[i as usize] = *o;
@@ -342,62 +386,69 @@ impl CosineTree {
         }
     }
 
-    /// The normals `ns` within `rg` of `axis`.
+    /// The normals `ns` within `rg` of `axis`; `band` a buffer of at least as many entries as
+    /// the tree has leaves (with its points apart) and 4 more.
     fn group(
         &self,
         ns: &[[f64; 3]],
         axis: [f64; 3],
         rg: f64,
         out: &mut [[f64; 3]],
-        band: &mut Vec<u32>,
-        stack: &mut Vec<(u8, u32)>,
+        band: &mut [u32],
     ) {
-        band.clear();
-        stack.clear();
         let (sin_g, cos_g) = rg.sin_cos();
-        let top = self.levels.len() - 1;
-        for k in (0..self.levels[top].1.len()).rev() {
-            stack.push((top as u8, k as u32));
-        }
         let mut agg = [[0.0f64; 3]; 3];
-        while let Some((lv, k)) = stack.pop() {
-            let (m, nodes) = &self.levels[lv as usize];
-            let node = &nodes[k as usize];
-            let c = brdf::dot(node.axis, axis);
-            // Every normal of the group against every direction of the node: the angle
-            // between them is within θ ± (r + r_g); wholly above when θ + r + r_g < π/2.
-            let cos_t = node.cos_r * cos_g - node.sin_r * sin_g;
-            if cos_t > 0.0 {
+        // Crossed nodes whose children are still to test: at most 3 more per level below the
+        // roots (one popped, four pushed), see `build`'s cap on the face.
+        let mut stack = [(0u8, 0u32); STACK];
+        let mut sp = 0;
+        let mut nb = 0;
+        let top = self.levels.len() - 1;
+        // The roots first, then the four children (4k … 4k + 3 in Z-order) of each crossed node.
+        let (mut lv, mut first, mut count) = (top, 0, self.levels[top].1.len());
+        loop {
+            for (q, node) in self.levels[lv].1[first..first + count].iter().enumerate() {
+                // Every normal of the group against every direction of the node: the angle
+                // between them is within θ ± (r + r_g); wholly above when θ + r + r_g < π/2
+                // (the node's M − L̄ M_Ω joins the group's sum), wholly below when
+                // θ − r − r_g > π/2 (dropped); else crossed: a leaf joins the band, a node's
+                // children are tested.  Branch-free but for the rare points apart.
+                let c = brdf::dot(node.axis, axis);
+                let cos_t = node.cos_r * cos_g - node.sin_r * sin_g;
                 let sin_t = node.sin_r * cos_g + node.cos_r * sin_g;
-                if c >= sin_t {
-                    for ch in 0..3 {
-                        for q in 0..3 {
-                            agg[ch][q] += node.res[ch][q];
+                let sure = cos_t > 0.0;
+                let above = sure & (c >= sin_t);
+                let crossed = !above & !(sure & (c <= -sin_t));
+                let w = if above { 1.0 } else { 0.0 };
+                for ch in 0..3 {
+                    for q in 0..3 {
+                        agg[ch][q] += w * node.res[ch][q];
+                    }
+                }
+                let k = (first + q) as u32;
+                if lv == 0 {
+                    band[nb] = k;
+                    nb += crossed as usize;
+                    let (a, n) = self.apart[k as usize];
+                    if crossed & (n > 0) {
+                        for p in a..a + n {
+                            band[nb] = p;
+                            nb += 1;
                         }
                     }
-                    continue;
+                } else {
+                    stack[sp] = (lv as u8, k);
+                    sp += crossed as usize;
                 }
-                if c <= -sin_t {
-                    continue;
-                }
             }
-            if lv == 0 {
-                band.push(k);
-                let (first, n) = self.apart[k as usize];
-                band.extend(first..first + n);
-                continue;
+            if sp == 0 {
+                break;
             }
-            let m = *m;
-            let k = k as usize;
-            let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
-            let cm = 2 * m;
-            for (dj, di) in [(1, 1), (1, 0), (0, 1), (0, 0)] {
-                stack.push((
-                    lv - 1,
-                    (f * cm * cm + (2 * j + dj) * cm + 2 * i + di) as u32,
-                ));
-            }
+            sp -= 1;
+            let (l, k) = stack[sp];
+            (lv, first, count) = (l as usize - 1, 4 * k as usize, 4);
         }
+        let band = &band[..nb];
         // The band, normal by normal: 8 lanes (the group's normals, the last repeated).
         let mut nx = [[0f32; GROUP]; 3];
         for i in 0..GROUP {
@@ -608,6 +659,28 @@ impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> crate::trace::generate::RaySource for C
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn z_order_puts_a_nodes_children_at_4k() {
+        for m in [1usize, 2, 8, 32] {
+            let mut seen = vec![false; 6 * m * m];
+            for k in 0..6 * m * m {
+                let z = z_index(m, k);
+                assert_eq!(row_major(m, z), k);
+                seen[z] = true;
+            }
+            assert!(seen.iter().all(|&s| s));
+        }
+        // Texel (i, j) of face f at face 8 and its children (2i + di, 2j + dj) at face 16.
+        let (f, j, i) = (4, 5, 3);
+        let parent = z_index(8, (f * 8 + j) * 8 + i);
+        let mut kids: Vec<usize> = [(0, 0), (0, 1), (1, 0), (1, 1)]
+            .iter()
+            .map(|(dj, di)| z_index(16, (f * 16 + 2 * j + dj) * 16 + 2 * i + di))
+            .collect();
+        kids.sort();
+        assert_eq!(kids, (4 * parent..4 * parent + 4).collect::<Vec<_>>());
+    }
 
     #[test]
     fn the_disc_is_the_semicircle_law_clamped() {
