@@ -9,11 +9,14 @@
 //! crosses are approximated.
 //!
 //! The environment's points (those of [`envtree::sum_points`], the same a brute-force sum over
-//! the map's texels sums) go into the leaves of a world-frame cube of face F; each leaf keeps,
-//! per channel, its power P = Σ L dω and moment M = Σ L l dω, and the same of the solid angle
-//! (Ω = Σ dω, M_Ω = Σ l dω).  Points holding more than a quarter of a mean leaf's power (a
-//! sun's texels) are kept apart, each a leaf of no extent, exact wherever the horizon passes.
-//! Leaves are grouped 2×2 up to one node per face.  With the map's mean L̄ as a control variate,
+//! the map's texels sums) are summed on a world-frame cube of face 2F: per cell and channel the
+//! power P = Σ L dω, the moment M = Σ L l dω and the second moment S = Σ L l lᵀ dω, and the
+//! same of the solid angle (Ω = Σ dω, M_Ω = Σ l dω, S_Ω = Σ l lᵀ dω).  The leaves are the
+//! cells of the cube of face F (2×2 cells each); a leaf holding more than [`SPLIT`] × a mean
+//! leaf's power (a bright sky, a lamp) is taken as its four cells.  Points holding more than a
+//! quarter of a mean leaf's power (a sun's texels) are kept apart, each a leaf of no extent,
+//! exact wherever the horizon passes.  Leaves are grouped 2×2 up to one node per face.  With
+//! the map's mean L̄ as a control variate,
 //!
 //! E(n) = π L̄ + Σ over blocks of ∫_block (n·l)⁺ (L − L̄) dω.
 //!
@@ -22,14 +25,14 @@
 //! bounding cone, the tree is cut into nodes wholly above every normal's horizon — their
 //! M − L̄ M_Ω summed once for the group, then one dot product per normal —, nodes wholly below
 //! (dropped) and the leaves of the band between, which each normal takes one by one: wholly
-//! above or below its own horizon as before, or crossed by it.  A crossed leaf's light is
-//! taken as an even disc with the leaf's mean direction M/P and spread (the second moment,
-//! ρ² = 2 (1 − |M/P|²), exact for any distribution since |l| = 1), across which n·l varies by
-//! ±ρ·sin θ; its clamped integral P · w · f(μ/w) (μ = n·M/P the mean of n·l, w = ρ sin θ) is
-//! closed-form.  L̄'s share of the leaf is taken the same way and subtracted, so a constant
-//! environment gives π L̄ exactly (every leaf's two terms cancel), a sun of no extent is exact
-//! wherever the horizon is, and the approximation acts on L − L̄ only in the band the horizon
-//! crosses.
+//! above or below its own horizon as before, or crossed by it.  Where a leaf is crossed, n·l
+//! over its light has the mean μ = n·M/P and the variance σ² = nᵀ(S/P − M Mᵀ/P²)n, both
+//! exact; n·l is taken as spread by the semicircle law of that mean and variance (radius
+//! w = 2σ), whose clamped integral P · w · f(μ/w) is closed-form.  L̄'s share of the leaf is
+//! taken the same way and subtracted, so a constant environment gives π L̄ exactly (every
+//! leaf's two terms cancel), a sun of no extent is exact wherever the horizon is, and the
+//! approximation — of the shape of the distribution of n·l beyond its first two moments —
+//! acts on L − L̄ only in the band the horizon crosses.
 
 use super::brdf;
 use super::envtree::{self, light_channels};
@@ -38,15 +41,19 @@ use crate::mappings::mapping::Mapping;
 use crate::resample::EnvMap;
 use std::f64::consts::PI;
 
-/// The leaves' cube face by default: the irradiance of the bundled HDRIs, with a one-texel sun
-/// holding a fifth of the energy, within 1e-4 of the brute-force sum (relative to π L̄'s
-/// brightness) at every normal.
-pub const DEFAULT_FACE: usize = 32;
+/// The leaves' cube face by default: the irradiance of each of the 18 bundled HDRIs, with and
+/// without a one-texel sun holding a fifth of the energy, within 1e-4 of the brute-force sum
+/// (relative to π L̄'s brightness) at every normal tried.
+pub const DEFAULT_FACE: usize = 16;
 
 /// A point holding more than this × a mean leaf's power is kept apart (a sun's texels: exact
 /// wherever the horizon crosses them, where a disc standing for them and the sky around them
 /// would not be).
 const HOT: f64 = 0.25;
+
+/// A leaf holding more than this × the mean leaf's power is taken as its four quarters
+/// (bright skies and lamps: the error of a leaf's disc grows with its power).
+const SPLIT: f64 = 1.0;
 
 /// The Z-order (Morton) index of texel (i, j) of a face: i's bits even, j's odd.
 fn morton(i: usize, j: usize) -> usize {
@@ -138,29 +145,52 @@ struct Node {
     res: [[f64; 3]; 3],
 }
 
-/// A leaf as the band reads it: per channel (0..3) and for the solid angle (3): the moment
-/// M, (P ρ)⁺ (the power P times the spread ρ; 0 for power that is not positive) and its
-/// reciprocal (of at least `f32::MIN_POSITIVE`).
+/// A leaf as the band reads it: its bounding cone, and per channel (0..3) and for the solid
+/// angle (3) the moment M and the quadratic form of the spread.
 #[derive(Clone, Copy, Debug, Default)]
 struct Leaf {
     axis: [f32; 3],
     sin_r: f32,
     m: [[f32; 3]; 4],
-    pr: [f32; 4],
-    inv_pr: [f32; 4],
+    /// 4 (P S − M Mᵀ) as xx, yy, zz, 2xy, 2xz, 2yz, so that (P w)² = nᵀ q n (w the
+    /// semicircle's radius, twice the deviation of n·l); 0 for power that is not positive
+    /// (taken as a point).
+    q: [[f32; 6]; 4],
 }
 
 impl Leaf {
-    fn new(axis: [f32; 3], sin_r: f32, m: [[f32; 3]; 4], p: [f32; 4], rho: [f32; 4]) -> Leaf {
-        let pr = [0, 1, 2, 3].map(|c| (p[c] * rho[c]).max(0.0));
+    fn new(axis: [f32; 3], sin_r: f32, a: &Acc) -> Leaf {
+        let q = [0, 1, 2, 3].map(|c| {
+            let (p, m, s) = (a.p[c], a.m[c], a.s[c]);
+            if !(p > 0.0) {
+                return [0.0; 6];
+            }
+            let v =
+                |k: usize, i: usize, j: usize, f: f64| (f * 4.0 * (p * s[k] - m[i] * m[j])) as f32;
+            [
+                v(0, 0, 0, 1.0),
+                v(1, 1, 1, 1.0),
+                v(2, 2, 2, 1.0),
+                v(3, 0, 1, 2.0),
+                v(4, 0, 2, 2.0),
+                v(5, 1, 2, 2.0),
+            ]
+        });
         Leaf {
             axis,
             sin_r,
-            m,
-            pr,
-            inv_pr: pr.map(|v| 1.0 / v.max(f32::MIN_POSITIVE)),
+            m: a.m.map(|m| m.map(|v| v as f32)),
+            q,
         }
     }
+}
+
+/// A point kept apart: its direction d and, per channel, P − L̄ dω (its (n·d)⁺ (L − L̄) dω is
+/// exact at every normal).
+#[derive(Clone, Copy, Debug, Default)]
+struct Point {
+    d: [f32; 3],
+    res: [f32; 3],
 }
 
 /// What a leaf sums while the tree is built.
@@ -168,6 +198,8 @@ impl Leaf {
 struct Acc {
     p: [f64; 4],
     m: [[f64; 3]; 4],
+    /// Σ L l lᵀ dω: xx, yy, zz, xy, xz, yz.
+    s: [[f64; 6]; 4],
 }
 
 impl Acc {
@@ -176,6 +208,9 @@ impl Acc {
             self.p[c] += o.p[c];
             for q in 0..3 {
                 self.m[c][q] += o.m[c][q];
+            }
+            for q in 0..6 {
+                self.s[c][q] += o.s[c][q];
             }
         }
     }
@@ -187,8 +222,15 @@ pub struct CosineTree {
     levels: Vec<(usize, Vec<Node>)>,
     /// The leaves of the finest level ([`z_index`] order), then the points kept apart.
     leaves: Vec<Leaf>,
-    /// Per leaf: its points apart (the first's index in `leaves`, how many).
+    /// Per leaf of face F: its quarters where it is split (the first's index in `leaves`, how
+    /// many).
+    quarters: Vec<(u32, u32)>,
+    /// The points kept apart, by leaf.
+    points: Vec<Point>,
+    /// Per leaf: its points apart (the first's index in `points`, how many).
     apart: Vec<(u32, u32)>,
+    /// Per leaf: whether its own entry is summed (not where it is taken as its quarters).
+    own: Vec<bool>,
     /// L̄ per channel.
     pub mean: [f64; 3],
     /// 1 (grey) or 3 (RGB) channels of light.
@@ -207,35 +249,71 @@ impl CosineTree {
         // Points holding more than HOT × a mean leaf's power (by the map's mean brightness,
         // summed over its texels first) are kept apart as points of no extent.
         let leaves_n = 6 * face * face;
-        let hot_power = HOT * mean_brightness(env) * 4.0 * PI / leaves_n as f64;
-        let mut acc = vec![Acc::default(); leaves_n];
+        let mean_leaf = mean_brightness(env) * 4.0 * PI / leaves_n as f64;
+        let hot_power = HOT * mean_leaf;
+        // The environment is summed on the cube of twice the face: a bright leaf is kept as
+        // its four quarters.
+        let fine = if face < MAX_FACE { 2 * face } else { face };
+        let per = (fine / face) * (fine / face);
+        let mut acc_fine = vec![Acc::default(); 6 * fine * fine];
         let mut hot: Vec<(f64, usize, [f64; 3], [f64; 4])> = Vec::new();
         envtree::sum_points(
             env,
             world_to_env,
             face,
+            fine,
             |l, d, dw| {
                 let mut a = Acc::default();
+                let dd = [
+                    d[0] * d[0],
+                    d[1] * d[1],
+                    d[2] * d[2],
+                    d[0] * d[1],
+                    d[0] * d[2],
+                    d[1] * d[2],
+                ];
                 for c in 0..3 {
                     a.p[c] = l[c] * dw;
                     a.m[c] = d.map(|v| v * l[c] * dw);
+                    a.s[c] = dd.map(|v| v * l[c] * dw);
                 }
                 a.p[3] = dw;
                 a.m[3] = d.map(|v| v * dw);
+                a.s[3] = dd.map(|v| v * dw);
                 let b = envtree::brightness(l, channels) * dw;
                 (
                     a,
                     (b > hot_power).then_some((b, d, [a.p[0], a.p[1], a.p[2], dw])),
                 )
             },
+            |(a, h), (b, hb)| {
+                // Points apart keep their own shares.
+                let fold = h.is_none() && hb.is_none();
+                if fold {
+                    a.add(b);
+                }
+                fold
+            },
             |leaf, (a, h)| {
-                let leaf = z_index(face, leaf);
-                acc[leaf].add(&a);
+                let leaf = z_index(fine, leaf);
+                acc_fine[leaf].add(&a);
                 if let Some((b, d, p)) = h {
                     hot.push((b, leaf, d, p));
                 }
             },
         )?;
+        let sum4 = |v: &[Acc], per: usize| -> Vec<Acc> {
+            v.chunks_exact(per)
+                .map(|c| {
+                    let mut r = c[0];
+                    for a in &c[1..] {
+                        r.add(a);
+                    }
+                    r
+                })
+                .collect()
+        };
+        let mut acc = sum4(&acc_fine, per);
         let mut total = Acc::default();
         for a in &acc {
             total.add(a);
@@ -254,54 +332,73 @@ impl CosineTree {
             hot.truncate(leaves_n);
         }
         hot.sort_by_key(|h| h.1);
-        let spread = |m: [f64; 3], p: f64| -> f32 {
-            if p > 0.0 {
-                let c = m.map(|v| v / p);
-                (2.0 * (1.0 - brdf::dot(c, c)).max(0.0)).sqrt() as f32
-            } else {
-                0.0
-            }
-        };
-        // Each leaf without its points apart; then the points, each a leaf of no extent with its
-        // power and solid angle (so that L̄'s share cancels a constant map's exactly).
-        let mut rest = acc.clone();
-        let mut apart = vec![(0u32, 0u32); leaves_n];
-        for (i, &(_, leaf, d, p)) in hot.iter().enumerate() {
+        // Each quarter without its points apart.
+        let mut rest = acc_fine;
+        for &(_, leaf, d, p) in &hot {
             let r = &mut rest[leaf];
+            let dd = [
+                d[0] * d[0],
+                d[1] * d[1],
+                d[2] * d[2],
+                d[0] * d[1],
+                d[0] * d[2],
+                d[1] * d[2],
+            ];
             for c in 0..4 {
                 r.p[c] -= p[c];
                 for q in 0..3 {
                     r.m[c][q] -= p[c] * d[q];
                 }
+                for q in 0..6 {
+                    r.s[c][q] -= p[c] * dd[q];
+                }
             }
-            if apart[leaf].1 == 0 {
-                apart[leaf].0 = (leaves_n + i) as u32;
-            }
-            apart[leaf].1 += 1;
         }
-        let mut leaves: Vec<Leaf> = rest
-            .iter()
-            .enumerate()
-            .map(|(k, a)| {
-                let (axis, rad) = envtree::cone(&cube, face, row_major(face, k));
-                Leaf::new(
-                    axis.map(|v| v as f32),
-                    rad.sin() as f32,
-                    a.m.map(|m| m.map(|v| v as f32)),
-                    a.p.map(|v| v as f32),
-                    [0, 1, 2, 3].map(|c| spread(a.m[c], a.p[c])),
-                )
-            })
-            .collect();
-        leaves.extend(hot.iter().map(|&(_, _, d, p)| {
-            Leaf::new(
-                d.map(|v| v as f32),
-                0.0,
-                p.map(|p| d.map(|v| (v * p) as f32)),
-                p.map(|v| v as f32),
-                [0.0; 4],
-            )
-        }));
+        let rest_leaf = sum4(&rest, per);
+        // Leaves brighter than SPLIT × the mean leaf are taken as their quarters.
+        let split_power = SPLIT * mean_leaf;
+        let mut leaves: Vec<Leaf> = Vec::with_capacity(leaves_n);
+        let mut own = vec![true; leaves_n];
+        for (k, a) in rest_leaf.iter().enumerate() {
+            let (axis, rad) = envtree::cone(&cube, face, row_major(face, k));
+            let split =
+                per > 1 && envtree::brightness([a.p[0], a.p[1], a.p[2]], channels) > split_power;
+            own[k] = !split;
+            leaves.push(if split {
+                Leaf::default()
+            } else {
+                Leaf::new(axis.map(|v| v as f32), rad.sin() as f32, a)
+            });
+        }
+        // Then per leaf what is kept apart: its quarters (where it is split), its points.
+        let mut quarters = vec![(0u32, 0u32); leaves_n];
+        let mut points = Vec::with_capacity(hot.len());
+        let mut apart = vec![(0u32, 0u32); leaves_n];
+        let mut h = 0;
+        for k in 0..leaves_n {
+            quarters[k].0 = leaves.len() as u32;
+            if !own[k] {
+                for f in k * per..(k + 1) * per {
+                    let (axis, rad) = envtree::cone(&cube, fine, row_major(fine, f));
+                    leaves.push(Leaf::new(
+                        axis.map(|v| v as f32),
+                        rad.sin() as f32,
+                        &rest[f],
+                    ));
+                }
+            }
+            quarters[k].1 = leaves.len() as u32 - quarters[k].0;
+            apart[k].0 = points.len() as u32;
+            while h < hot.len() && hot[h].1 / per == k {
+                let (_, _, d, p) = hot[h];
+                points.push(Point {
+                    d: d.map(|v| v as f32),
+                    res: [0, 1, 2].map(|c| (p[c] - mean[c] * p[3]) as f32),
+                });
+                h += 1;
+            }
+            apart[k].1 = points.len() as u32 - apart[k].0;
+        }
         let mut levels = Vec::new();
         let mut m = face;
         loop {
@@ -338,7 +435,10 @@ impl CosineTree {
         Ok(CosineTree {
             levels,
             leaves,
+            quarters,
+            points,
             apart,
+            own,
             mean,
             channels,
             face,
@@ -352,6 +452,7 @@ impl CosineTree {
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
         let order = envtree::spatial_order(normals);
         let mut band = vec![0u32; self.leaves.len() + 4];
+        let mut pband = vec![0u32; self.points.len() + 4];
         let mut ns = Vec::with_capacity(GROUP);
         let mut os = vec![[0.0; 3]; GROUP];
         for idx in order.chunks(GROUP) {
@@ -374,11 +475,11 @@ impl CosineTree {
                         *n,
                         0.0,
                         std::slice::from_mut(o),
-                        &mut band,
+                        (&mut band, &mut pband),
                     );
                 }
             } else {
-                self.group(&ns, axis, rg, os, &mut band);
+                self.group(&ns, axis, rg, os, (&mut band, &mut pband));
             }
             for (&i, o) in idx.iter().zip(os.iter()) {
                 out[i as usize] = *o;
@@ -394,7 +495,7 @@ impl CosineTree {
         axis: [f64; 3],
         rg: f64,
         out: &mut [[f64; 3]],
-        band: &mut [u32],
+        (band, pband): (&mut [u32], &mut [u32]),
     ) {
         let (sin_g, cos_g) = rg.sin_cos();
         let mut agg = [[0.0f64; 3]; 3];
@@ -402,7 +503,7 @@ impl CosineTree {
         // roots (one popped, four pushed), see `build`'s cap on the face.
         let mut stack = [(0u8, 0u32); STACK];
         let mut sp = 0;
-        let mut nb = 0;
+        let (mut nb, mut np) = (0, 0);
         let top = self.levels.len() - 1;
         // The roots first, then the four children (4k … 4k + 3 in Z-order) of each crossed node.
         let (mut lv, mut first, mut count) = (top, 0, self.levels[top].1.len());
@@ -427,13 +528,19 @@ impl CosineTree {
                 }
                 let k = (first + q) as u32;
                 if lv == 0 {
+                    let ku = k as usize;
                     band[nb] = k;
-                    nb += crossed as usize;
-                    let (a, n) = self.apart[k as usize];
-                    if crossed & (n > 0) {
+                    nb += (crossed & self.own[ku]) as usize;
+                    if crossed {
+                        let (a, n) = self.quarters[ku];
                         for p in a..a + n {
                             band[nb] = p;
                             nb += 1;
+                        }
+                        let (a, n) = self.apart[ku];
+                        for p in a..a + n {
+                            pband[np] = p;
+                            np += 1;
                         }
                     }
                 } else {
@@ -448,8 +555,8 @@ impl CosineTree {
             let (l, k) = stack[sp];
             (lv, first, count) = (l as usize - 1, 4 * k as usize, 4);
         }
-        let band = &band[..nb];
-        // The band, normal by normal: 8 lanes (the group's normals, the last repeated).
+        let (band, pband) = (&band[..nb], &pband[..np]);
+        // The band, normal by normal: GROUP lanes (the group's normals, the last repeated).
         let mut nx = [[0f32; GROUP]; 3];
         for i in 0..GROUP {
             let n = ns[i.min(ns.len() - 1)];
@@ -458,7 +565,7 @@ impl CosineTree {
             }
         }
         let mean = self.mean.map(|v| v as f32);
-        let acc = band_sum_dispatch(&self.leaves, band, &nx, mean);
+        let acc = band_sum_dispatch(&self.leaves, band, &self.points, pband, &nx, mean);
         for (i, (n, o)) in ns.iter().zip(out.iter_mut()).enumerate() {
             *o =
                 [0, 1, 2].map(|ch| PI * self.mean[ch] + brdf::dot(*n, agg[ch]) + acc[ch][i] as f64);
@@ -470,6 +577,8 @@ impl CosineTree {
 fn band_sum_dispatch(
     leaves: &[Leaf],
     band: &[u32],
+    points: &[Point],
+    pband: &[u32],
     nx: &[[f32; GROUP]; 3],
     mean: [f32; 3],
 ) -> [[f32; GROUP]; 3] {
@@ -480,29 +589,33 @@ fn band_sum_dispatch(
         unsafe fn avx512(
             l: &[Leaf],
             b: &[u32],
+            p: &[Point],
+            pb: &[u32],
             n: &[[f32; GROUP]; 3],
             m: [f32; 3],
         ) -> [[f32; GROUP]; 3] {
-            band_sum::<true>(l, b, n, m)
+            band_sum::<true>(l, b, p, pb, n, m)
         }
         #[target_feature(enable = "avx2,fma")]
         unsafe fn avx2(
             l: &[Leaf],
             b: &[u32],
+            p: &[Point],
+            pb: &[u32],
             n: &[[f32; GROUP]; 3],
             m: [f32; 3],
         ) -> [[f32; GROUP]; 3] {
-            band_sum::<true>(l, b, n, m)
+            band_sum::<true>(l, b, p, pb, n, m)
         }
         match simd() {
             // SAFETY: the features were detected at run time.
-            Simd::Avx512 => return unsafe { avx512(leaves, band, nx, mean) },
+            Simd::Avx512 => return unsafe { avx512(leaves, band, points, pband, nx, mean) },
             // SAFETY: the features were detected at run time.
-            Simd::Avx2 => return unsafe { avx2(leaves, band, nx, mean) },
+            Simd::Avx2 => return unsafe { avx2(leaves, band, points, pband, nx, mean) },
             Simd::Portable => {}
         }
     }
-    band_sum::<false>(leaves, band, nx, mean)
+    band_sum::<false>(leaves, band, points, pband, nx, mean)
 }
 
 /// a·b + c, fused where `FMA` (code compiled for a CPU with fused multiply-add; elsewhere
@@ -528,40 +641,52 @@ fn dot_lane<const FMA: bool>(nx: &[[f32; GROUP]; 3], i: usize, m: [f32; 3]) -> f
 fn band_sum<const FMA: bool>(
     leaves: &[Leaf],
     band: &[u32],
+    points: &[Point],
+    pband: &[u32],
     nx: &[[f32; GROUP]; 3],
     mean: [f32; 3],
 ) -> [[f32; GROUP]; 3] {
     let mut acc = [[0f32; GROUP]; 3];
+    // Per lane the products nᵢnⱼ the spreads' quadratic forms take.
+    let mut nn = [[0f32; GROUP]; 6];
+    for i in 0..GROUP {
+        let (x, y, z) = (nx[0][i], nx[1][i], nx[2][i]);
+        nn[0][i] = x * x;
+        nn[1][i] = y * y;
+        nn[2][i] = z * z;
+        nn[3][i] = x * y;
+        nn[4][i] = x * z;
+        nn[5][i] = y * z;
+    }
+    let quad = |q: &[f32; 6], i: usize| -> f32 {
+        let a = fma::<FMA>(nn[2][i], q[2], fma::<FMA>(nn[1][i], q[1], nn[0][i] * q[0]));
+        let b = fma::<FMA>(nn[5][i], q[5], fma::<FMA>(nn[4][i], q[4], nn[3][i] * q[3]));
+        (a + b).max(0.0)
+    };
     for &k in band.iter() {
         let leaf = &leaves[k as usize];
         // Lane by lane, branch-free (so that it runs as vector code): where the leaf is
         // wholly above the lane's horizon, n·M exactly; crossed, the discs; below, 0.
-        let mut g = [0f32; GROUP];
-        let mut inv_g = [0f32; GROUP];
         let mut keep = [0f32; GROUP];
         let mut lin = [0f32; GROUP];
         let mut t_o = [0f32; GROUP];
         let mut geo = [0f32; GROUP];
         for i in 0..GROUP {
             let h0 = dot_lane::<FMA>(nx, i, leaf.axis);
-            g[i] = fma::<FMA>(-h0, h0, 1.0).max(0.0).sqrt();
-            inv_g[i] = 1.0 / g[i].max(f32::MIN_POSITIVE);
             keep[i] = if h0 <= -leaf.sin_r { 0.0 } else { 1.0 };
             lin[i] = if h0 >= leaf.sin_r { 1.0 } else { 0.0 };
             t_o[i] = dot_lane::<FMA>(nx, i, leaf.m[3]);
-            // t / (Pρ g) as (t / Pρ) / g: no 0 × ∞ where Pρ is 0 (a point).
-            let u = t_o[i] * leaf.inv_pr[3] * inv_g[i];
-            geo[i] = disc::<FMA>(leaf.pr[3] * g[i], u, t_o[i]);
+            let x = quad(&leaf.q[3], i);
+            let y = rsqrt::<FMA>(x);
+            geo[i] = disc::<FMA>(x * y, t_o[i] * y, t_o[i]);
         }
         for ch in 0..3 {
-            let (m, pr, inv_pr, mc) = (leaf.m[ch], leaf.pr[ch], leaf.inv_pr[ch], mean[ch]);
+            let (m, q, mc) = (leaf.m[ch], &leaf.q[ch], mean[ch]);
             for i in 0..GROUP {
                 let t = dot_lane::<FMA>(nx, i, m);
-                let crossed = fma::<FMA>(
-                    -mc,
-                    geo[i],
-                    disc::<FMA>(pr * g[i], t * inv_pr * inv_g[i], t),
-                );
+                let x = quad(q, i);
+                let y = rsqrt::<FMA>(x);
+                let crossed = fma::<FMA>(-mc, geo[i], disc::<FMA>(x * y, t * y, t));
                 let exact = fma::<FMA>(-mc, t_o[i], t);
                 acc[ch][i] = fma::<FMA>(
                     keep[i],
@@ -571,7 +696,32 @@ fn band_sum<const FMA: bool>(
             }
         }
     }
+    // The points apart: (n·d)⁺ (P − L̄ dω), exact.
+    for &k in pband {
+        let p = &points[k as usize];
+        let mut h = [0f32; GROUP];
+        for i in 0..GROUP {
+            h[i] = dot_lane::<FMA>(nx, i, p.d).max(0.0);
+        }
+        for ch in 0..3 {
+            for i in 0..GROUP {
+                acc[ch][i] = fma::<FMA>(h[i], p.res[ch], acc[ch][i]);
+            }
+        }
+    }
     acc
+}
+
+/// 1/√x to about 5e-6 relative for x ≥ 0 (finite and large at 0) with no division: the
+/// integer estimate and two Newton steps.
+#[inline(always)]
+fn rsqrt<const FMA: bool>(x: f32) -> f32 {
+    let mut y = f32::from_bits(0x5f37_5a86u32.wrapping_sub(x.to_bits() >> 1));
+    let h = 0.5 * x;
+    for _ in 0..2 {
+        y *= fma::<FMA>(-h * y, y, 1.5);
+    }
+    y
 }
 
 /// ∫ (n·l)⁺ L dω of light of power `p` whose n·l has mean `t`/`p` and is spread as an even
@@ -605,13 +755,16 @@ const DISC_EVEN: [f32; 6] = [
     -3.722742861e-3,
 ];
 
-/// The leaves' face for a tolerance (relative to π L̄): 16 from 5e-4 up, else 32.  Measured
-/// on the bundled HDRIs with a one-texel sun holding a fifth of the energy (worst over 2,000
-/// normals against the brute-force sum; `examples/irradiance_accuracy.rs`): face 16 within
-/// 7e-4, face 32 within 6e-5; face 64 gains little (4e-5), so no face is finer than 32.
+/// The leaves' face for a tolerance (relative to π L̄): 8 from 2e-3 up, 32 below 5e-5, else
+/// 16.  Measured on the 18 bundled HDRIs, with and without a one-texel sun holding a fifth of
+/// the energy (worst over 2,000 normals against the brute-force sum;
+/// `examples/irradiance_accuracy.rs`): face 8 within 1.2e-3, face 16 within 8e-5, face 32
+/// within 3.5e-5.
 pub fn face_for_tolerance(tol: f64) -> usize {
-    if tol >= 5e-4 {
-        16
+    if tol >= 2e-3 {
+        8
+    } else if tol < 5e-5 {
+        32
     } else {
         DEFAULT_FACE
     }
@@ -680,6 +833,23 @@ mod tests {
             .collect();
         kids.sort();
         assert_eq!(kids, (4 * parent..4 * parent + 4).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn rsqrt_is_within_5e_6() {
+        for e in -60..60 {
+            for m in [1.0f64, 1.3, 1.7, 2.2, 3.1] {
+                let x = m * 2f64.powi(e);
+                let want = 1.0 / x.sqrt();
+                for got in [rsqrt::<false>(x as f32), rsqrt::<true>(x as f32)] {
+                    let rel = (got as f64 - want).abs() / want;
+                    assert!(rel < 5e-6, "{x}: {got} vs {want}");
+                }
+            }
+        }
+        // Zero: finite, so that a point (no spread) gets P w = 0 and a finite μ/w.
+        let y = rsqrt::<false>(0.0);
+        assert!(y.is_finite() && y > 1e18 && 0.0 * y == 0.0);
     }
 
     #[test]
@@ -825,7 +995,7 @@ mod against_brute_force {
                 .iter()
                 .map(|n| brute(&data, channels, &rot, *n))
                 .collect();
-            for (face, bound) in [(16, 1e-3), (32, 1e-4)] {
+            for (face, bound) in [(8, 5e-4), (16, 1e-4), (32, 1e-4)] {
                 let t = CosineTree::build(&env, rot, face).unwrap();
                 let scale = PI * envtree::brightness(t.mean, t.channels);
                 let mut got = vec![[0.0; 3]; ns.len()];

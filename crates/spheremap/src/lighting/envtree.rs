@@ -159,17 +159,22 @@ pub fn light_channels(c: usize) -> usize {
     }
 }
 
-/// Every point a tree of face `face` sums: each texel of the map as k×k points (the map's
-/// bilinear radiance over its area; k grows until the points are about half a leaf apart, so
-/// texels larger than the leaves fill them), with its exact solid angle, put into the leaf of
-/// the world-frame cube its direction falls in.  `point(L, d, dω)` makes each point's share
-/// (in parallel; L is RGB, or grey in L[0]; d the unit world direction); `add(leaf, share)`
-/// sums them in the map's row order, so the sums are the same on any number of threads.
+/// Every point a tree of leaves of face `leaf_face` sums: each texel of the map as k×k points
+/// (the map's bilinear radiance over its area; k grows until the points are about half such a
+/// leaf apart, so texels larger than the leaves fill them), with its exact solid angle, put
+/// into the cell of the world-frame cube of face `face` (`leaf_face` or finer) its direction
+/// falls in.  `point(L, d, dω)` makes each point's share
+/// (in parallel; L is RGB, or grey in L[0]; d the unit world direction); `merge(a, b)` may
+/// fold share b into a, the share of the point before it on the same row and in the same
+/// leaf (returning false where it does not); `add(leaf, share)` sums what is left in the
+/// map's row order, so the sums are the same on any number of threads.
 pub(crate) fn sum_points<T: Send>(
     env: &EnvMap,
     world_to_env: [[f64; 3]; 3],
+    leaf_face: usize,
     face: usize,
     point: impl Fn([f64; 3], [f64; 3], f64) -> T + Sync,
+    merge: impl Fn(&mut T, &T) -> bool + Sync,
     mut add: impl FnMut(usize, T),
 ) -> Result<()> {
     let cube = Mapping::parse("cube", None)?;
@@ -177,23 +182,26 @@ pub(crate) fn sum_points<T: Send>(
     let c = light_channels(ch);
     let m = env.mapping;
     let r = world_to_env;
-    let k = sub_points(m, w, h, face);
+    let k = sub_points(m, w, h, leaf_face);
     let (wk, hk) = (w * k, h * k);
     let sampler = &crate::resample::Sampler::new(env);
     let point = &point;
     let cube = &cube;
     let block = (32 / k).max(1);
     for y0 in (0..h).step_by(block) {
-        let parts: Vec<(usize, T)> = (y0 * k..((y0 + block).min(h)) * k)
+        let parts: Vec<Vec<(usize, T)>> = (y0 * k..((y0 + block).min(h)) * k)
             .into_par_iter()
-            .flat_map_iter(|ys| {
-                (0..wk).filter_map(move |xs| {
+            .map(|ys| {
+                let mut row: Vec<(usize, T)> = Vec::new();
+                for xs in 0..wk {
                     let dw = m.texel_solid_angle(xs, ys, wk, hk);
                     if !(dw > 0.0) {
-                        return None;
+                        continue;
                     }
                     let uv = [(xs as f64 + 0.5) / wk as f64, (ys as f64 + 0.5) / hk as f64];
-                    let d = m.uv_to_dir(uv)?;
+                    let Some(d) = m.uv_to_dir(uv) else {
+                        continue;
+                    };
                     // The radiance there: the texel itself, or between texels the bilinear
                     // lookup every other spheremap path makes.
                     let mut px = [0f32; 8];
@@ -216,11 +224,19 @@ pub(crate) fn sum_points<T: Send>(
                     } else {
                         [px[0] as f64, 0.0, 0.0]
                     };
-                    Some((j * face + i, point(l, d, dw)))
-                })
+                    let leaf = j * face + i;
+                    let t = point(l, d, dw);
+                    if let Some(last) = row.last_mut() {
+                        if last.0 == leaf && merge(&mut last.1, &t) {
+                            continue;
+                        }
+                    }
+                    row.push((leaf, t));
+                }
+                row
             })
             .collect();
-        for (leaf, t) in parts {
+        for (leaf, t) in parts.into_iter().flatten() {
             add(leaf, t);
         }
     }
@@ -241,6 +257,7 @@ impl EnvTree {
             env,
             world_to_env,
             face,
+            face,
             |l, d, dw| {
                 let wt = (lum(l).max(0.0) + 1e-30) * dw;
                 Acc {
@@ -251,6 +268,10 @@ impl EnvTree {
                     lum: lum(l) * dw,
                     var: 0.0,
                 }
+            },
+            |a, b| {
+                a.add(b);
+                true
             },
             |leaf, a| acc[leaf].add(&a),
         )?;
