@@ -3,13 +3,22 @@
 
 The references are independent of the core: the GGX split-sum kernel and its normalization in
 numpy from the textbook formulas; the files' bytes parsed here from the KTX 2.0 and DDS
-specifications. (The Rust tests open the same files with the `ktx2` and `ddsfile` crates.)
+specifications; a cube KTX2 read by `ktx-parse`, the KTX 2.0 parser of three.js's
+`KTX2Loader` and glTF-Transform (npm, run by Node.js), its faces checked against the cube-map
+face table of the OpenGL and Vulkan specifications. (The Rust tests open the same files with the
+`ktx2` and `ddsfile` crates; OpenImageIO 3.2's DDS reader reads no float formats, "Unsupported
+DXGI format" for RGBA16F and RGBA32F, so it cannot be one of them.)
+
+The `ktx-parse` test installs it with npm into target/peers on first use; it is skipped when
+Node.js or npm is missing, unless SPHEREMAP_REQUIRE_NODE=1 (CI sets it).
 """
 
 import json
 import math
 import os
+import shutil
 import struct
+import subprocess
 
 import numpy as np
 import pytest
@@ -19,6 +28,8 @@ from conftest import cli
 
 HERE = os.path.dirname(__file__)
 SKY = os.path.join(HERE, "..", "testdata", "hdri", "sky.exr")
+PEERS = os.path.join(HERE, "..", "target", "peers")
+KTX_PARSE = "ktx-parse@2.0.0"
 
 
 def ggx_d(alpha, c):
@@ -268,3 +279,112 @@ def test_bad_textures_are_refused_with_the_reason(tmp_path):
     with pytest.raises(spheremap.DataError, match="half"):
         spheremap.write_texture(tmp_path / "x.ktx2", [np.full((2, 2, 3), 1e6, np.float32)], half=True)
     assert not (tmp_path / "x.ktx2").exists()
+
+
+# -- an independent reader: ktx-parse (three.js's KTX2 parser) ------------------------------------
+
+
+@pytest.fixture(scope="module")
+def ktx_parse():
+    """The path of ktx-parse's ES module, installed by npm into target/peers on first use."""
+    required = os.environ.get("SPHEREMAP_REQUIRE_NODE") == "1"
+    if not (shutil.which("node") and shutil.which("npm")):
+        if required:
+            pytest.fail("Node.js and npm required (SPHEREMAP_REQUIRE_NODE=1) but missing")
+        pytest.skip("Node.js or npm is missing")
+    module = os.path.abspath(os.path.join(PEERS, "node_modules", "ktx-parse", "dist", "index.mjs"))
+    if not os.path.exists(module):
+        p = subprocess.run(
+            ["npm", "install", "--no-save", "--no-audit", "--no-fund", "--prefix", PEERS, KTX_PARSE],
+            capture_output=True,
+            text=True,
+        )
+        if p.returncode != 0 or not os.path.exists(module):
+            if required:
+                pytest.fail(f"npm install {KTX_PARSE} failed: {p.stderr[-500:]}")
+            pytest.skip(f"npm install {KTX_PARSE} failed")
+    return module
+
+
+READ_KTX2 = """
+import { read } from %s;
+import { readFileSync, writeFileSync } from "node:fs";
+const [src, out] = process.argv.slice(2);
+const c = read(new Uint8Array(readFileSync(src)));
+const dfd = c.dataFormatDescriptor[0];
+const kv = {};
+for (const [k, v] of Object.entries(c.keyValue))
+  kv[k] = typeof v === "string" ? v : new TextDecoder().decode(v).replace(/\\0+$/, "");
+c.levels.forEach((lv, i) => writeFileSync(`${out}/level${i}.bin`, lv.levelData));
+console.log(JSON.stringify({
+  vkFormat: c.vkFormat, typeSize: c.typeSize, width: c.pixelWidth, height: c.pixelHeight,
+  depth: c.pixelDepth, layers: c.layerCount, faces: c.faceCount, levels: c.levels.length,
+  supercompression: c.supercompressionScheme, colorModel: dfd.colorModel,
+  transfer: dfd.transferFunction, primaries: dfd.colorPrimaries, kv,
+  uncompressed: c.levels.map((lv) => lv.uncompressedByteLength),
+}));
+"""
+
+
+def gl_face_dirs(f):
+    """World directions of the texel centres of the six faces of a cube of face f, in the order
+    +X, -X, +Y, -Y, +Z, -Z, row 0 at t = 0: the cube-map face table of OpenGL 4.6 (Table 8.19),
+    which Vulkan shares, (s, t) = ((sc / |ma| + 1) / 2, (tc / |ma| + 1) / 2)."""
+    c = 2 * (np.arange(f) + 0.5) / f - 1
+    sc, tc = np.meshgrid(c, c)  # sc along a row, tc down the rows
+    one = np.ones_like(sc)
+    faces = [
+        (one, -tc, -sc),  # +X: sc = -rz, tc = -ry
+        (-one, -tc, sc),  # -X: sc = +rz, tc = -ry
+        (sc, one, tc),  # +Y: sc = +rx, tc = +rz
+        (sc, -one, -tc),  # -Y: sc = +rx, tc = -rz
+        (sc, -tc, one),  # +Z: sc = +rx, tc = -ry
+        (-sc, -tc, -one),  # -Z: sc = -rx, tc = -ry
+    ]
+    d = np.stack([np.stack(xyz, -1) for xyz in faces])
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_path, ktx_parse, half):
+    # An environment whose radiance is its direction (+ 2, to stay positive).
+    env = latlong_dirs(64, 128).astype(np.float32) + 2
+    src = tmp_path / "dirs.exr"
+    spheremap.write_image(str(src), env)
+    out = tmp_path / "dirs.ktx2"
+    f = 16
+    args = ["prefilter", src, "-o", out, "--size", f, "--levels", "3", "--samples", "1"]
+    p = cli(*args, *(["--half"] if half else []))
+    assert p.returncode == 0, p.stderr
+    script = tmp_path / "read.mjs"
+    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
+    p = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    meta = json.loads(p.stdout)
+    assert meta["vkFormat"] == (97 if half else 109)  # R16G16B16A16_SFLOAT / R32G32B32A32_SFLOAT
+    assert meta["typeSize"] == (2 if half else 4)
+    assert (meta["width"], meta["height"], meta["depth"], meta["layers"]) == (f, f, 0, 0)
+    assert (meta["faces"], meta["levels"], meta["supercompression"]) == (6, 3, 0)
+    assert (meta["colorModel"], meta["transfer"], meta["primaries"]) == (1, 1, 1)  # RGBSDA, linear, BT.709
+    assert meta["kv"]["KTXorientation"] == "rd"
+    ours, cube = spheremap.read_texture(out)
+    assert cube
+    for i, lv in enumerate(ours):
+        fi = f >> i
+        raw = (tmp_path / f"level{i}.bin").read_bytes()
+        assert len(raw) == meta["uncompressed"][i] == 6 * fi * fi * 4 * (2 if half else 4)
+        px = np.frombuffer(raw, np.float16 if half else np.float32).reshape(6, fi, fi, 4)
+        # Faces one after another, +X -X +Y -Y +Z -Z, and what spheremap reads back is the same.
+        assert np.array_equal(px.astype(np.float32), lv), i
+        assert (px[..., 3] == 1).all()
+    # Level 0 (roughness 0) is the environment: each texel holds its own direction, the
+    # direction the GL / Vulkan face table gives that texel of that face.
+    px = np.frombuffer((tmp_path / "level0.bin").read_bytes(), np.float16 if half else np.float32)
+    got = px.reshape(6, f, f, 4)[..., :3].astype(np.float64) - 2
+    want = gl_face_dirs(f)
+    err = np.linalg.norm(got - want, axis=-1)
+    assert err.max() < 0.005, err.max()
+    # ...and not by luck: every other face order or a flip of rows or columns is far off.
+    assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
