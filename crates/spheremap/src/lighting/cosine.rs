@@ -98,12 +98,14 @@ fn mean_brightness(env: &EnvMap) -> f64 {
     use rayon::prelude::*;
     let (w, h, ch) = (env.width, env.height, env.channels);
     let c = light_channels(ch);
+    let texels = &env.mapping.texel_rows(w, h);
     let rows: Vec<(f64, f64)> = (0..h)
         .into_par_iter()
         .map(|y| {
             let (mut s, mut o) = (0.0, 0.0);
-            for x in 0..w {
-                let dw = env.mapping.texel_solid_angle(x, y, w, h);
+            let mut dws = Vec::with_capacity(w);
+            texels.solid_angles(y, &mut dws);
+            for (x, &dw) in dws.iter().enumerate() {
                 if dw > 0.0 {
                     let p = &env.data[(y * w + x) * ch..][..ch];
                     let l = [0, 1, 2].map(|q| p[q.min(ch - 1)] as f64);
@@ -464,10 +466,13 @@ impl CosineTree {
                 .fold([0.0; 3], |s, n| [0, 1, 2].map(|q| s[q] + n[q]));
             let len = brdf::dot(s, s).sqrt();
             let axis = if len > 0.0 { s.map(|v| v / len) } else { ns[0] };
+            // The widest angle from the axis: that of the smallest cosine.
             let rg = ns
                 .iter()
-                .map(|n| brdf::dot(*n, axis).clamp(-1.0, 1.0).acos())
-                .fold(0.0, f64::max);
+                .map(|n| brdf::dot(*n, axis))
+                .fold(1.0, f64::min)
+                .clamp(-1.0, 1.0)
+                .acos();
             if rg > GROUP_MAX_RADIUS && ns.len() > 1 {
                 for (n, o) in ns.iter().zip(os.iter_mut()) {
                     self.group(

@@ -188,18 +188,19 @@ pub(crate) fn sum_points<T: Send>(
     let point = &point;
     let cube = &cube;
     let block = (32 / k).max(1);
+    let texels = &m.texel_rows(wk, hk);
     for y0 in (0..h).step_by(block) {
         let parts: Vec<Vec<(usize, T)>> = (y0 * k..((y0 + block).min(h)) * k)
             .into_par_iter()
             .map(|ys| {
                 let mut row: Vec<(usize, T)> = Vec::new();
-                for xs in 0..wk {
-                    let dw = m.texel_solid_angle(xs, ys, wk, hk);
+                let mut cells = Vec::with_capacity(wk);
+                texels.row(ys, &mut cells);
+                for (xs, &(dw, d)) in cells.iter().enumerate() {
                     if !(dw > 0.0) {
                         continue;
                     }
-                    let uv = [(xs as f64 + 0.5) / wk as f64, (ys as f64 + 0.5) / hk as f64];
-                    let Some(d) = m.uv_to_dir(uv) else {
+                    let Some(d) = d else {
                         continue;
                     };
                     // The radiance there: the texel itself, or between texels the bilinear
@@ -580,16 +581,43 @@ impl EnvTree {
             }
         };
         let s = ((8.0 * leaf / scale).ceil() as usize).clamp(2, 16);
-        points.clear();
-        for b in 0..s {
-            for a in 0..s {
-                let u = (i as f64 + (a as f64 + 0.5) / s as f64) / m as f64;
-                let v = (f as f64 + (j as f64 + (b as f64 + 0.5) / s as f64) / m as f64) / 6.0;
-                let d = self.cube.uv_to_dir([u, v]).expect("on the cube");
-                points.push(brdf::normalize(d));
-            }
-        }
+        leaf_grid(&self.cube, m, k, s, points);
         s
+    }
+}
+
+/// The s×s points evenly spaced on leaf `k` of a tree of face `m` on `cube` (row by row, into
+/// `points`, cleared first): the directions `cube.uv_to_dir` gives at their centres.
+fn leaf_grid(cube: &Mapping, m: usize, k: usize, s: usize, points: &mut Vec<[f64; 3]>) {
+    let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+    points.clear();
+    // On the face's plane the points are p₀ + a·Δs + b·Δt (the cube's face table is
+    // affine in (s, t)), turned into the world by the cube's frame and normalized: what
+    // `uv_to_dir` gives at each, with a few products instead of its table and two roots.
+    let Mapping::Cube(preset) = *cube else {
+        unreachable!("the tree's leaves lie on a cube")
+    };
+    let world = |p: [f64; 3]| {
+        let r = &preset.frame;
+        [0, 1, 2].map(|c| r[0][c] * p[0] + r[1][c] * p[1] + r[2][c] * p[2])
+    };
+    let step = 1.0 / (m * s) as f64;
+    let (s0, t0) = (
+        (i as f64 + 0.5 / s as f64) / m as f64,
+        (j as f64 + 0.5 / s as f64) / m as f64,
+    );
+    let p0 = crate::mappings::cube::face_st_to_point(f, s0, t0);
+    let ps = crate::mappings::cube::face_st_to_point(f, s0 + step, t0);
+    let pt = crate::mappings::cube::face_st_to_point(f, s0, t0 + step);
+    let o = world(p0);
+    let ds = world([0, 1, 2].map(|c| ps[c] - p0[c]));
+    let dt = world([0, 1, 2].map(|c| pt[c] - p0[c]));
+    for b in 0..s {
+        let rb = [0, 1, 2].map(|c| o[c] + b as f64 * dt[c]);
+        for a in 0..s {
+            let p = [0, 1, 2].map(|c| rb[c] + a as f64 * ds[c]);
+            points.push(brdf::normalize(p));
+        }
     }
 }
 
@@ -674,8 +702,10 @@ impl EnvTree {
         let c = sum.map(|x| x / len.max(1e-300));
         let spread = ns
             .iter()
-            .map(|&n| brdf::dot(n, c).clamp(-1.0, 1.0).acos())
-            .fold(0.0, f64::max);
+            .map(|&n| brdf::dot(n, c))
+            .fold(1.0, f64::min)
+            .clamp(-1.0, 1.0)
+            .acos();
         if ns.len() > 1 && !(spread <= (GROUP_SPREAD_PER_ALPHA * s.alpha).min(MAX_GROUP_SPREAD)) {
             // Too far apart to share a cut well: halves.
             let (a, b) = ns.split_at(ns.len() / 2);
@@ -1009,12 +1039,13 @@ pub(crate) fn cone(cube: &Mapping, m: usize, k: usize) -> ([f64; 3], f64) {
         brdf::normalize(cube.uv_to_dir([u, v]).expect("on the cube"))
     };
     let axis = uv(i as f64 + 0.5, j as f64 + 0.5);
-    let mut rad: f64 = 0.0;
+    // The widest corner: that of the smallest cosine.
+    let mut cos_rad: f64 = 1.0;
     for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
         let d = uv(i as f64 + a, j as f64 + b);
-        rad = rad.max(brdf::dot(axis, d).clamp(-1.0, 1.0).acos());
+        cos_rad = cos_rad.min(brdf::dot(axis, d));
     }
-    (axis, rad)
+    (axis, cos_rad.clamp(-1.0, 1.0).acos())
 }
 
 /// Nodes of a level from their accumulated sums.
@@ -1224,6 +1255,40 @@ impl Lobe {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A leaf's grid of points is the cube's own `uv_to_dir` at each point's centre, on every
+    /// face and for cubes in other frames.
+    #[test]
+    fn leaf_grid_is_uv_to_dir_at_the_points() {
+        let mut pts = Vec::new();
+        for preset in ["gl", "d3d"] {
+            let cube = Mapping::parse("cube", Some(preset)).unwrap();
+            for (m, k, s) in [
+                (1, 0, 2),
+                (4, 7, 3),
+                (4, 5 * 16 + 9, 16),
+                (64, 3 * 4096 + 700, 5),
+            ] {
+                leaf_grid(&cube, m, k, s, &mut pts);
+                assert_eq!(pts.len(), s * s);
+                let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+                for b in 0..s {
+                    for a in 0..s {
+                        let u = (i as f64 + (a as f64 + 0.5) / s as f64) / m as f64;
+                        let v =
+                            (f as f64 + (j as f64 + (b as f64 + 0.5) / s as f64) / m as f64) / 6.0;
+                        let d = brdf::normalize(cube.uv_to_dir([u, v]).unwrap());
+                        let got = pts[b * s + a];
+                        let err = (0..3).map(|c| (got[c] - d[c]).abs()).fold(0.0, f64::max);
+                        assert!(
+                            err < 1e-14,
+                            "{preset} m {m} k {k} ({a}, {b}): {got:?} vs {d:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     /// The vector sums over a cut's nodes (the MatCap's lobe and the split-sum kernel)
     /// against the f64 lobe, point by point: nodes all

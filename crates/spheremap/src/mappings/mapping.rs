@@ -34,6 +34,51 @@ pub enum Mapping {
     Octahedral,
 }
 
+/// A canvas's texels row by row ([`Mapping::texel_rows`]).
+pub struct TexelRows<'a> {
+    mapping: &'a Mapping,
+    w: usize,
+    h: usize,
+    /// A lat-long's (cos φ, sin φ) per column.
+    cols: Vec<[f64; 2]>,
+}
+
+impl TexelRows<'_> {
+    /// Row `y`: for each column, (solid angle, direction of the centre, `None` off the map),
+    /// into `out` (cleared first).
+    pub fn row(&self, y: usize, out: &mut Vec<(f64, Option<[f64; 3]>)>) {
+        let (w, h) = (self.w, self.h);
+        out.clear();
+        let v = (y as f64 + 0.5) / h as f64;
+        match self.mapping {
+            Mapping::LatLong(_) => {
+                let dw = latlong::texel_solid_angle(y, w, h);
+                let theta = v * std::f64::consts::PI;
+                let (s, c) = (theta.sin(), theta.cos());
+                out.extend(
+                    self.cols
+                        .iter()
+                        .map(|&[cp, sp]| (dw, Some([s * cp, c, s * sp]))),
+                );
+            }
+            m => out.extend((0..w).map(|x| {
+                let u = (x as f64 + 0.5) / w as f64;
+                (m.texel_solid_angle(x, y, w, h), m.uv_to_dir([u, v]))
+            })),
+        }
+    }
+
+    /// Row `y`'s solid angles alone, into `out` (cleared first).
+    pub fn solid_angles(&self, y: usize, out: &mut Vec<f64>) {
+        let (w, h) = (self.w, self.h);
+        out.clear();
+        match self.mapping {
+            Mapping::LatLong(_) => out.resize(w, latlong::texel_solid_angle(y, w, h)),
+            m => out.extend((0..w).map(|x| m.texel_solid_angle(x, y, w, h))),
+        }
+    }
+}
+
 /// Names accepted by [`Mapping::parse`].
 pub const MAPPING_NAMES: [&str; 6] = [
     "sphere",
@@ -220,6 +265,29 @@ impl Mapping {
             .collect()
     }
 
+    /// The texels of a `w`×`h` canvas row by row, each with its exact solid angle and the
+    /// direction of its centre: what [`Mapping::texel_solid_angle`] and [`Mapping::uv_to_dir`]
+    /// at ((x + ½)/w, (y + ½)/h) give, bit for bit, with the work a row or a column shares
+    /// done once (a lat-long's solid angle and latitude per row, its longitude per column).
+    pub fn texel_rows(&self, w: usize, h: usize) -> TexelRows<'_> {
+        let cols = match self {
+            Mapping::LatLong(p) => (0..w)
+                .map(|x| {
+                    let u = (x as f64 + 0.5) / w as f64;
+                    let phi = (u - p.u_plus_x) * std::f64::consts::TAU;
+                    [phi.cos(), phi.sin()]
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
+        TexelRows {
+            mapping: self,
+            w,
+            h,
+            cols,
+        }
+    }
+
     /// Whether part of the canvas is off the map (the corners of a disc).
     pub fn has_outside(&self) -> bool {
         matches!(
@@ -282,6 +350,40 @@ pub fn name_fields(e: Error, mapping: &str, preset: &str) -> Error {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// `texel_rows` gives each texel's solid angle and centre direction bit for bit as the
+    /// per-texel functions do, in every mapping and preset.
+    #[test]
+    fn texel_rows_are_the_texels_bit_for_bit() {
+        let mut row = Vec::new();
+        for m in all() {
+            let (w, h) = match m {
+                Mapping::Cube(_) => (6, 36),
+                Mapping::LatLong(_) => (14, 7),
+                _ => (9, 9),
+            };
+            let rows = m.texel_rows(w, h);
+            for y in 0..h {
+                rows.row(y, &mut row);
+                assert_eq!(row.len(), w);
+                for (x, &(dw, d)) in row.iter().enumerate() {
+                    let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
+                    assert_eq!(
+                        dw.to_bits(),
+                        m.texel_solid_angle(x, y, w, h).to_bits(),
+                        "{m:?} {x} {y}"
+                    );
+                    assert_eq!(d, m.uv_to_dir(uv), "{m:?} {x} {y}");
+                }
+                let mut dws = Vec::new();
+                rows.solid_angles(y, &mut dws);
+                assert!(dws
+                    .iter()
+                    .zip(&row)
+                    .all(|(a, b)| a.to_bits() == b.0.to_bits()));
+            }
+        }
+    }
 
     fn all() -> Vec<Mapping> {
         let mut v = vec![];
