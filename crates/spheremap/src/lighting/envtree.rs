@@ -430,7 +430,8 @@ impl EnvTree {
             let g = q.eval(dir);
             if in_core
                 || (open || (lv == 0 && narrow))
-                    && q.error(axis, rad, sin_r, 0.0, c.abs() < sin_r, g, node) > q.budget
+                    && q.error(axis, rad, sin_r, (0.0, 0.0, 1.0), c.abs() < sin_r, g, node)
+                        > q.budget
             {
                 if !open {
                     // A leaf the lobe varies across: its radiance is taken as even over it,
@@ -491,7 +492,8 @@ impl EnvTree {
         let q = &Lobe {
             slack: spread.min(std::f64::consts::FRAC_PI_2).sin(),
             ..*q
-        };
+        }
+        .bounded();
         let start = self.levels.iter().position(|l| l.m <= 4).unwrap_or(0);
         let mut stack: [(u8, u32); 512] = [(0, 0); 512];
         let mut top = 0;
@@ -502,6 +504,11 @@ impl EnvTree {
         let v = q.v;
         let narrow = self.narrow(q.material);
         let mut points = Vec::new();
+        // The sines and cosines every node's tests take: of the spread (the horizons) and of
+        // twice it (the peaks).
+        let (sin_s, cos_s) = spread.min(std::f64::consts::FRAC_PI_2).sin_cos();
+        let peaks = 2.0 * spread;
+        let (sin_p, cos_p) = peaks.sin_cos();
         while top > 0 {
             top -= 1;
             let (lv, k) = stack[top];
@@ -510,9 +517,14 @@ impl EnvTree {
             let axis = node.axis.map(|v| v as f64);
             let c = brdf::dot(axis, q.n);
             let (sin_r, rad) = (node.sin_r as f64, node.rad as f64);
-            // The node's cone widened by the group's normals, for the horizons.
+            // The node's cone widened by the group's normals, for the horizons: sin(rad +
+            // spread), 1 from π/2 on.
             let wide = rad + spread;
-            let sin_w = wide.min(std::f64::consts::FRAC_PI_2).sin();
+            let sin_w = if wide >= std::f64::consts::FRAC_PI_2 {
+                1.0
+            } else {
+                sin_r * cos_s + (1.0 - sin_r * sin_r).max(0.0).sqrt() * sin_s
+            };
             if wide < 1.5 && c <= -sin_w {
                 continue; // wholly below every normal's horizon
             }
@@ -520,7 +532,15 @@ impl EnvTree {
             let g = q.eval(dir);
             let open = lv > 0 && top + 4 <= stack.len();
             if (open || (lv == 0 && narrow))
-                && q.error(axis, rad, sin_r, 2.0 * spread, c.abs() < sin_w, g, node) > q.budget
+                && q.error(
+                    axis,
+                    rad,
+                    sin_r,
+                    (peaks, sin_p, cos_p),
+                    c.abs() < sin_w,
+                    g,
+                    node,
+                ) > q.budget
             {
                 if !open {
                     // A leaf the lobes vary across: its radiance even over it, as s×s
@@ -594,13 +614,7 @@ fn leaf_grid(cube: &Mapping, m: usize, k: usize, s: usize, points: &mut Vec<[f64
     // On the face's plane the points are p₀ + a·Δs + b·Δt (the cube's face table is
     // affine in (s, t)), turned into the world by the cube's frame and normalized: what
     // `uv_to_dir` gives at each, with a few products instead of its table and two roots.
-    let Mapping::Cube(preset) = *cube else {
-        unreachable!("the tree's leaves lie on a cube")
-    };
-    let world = |p: [f64; 3]| {
-        let r = &preset.frame;
-        [0, 1, 2].map(|c| r[0][c] * p[0] + r[1][c] * p[1] + r[2][c] * p[2])
-    };
+    let world = |p: [f64; 3]| cube_to_world(cube, p);
     let step = 1.0 / (m * s) as f64;
     let (s0, t0) = (
         (i as f64 + 0.5 / s as f64) / m as f64,
@@ -1032,20 +1046,28 @@ pub(crate) fn brightness(l: [f64; 3], channels: usize) -> f64 {
 pub(crate) fn cone(cube: &Mapping, m: usize, k: usize) -> ([f64; 3], f64) {
     let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
     let mf = m as f64;
-    let eps = 1e-9;
-    let uv = |a: f64, b: f64| {
-        let u = (a / mf).clamp(eps, 1.0 - eps);
-        let v = (f as f64 + (b / mf).clamp(eps, 1.0 - eps)) / 6.0;
-        brdf::normalize(cube.uv_to_dir([u, v]).expect("on the cube"))
+    // On the face's own plane (angles do not change with the cube's frame): the centre and
+    // the widest corner, that of the smallest cosine.
+    let at = |a: f64, b: f64| {
+        brdf::normalize(crate::mappings::cube::face_st_to_point(f, a / mf, b / mf))
     };
-    let axis = uv(i as f64 + 0.5, j as f64 + 0.5);
-    // The widest corner: that of the smallest cosine.
+    let c = at(i as f64 + 0.5, j as f64 + 0.5);
     let mut cos_rad: f64 = 1.0;
     for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
-        let d = uv(i as f64 + a, j as f64 + b);
-        cos_rad = cos_rad.min(brdf::dot(axis, d));
+        let d = at(i as f64 + a, j as f64 + b);
+        cos_rad = cos_rad.min(brdf::dot(c, d));
     }
-    (axis, cos_rad.clamp(-1.0, 1.0).acos())
+    (cube_to_world(cube, c), cos_rad.clamp(-1.0, 1.0).acos())
+}
+
+/// A direction in the face table's coordinates turned into the world by `cube`'s frame (what
+/// `uv_to_dir` does after the table).
+fn cube_to_world(cube: &Mapping, p: [f64; 3]) -> [f64; 3] {
+    let Mapping::Cube(preset) = *cube else {
+        unreachable!("the tree's leaves lie on a cube")
+    };
+    let r = &preset.frame;
+    [0, 1, 2].map(|c| r[0][c] * p[0] + r[1][c] * p[1] + r[2][c] * p[2])
 }
 
 /// Nodes of a level from their accumulated sums.
@@ -1112,6 +1134,9 @@ pub struct Lobe {
     /// The radius (radians) of a cone about the peak that the cut leaves out
     /// ([`EnvTree::tail`]); 0 for none.
     core: f64,
+    /// [`Lobe::eval_bound`] at the peak, which every node the peak lies in takes
+    /// ([`Lobe::bounded`] sets it).
+    peak_bound: f64,
 }
 
 impl Lobe {
@@ -1133,6 +1158,16 @@ impl Lobe {
             budget: rule.tol * scale.abs().max(1e-30),
             slack: 0.0,
             core: 0.0,
+            peak_bound: 0.0,
+        }
+        .bounded()
+    }
+
+    /// This lobe with [`Lobe::peak_bound`] for its kernel and slack (after either changes).
+    fn bounded(self) -> Lobe {
+        Lobe {
+            peak_bound: self.eval_bound(self.peak),
+            ..self
         }
     }
 
@@ -1174,6 +1209,7 @@ impl Lobe {
             kernel: Kernel::SplitSum,
             ..Lobe::new(Material::Ggx { alpha }, r, r, rule, scale)
         }
+        .bounded()
     }
 
     #[inline(always)]
@@ -1211,22 +1247,22 @@ impl Lobe {
         axis: [f64; 3],
         rad: f64,
         sin_r: f64,
-        spread: f64,
+        (spread, sin_s, cos_s): (f64, f64, f64),
         straddles: bool,
         g: f64,
         node: &Node,
     ) -> f64 {
         let cos_t = brdf::dot(axis, self.peak).clamp(-1.0, 1.0);
-        // The node's cone widened by the peak's: radius R = rad + spread.
+        // The node's cone widened by the peak's: radius R = rad + spread (its sine and
+        // cosine from the caller, the same for every node of a cut).
         let cos_r = (1.0 - sin_r * sin_r).max(0.0).sqrt();
         let (sin_big, cos_big) = if spread > 0.0 {
-            let (s, c) = spread.sin_cos();
-            (sin_r * c + cos_r * s, cos_r * c - sin_r * s)
+            (sin_r * cos_s + cos_r * sin_s, cos_r * cos_s - sin_r * sin_s)
         } else {
             (sin_r, cos_r)
         };
         let (near, g_max) = if cos_t >= cos_big || rad + spread >= std::f64::consts::PI {
-            (0.0, self.eval_bound(self.peak).max(g))
+            (0.0, self.peak_bound.max(g))
         } else {
             // The node's point nearest the peak: the axis turned toward it by R.
             let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt().max(1e-12);
@@ -1255,6 +1291,42 @@ impl Lobe {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A node's cone: its axis the direction of its centre, its radius the angle to its
+    /// farthest corner, as the cube's `uv_to_dir` gives them (corners just inside the face).
+    #[test]
+    fn cones_are_the_centre_and_the_farthest_corner() {
+        for preset in ["gl", "d3d"] {
+            let cube = Mapping::parse("cube", Some(preset)).unwrap();
+            for (m, k) in [
+                (1, 0),
+                (1, 5),
+                (4, 7),
+                (4, 3 * 16 + 9),
+                (64, 5 * 4096 + 4095),
+            ] {
+                let (axis, rad) = cone(&cube, m, k);
+                let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
+                let dir = |a: f64, b: f64| {
+                    let (u, v) = (
+                        (a / m as f64).clamp(1e-12, 1.0 - 1e-12),
+                        (b / m as f64).clamp(1e-12, 1.0 - 1e-12),
+                    );
+                    brdf::normalize(cube.uv_to_dir([u, (f as f64 + v) / 6.0]).unwrap())
+                };
+                let c = dir(i as f64 + 0.5, j as f64 + 0.5);
+                assert!(
+                    (0..3).all(|q| (axis[q] - c[q]).abs() < 1e-14),
+                    "{preset} {m} {k}"
+                );
+                let far = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                    .map(|(a, b)| brdf::dot(c, dir(i as f64 + a, j as f64 + b)).acos())
+                    .into_iter()
+                    .fold(0.0, f64::max);
+                assert!((rad - far).abs() < 1e-9, "{preset} {m} {k}: {rad} vs {far}");
+            }
+        }
+    }
 
     /// A leaf's grid of points is the cube's own `uv_to_dir` at each point's centre, on every
     /// face and for cubes in other frames.
