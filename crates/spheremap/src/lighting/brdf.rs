@@ -77,6 +77,14 @@ pub fn ggx_d(alpha: f64, c: f64) -> f64 {
     a2 / (PI * k * k)
 }
 
+/// [`ggx_d`] from the squared cosine `c2` (where it is known without a root).
+#[inline]
+pub fn ggx_d_sq(alpha: f64, c2: f64) -> f64 {
+    let a2 = alpha * alpha;
+    let k = c2 * (a2 - 1.0) + 1.0;
+    a2 / (PI * k * k)
+}
+
 /// Smith's Λ for GGX at cosine μ (> 0) to the normal.
 #[inline]
 pub fn smith_lambda(alpha: f64, mu: f64) -> f64 {

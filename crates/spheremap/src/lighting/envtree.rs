@@ -587,16 +587,14 @@ impl EnvTree {
     /// returns s.
     fn leaf_points(&self, q: &Lobe, k: usize, points: &mut Vec<[f64; 3]>) -> usize {
         let m = self.face;
-        let (f, j, i) = (k / (m * m), (k / m) % m, k % m);
         let leaf = std::f64::consts::FRAC_PI_2 / m as f64;
         let scale = match q.material {
             Material::Lambert => q.rule.broad,
             Material::Ggx { alpha } => {
-                // Away from the peak the lobe varies on `far` × the angle to it.
-                let u = (i as f64 + 0.5) / m as f64;
-                let v = (f as f64 + (j as f64 + 0.5) / m as f64) / 6.0;
-                let c = brdf::normalize(self.cube.uv_to_dir([u, v]).expect("on the cube"));
-                let near = (brdf::dot(c, q.peak).clamp(-1.0, 1.0).acos() - leaf).max(0.0);
+                // Away from the peak the lobe varies on `far` × the angle to it (from the
+                // leaf's axis, its centre's direction).
+                let c = self.levels[0].nodes[k].axis.map(|v| v as f64);
+                let near = (acos_approx(brdf::dot(c, q.peak).clamp(-1.0, 1.0)) - leaf).max(0.0);
                 alpha.max(q.rule.far * near).min(q.rule.broad)
             }
         };
@@ -1194,9 +1192,7 @@ impl Lobe {
                 if !(c + self.slack > 0.0) {
                     return 0.0;
                 }
-                brdf::ggx_d(alpha, ((1.0 + c) * 0.5).max(0.0).sqrt())
-                    * (c + self.slack).min(1.0)
-                    * 0.25
+                brdf::ggx_d_sq(alpha, ((1.0 + c) * 0.5).max(0.0)) * (c + self.slack).min(1.0) * 0.25
             }
             _ => self.eval(l),
         }
@@ -1230,8 +1226,8 @@ impl Lobe {
         if !(c > 0.0) {
             return 0.0;
         }
-        // n·h for h = normalize(l + n): √((1 + c)/2).
-        brdf::ggx_d(alpha, ((1.0 + c) * 0.5).sqrt()) * c * 0.25
+        // (n·h)² for h = normalize(l + n): (1 + c)/2.
+        brdf::ggx_d_sq(alpha, (1.0 + c) * 0.5) * c * 0.25
     }
 
     /// The error of evaluating a node (cone `axis`, radius `rad`, its sine `sin_r`) at its
