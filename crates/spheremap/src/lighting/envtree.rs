@@ -528,9 +528,15 @@ impl EnvTree {
             if wide < 1.5 && c <= -sin_w {
                 continue; // wholly below every normal's horizon
             }
-            let dir = node.dir.map(|v| v as f64);
-            let g = q.eval(dir);
             let open = lv > 0 && top + 4 <= stack.len();
+            // The lobe at the node's direction, which the error bounds from below: only where
+            // the node is tested, and not for the split sum, whose bound (its D and cosine at
+            // the node's point nearest the peak, the cosine raised by the slack) is never
+            // below it.
+            let g = || match q.kernel {
+                Kernel::SplitSum => 0.0,
+                Kernel::Brdf => q.eval(node.dir.map(|v| v as f64)),
+            };
             if (open || (lv == 0 && narrow))
                 && q.error(
                     axis,
@@ -538,7 +544,7 @@ impl EnvTree {
                     sin_r,
                     (peaks, sin_p, cos_p),
                     c.abs() < sin_w,
-                    g,
+                    g(),
                     node,
                 ) > q.budget
             {
