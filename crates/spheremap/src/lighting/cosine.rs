@@ -205,6 +205,35 @@ struct Acc {
 }
 
 impl Acc {
+    /// A point in unit direction `d` holding `p` (per channel, then its solid angle).
+    fn point(p: [f64; 4], d: [f64; 3]) -> Acc {
+        let dd = [
+            d[0] * d[0],
+            d[1] * d[1],
+            d[2] * d[2],
+            d[0] * d[1],
+            d[0] * d[2],
+            d[1] * d[2],
+        ];
+        Acc {
+            p,
+            m: p.map(|w| d.map(|v| w * v)),
+            s: p.map(|w| dd.map(|v| w * v)),
+        }
+    }
+
+    fn sub(&mut self, o: &Acc) {
+        for c in 0..4 {
+            self.p[c] -= o.p[c];
+            for q in 0..3 {
+                self.m[c][q] -= o.m[c][q];
+            }
+            for q in 0..6 {
+                self.s[c][q] -= o.s[c][q];
+            }
+        }
+    }
+
     fn add(&mut self, o: &Acc) {
         for c in 0..4 {
             self.p[c] += o.p[c];
@@ -265,23 +294,7 @@ impl CosineTree {
             face,
             fine,
             |l, d, dw| {
-                let mut a = Acc::default();
-                let dd = [
-                    d[0] * d[0],
-                    d[1] * d[1],
-                    d[2] * d[2],
-                    d[0] * d[1],
-                    d[0] * d[2],
-                    d[1] * d[2],
-                ];
-                for c in 0..3 {
-                    a.p[c] = l[c] * dw;
-                    a.m[c] = d.map(|v| v * l[c] * dw);
-                    a.s[c] = dd.map(|v| v * l[c] * dw);
-                }
-                a.p[3] = dw;
-                a.m[3] = d.map(|v| v * dw);
-                a.s[3] = dd.map(|v| v * dw);
+                let a = Acc::point([l[0] * dw, l[1] * dw, l[2] * dw, dw], d);
                 let b = envtree::brightness(l, channels) * dw;
                 (
                     a,
@@ -304,7 +317,8 @@ impl CosineTree {
                 }
             },
         )?;
-        let sum4 = |v: &[Acc], per: usize| -> Vec<Acc> {
+        // The sums of each run of `per` consecutive entries (a node's children in Z-order).
+        let sum_runs = |v: &[Acc], per: usize| -> Vec<Acc> {
             v.chunks_exact(per)
                 .map(|c| {
                     let mut r = c[0];
@@ -315,7 +329,7 @@ impl CosineTree {
                 })
                 .collect()
         };
-        let mut acc = sum4(&acc_fine, per);
+        let mut acc = sum_runs(&acc_fine, per);
         let mut total = Acc::default();
         for a in &acc {
             total.add(a);
@@ -337,26 +351,9 @@ impl CosineTree {
         // Each quarter without its points apart.
         let mut rest = acc_fine;
         for &(_, leaf, d, p) in &hot {
-            let r = &mut rest[leaf];
-            let dd = [
-                d[0] * d[0],
-                d[1] * d[1],
-                d[2] * d[2],
-                d[0] * d[1],
-                d[0] * d[2],
-                d[1] * d[2],
-            ];
-            for c in 0..4 {
-                r.p[c] -= p[c];
-                for q in 0..3 {
-                    r.m[c][q] -= p[c] * d[q];
-                }
-                for q in 0..6 {
-                    r.s[c][q] -= p[c] * dd[q];
-                }
-            }
+            rest[leaf].sub(&Acc::point(p, d));
         }
-        let rest_leaf = sum4(&rest, per);
+        let rest_leaf = sum_runs(&rest, per);
         // Leaves brighter than SPLIT × the mean leaf are taken as their quarters.
         let split_power = SPLIT * mean_leaf;
         let mut leaves: Vec<Leaf> = Vec::with_capacity(leaves_n);
@@ -422,16 +419,7 @@ impl CosineTree {
                 break;
             }
             // In Z-order a node's four children are 4k … 4k + 3.
-            acc = acc
-                .chunks_exact(4)
-                .map(|c| {
-                    let mut r = c[0];
-                    for a in &c[1..] {
-                        r.add(a);
-                    }
-                    r
-                })
-                .collect();
+            acc = sum_runs(&acc, 4);
             m /= 2;
         }
         Ok(CosineTree {

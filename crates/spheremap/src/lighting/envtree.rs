@@ -489,11 +489,12 @@ impl EnvTree {
     /// then [`ggx_sums`] over the nodes.
     pub fn group_cut(&self, q: &Lobe, spread: f64, out: &mut CutNodes) {
         out.clear();
-        let q = &Lobe {
-            slack: spread.min(std::f64::consts::FRAC_PI_2).sin(),
-            ..*q
-        }
-        .bounded();
+        // The sine and cosine of the spread, which every node's horizon test takes (its sine
+        // is also the lobe's slack), and of twice it (the peaks).
+        let (sin_s, cos_s) = spread.min(std::f64::consts::FRAC_PI_2).sin_cos();
+        let peaks = 2.0 * spread;
+        let (sin_p, cos_p) = peaks.sin_cos();
+        let q = &Lobe { slack: sin_s, ..*q }.bounded();
         let start = self.levels.iter().position(|l| l.m <= 4).unwrap_or(0);
         let mut stack: [(u8, u32); 512] = [(0, 0); 512];
         let mut top = 0;
@@ -504,11 +505,6 @@ impl EnvTree {
         let v = q.v;
         let narrow = self.narrow(q.material);
         let mut points = Vec::new();
-        // The sines and cosines every node's tests take: of the spread (the horizons) and of
-        // twice it (the peaks).
-        let (sin_s, cos_s) = spread.min(std::f64::consts::FRAC_PI_2).sin_cos();
-        let peaks = 2.0 * spread;
-        let (sin_p, cos_p) = peaks.sin_cos();
         while top > 0 {
             top -= 1;
             let (lv, k) = stack[top];
