@@ -3,7 +3,9 @@
 
 use spheremap::images::Image;
 use spheremap::resample::{self, EnvMap, Outside, Precision, ResampleOptions};
-use spheremap::trace::generate::{generate, EnvSource, FnSource, GenerateOptions, RaySource};
+use spheremap::trace::generate::{
+    generate, generate_all, EnvSource, FnSource, GenerateOptions, RaySource,
+};
 use spheremap::trace::scene::{
     self, Environment, Light, Material, SceneBuilder, Shading, TriangleInput,
 };
@@ -224,6 +226,90 @@ fn rows_per_call_leaves_the_image_unchanged() {
             assert_eq!(a.1.rays, b.1.rays);
             assert_eq!(a.1.texels, b.1.texels);
         }
+    }
+}
+
+/// A whole-canvas source (all rays listed, evaluated at once, put in place) makes the same
+/// image, bit for bit, as the same function fired batch by batch: on a cube, a lat-long and a
+/// sphere map (rows off the disc, the gutter filled or black), turned, with f32 and f64
+/// directions; it refuses footprint samples.
+#[test]
+fn whole_canvas_sources_make_the_same_image() {
+    let colour = |d: [f32; 3]| {
+        [
+            d[0] * 0.5 + 0.5,
+            d[1] * d[2] + 2.0,
+            (3.0 * d[0]).sin().abs(),
+        ]
+    };
+    let rot = views()[1];
+    let cube = Mapping::parse("cube", None).unwrap();
+    let latlong = Mapping::parse("latlong", None).unwrap();
+    for (m, w, h, outside, precision) in [
+        (cube, 8, 48, Outside::Gutter, Precision::F32),
+        (latlong, 32, 16, Outside::Gutter, Precision::F64),
+        (SPHERE, 37, 37, Outside::Gutter, Precision::F32),
+        (SPHERE, 36, 36, Outside::Black, Precision::F64),
+    ] {
+        let o = GenerateOptions {
+            rotation: rot,
+            outside,
+            precision,
+            ..opts(1)
+        };
+        let each = FnSource::new(3, |_: [f32; 3], d: [f32; 3], out: &mut [f32]| {
+            out.copy_from_slice(&colour(d))
+        });
+        let (a, ra) = generate(m, w, h, &each, &o, None).unwrap();
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let eval = |dirs: &[[f32; 3]]| -> spheremap::Result<Vec<f32>> {
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Ok(dirs.iter().flat_map(|&d| colour(d)).collect())
+        };
+        let (b, rb) = generate_all(m, w, h, 3, &eval, 0, &o, None).unwrap();
+        assert_eq!(a, b, "{}", m.name());
+        assert_eq!(ra, rb);
+        assert_eq!(calls.into_inner(), 1);
+        // A wrong number of values is refused.
+        let short =
+            |dirs: &[[f32; 3]]| -> spheremap::Result<Vec<f32>> { Ok(vec![0.0; dirs.len()]) };
+        let e = generate_all(m, w, h, 3, &short, 0, &o, None).unwrap_err();
+        assert!(e.to_string().contains("eval"), "{e}");
+    }
+    let eval = |dirs: &[[f32; 3]]| -> spheremap::Result<Vec<f32>> { Ok(vec![0.0; dirs.len()]) };
+    let e = generate_all(SPHERE, 8, 8, 1, &eval, 0, &opts(4), None).unwrap_err();
+    assert!(e.to_string().contains("samples"), "{e}");
+}
+
+/// The mappings without an outside cover their canvas: every texel centre has a direction
+/// (the generator fires one ray at each without asking).
+#[test]
+fn mappings_without_an_outside_have_every_centre_on_the_map() {
+    for name in ["cube", "latlong", "octahedral"] {
+        let m = Mapping::parse(name, None).unwrap();
+        assert!(!m.has_outside());
+        let mut canvases = 0;
+        for (w, h) in [
+            (1, 6),
+            (7, 42),
+            (64, 384),
+            (10, 5),
+            (64, 32),
+            (9, 9),
+            (33, 33),
+        ] {
+            let Ok(_) = m.size_of(w, h, "size") else {
+                continue;
+            };
+            canvases += 1;
+            for y in 0..h {
+                for x in 0..w {
+                    let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
+                    assert!(m.uv_to_dir(uv).is_some(), "{name} {w}x{h} ({x}, {y})");
+                }
+            }
+        }
+        assert!(canvases >= 2, "{name}: {canvases} canvases tried");
     }
 }
 

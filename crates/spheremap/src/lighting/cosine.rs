@@ -33,6 +33,11 @@
 //! terms cancel, to the rounding of a fast 1/√x: 1e-6), a sun of no extent is exact wherever the horizon is, and the
 //! approximation — of the shape of the distribution of n·l beyond its first two moments —
 //! acts on L − L̄ only in the band the horizon crosses.
+//!
+//! A whole canvas ([`CosineSource::generate`], one normal per texel) takes half the
+//! integrals where its texels come in antipodal pairs (cube, lat-long, octahedral):
+//! (n·l)⁺ − (−n·l)⁺ = n·l, so E(−n) = E(n) − n·M with M = ∫ L l dω summed exactly, and the
+//! antipode costs one dot product and carries the same error as E(n).
 
 use super::brdf;
 use super::envtree::{self, light_channels};
@@ -137,6 +142,17 @@ pub const MAX_FACE: usize = 4096;
 
 /// A group whose normals spread wider than this (radians) is taken normal by normal.
 const GROUP_MAX_RADIUS: f64 = 0.2;
+/// Normals within this of one another (per component) share one integral in
+/// [`CosineTree::irradiance_all`]: |E(n₁) − E(n₂)| ≤ 4 π L̄ |n₁ − n₂|, so E moves by at most
+/// 4√3 · 1e-6 = 6.9e-6 of π L̄ (a canvas's antipodal texel centres differ by float rounding,
+/// about 1e-7).
+pub const ANTIPODE_EPS: f64 = 1e-6;
+/// Memory per normal of [`CosineTree::irradiance_all`] and its caller: the normal, its key,
+/// place in the order and representative, the representatives' normals and integrals, the
+/// results and the texel's values.
+const ALL_BYTES: u64 = 24 + 32 + 8 + 8 + 4 + 24 + 24 + 12;
+/// The normals of one task of [`CosineTree::irradiance_all`] (64 groups).
+const ALL_CHUNK: usize = 64 * GROUP;
 
 /// A node of the cut: its bounding cone and Σ (L − L̄) l dω per channel.
 #[derive(Clone, Copy, Debug, Default)]
@@ -205,7 +221,9 @@ struct Acc {
 }
 
 impl Acc {
-    /// A point in unit direction `d` holding `p` (per channel, then its solid angle).
+    /// A point in unit direction `d` holding `p` (per channel, then its solid angle).  (Once
+    /// per texel of the map: plain loops, always inlined.)
+    #[inline(always)]
     fn point(p: [f64; 4], d: [f64; 3]) -> Acc {
         let dd = [
             d[0] * d[0],
@@ -215,13 +233,22 @@ impl Acc {
             d[0] * d[2],
             d[1] * d[2],
         ];
-        Acc {
+        let mut a = Acc {
             p,
-            m: p.map(|w| d.map(|v| w * v)),
-            s: p.map(|w| dd.map(|v| w * v)),
+            ..Acc::default()
+        };
+        for c in 0..4 {
+            for q in 0..3 {
+                a.m[c][q] = p[c] * d[q];
+            }
+            for q in 0..6 {
+                a.s[c][q] = p[c] * dd[q];
+            }
         }
+        a
     }
 
+    #[inline(always)]
     fn sub(&mut self, o: &Acc) {
         for c in 0..4 {
             self.p[c] -= o.p[c];
@@ -234,6 +261,7 @@ impl Acc {
         }
     }
 
+    #[inline(always)]
     fn add(&mut self, o: &Acc) {
         for c in 0..4 {
             self.p[c] += o.p[c];
@@ -264,6 +292,9 @@ pub struct CosineTree {
     own: Vec<bool>,
     /// L̄ per channel.
     pub mean: [f64; 3],
+    /// M = ∫ L(l) l dω per channel (world frame): E(n) − E(−n) = n·M exactly, since
+    /// (n·l)⁺ − (−n·l)⁺ = n·l.
+    pub moment: [[f64; 3]; 3],
     /// 1 (grey) or 3 (RGB) channels of light.
     pub channels: usize,
     /// The leaves' cube face F.
@@ -341,6 +372,7 @@ impl CosineTree {
             ));
         }
         let mean = [0, 1, 2].map(|c| total.p[c] / total.p[3]);
+        let moment = [0, 1, 2].map(|c| total.m[c]);
         // At most as many points apart as leaves: the most powerful (ties by order, so the
         // choice is the same on any thread count).
         if hot.len() > leaves_n {
@@ -430,6 +462,7 @@ impl CosineTree {
             apart,
             own,
             mean,
+            moment,
             channels,
             face,
         })
@@ -440,7 +473,12 @@ impl CosineTree {
     /// order of [`envtree::spatial_key`] (a batch of a few rows of a canvas: 4×4 tiles of
     /// texels).
     pub fn irradiance(&self, normals: &[[f64; 3]], out: &mut [[f64; 3]]) {
-        let order = envtree::spatial_order(normals);
+        self.irradiance_ordered(normals, &envtree::spatial_order(normals), out);
+    }
+
+    /// [`CosineTree::irradiance`] with the normals' order given (groups of [`GROUP`]
+    /// consecutive ones).
+    fn irradiance_ordered(&self, normals: &[[f64; 3]], order: &[u32], out: &mut [[f64; 3]]) {
         let mut band = vec![0u32; self.leaves.len() + 4];
         let mut pband = vec![0u32; self.points.len() + 4];
         let mut ns = Vec::with_capacity(GROUP);
@@ -478,6 +516,86 @@ impl CosineTree {
                 out[i as usize] = *o;
             }
         }
+    }
+
+    /// E at every unit normal of `ns`, on all threads, each normal and its antipode by one
+    /// integral: E(−n) = E(n) − n·M.  Each normal is taken to the side of its largest
+    /// component's positive axis (c = ±n); normals whose c lie within [`ANTIPODE_EPS`] of each
+    /// other (per component: the same direction, or antipodes, up to rounding) share the
+    /// integral of the first of them in the order of ([`envtree::spatial_key`] of c, index),
+    /// which moves E by at most 4 π L̄ · √3 ε.  The integrals are taken in that order (groups
+    /// of neighbours) in fixed chunks, so the values are the same on any thread count.
+    pub fn irradiance_all(&self, ns: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        self.irradiance_shared(ns).0
+    }
+
+    /// [`CosineTree::irradiance_all`] and the number of integrals it took.
+    fn irradiance_shared(&self, ns: &[[f64; 3]]) -> (Vec<[f64; 3]>, usize) {
+        use rayon::prelude::*;
+        let side = |n: [f64; 3]| {
+            if n[envtree::major_axis(n)] < 0.0 {
+                -1.0
+            } else {
+                1.0
+            }
+        };
+        // (key, index): on the positive faces the key has 34 bits (face 0, 2 or 4, then a
+        // 32-bit Morton code), so with fewer than 2³⁰ normals both pack into one u64.
+        let keys: Vec<(u64, [f64; 3])> = ns
+            .par_iter()
+            .map(|&n| {
+                let c = n.map(|v| side(n) * v);
+                (envtree::spatial_key(c), c)
+            })
+            .collect();
+        let order: Vec<usize> = if ns.len() < 1 << 30 {
+            let mut packed: Vec<u64> = keys
+                .par_iter()
+                .enumerate()
+                .map(|(i, &(k, _))| (((k >> 33) & 3) << 62) | ((k & 0xffff_ffff) << 30) | i as u64)
+                .collect();
+            packed.par_sort_unstable();
+            packed
+                .iter()
+                .map(|&p| (p & ((1 << 30) - 1)) as usize)
+                .collect()
+        } else {
+            let mut o: Vec<(u64, usize)> =
+                keys.iter().enumerate().map(|(i, &(k, _))| (k, i)).collect();
+            o.par_sort_unstable();
+            o.into_iter().map(|(_, i)| i).collect()
+        };
+        // The representatives (their c), and per normal its representative.
+        let mut reps: Vec<[f64; 3]> = Vec::new();
+        let mut rep_of = vec![0u32; ns.len()];
+        let mut last = [f64::NAN; 3];
+        for &i in &order {
+            let c = keys[i].1;
+            if (0..3).any(|q| !((c[q] - last[q]).abs() <= ANTIPODE_EPS)) {
+                reps.push(c);
+                last = c;
+            }
+            rep_of[i] = reps.len() as u32 - 1;
+        }
+        let mut e = vec![[0.0; 3]; reps.len()];
+        // The representatives are in the spatial order already.
+        let order: Vec<u32> = (0..ALL_CHUNK as u32).collect();
+        e.par_chunks_mut(ALL_CHUNK)
+            .zip(reps.par_chunks(ALL_CHUNK))
+            .for_each(|(o, n)| self.irradiance_ordered(n, &order[..n.len()], o));
+        let out = ns
+            .par_iter()
+            .zip(rep_of.par_iter())
+            .map(|(&n, &r)| {
+                let (c, e) = (reps[r as usize], e[r as usize]);
+                if brdf::dot(n, c) >= 0.0 {
+                    e
+                } else {
+                    [0, 1, 2].map(|ch| e[ch] - brdf::dot(c, self.moment[ch]))
+                }
+            })
+            .collect();
+        (out, reps.len())
     }
 
     /// The normals `ns` within `rg` of `axis`; `band` a buffer of at least as many entries as
@@ -771,6 +889,60 @@ pub struct CosineSource<'a, F: Fn([f64; 3]) -> [f64; 3] + Sync> {
     pub channels: usize,
 }
 
+impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> CosineSource<'_, F> {
+    /// The texel values of the integrals `e`, `channels` per normal.
+    fn values(&self, e: &[[f64; 3]], out: &mut [f32]) {
+        let c = self.channels;
+        let grey = self.tree.channels == 1;
+        for (o, e) in out.chunks_exact_mut(c).zip(e) {
+            for k in 0..c {
+                let v = if grey { e[0] } else { e[k] };
+                o[k] = (v * self.scale[k]) as f32;
+            }
+        }
+    }
+
+    /// A `width`×`height` canvas of `mapping` from this source: with one normal per texel
+    /// (`opts.samples == 1`) all at once ([`CosineTree::irradiance_all`], antipodes by one
+    /// integral), else batch by batch as any ray source.
+    pub fn generate(
+        &self,
+        mapping: Mapping,
+        width: usize,
+        height: usize,
+        opts: &crate::trace::generate::GenerateOptions,
+        progress: Option<&crate::resample::Progress>,
+    ) -> Result<(crate::images::Image, crate::trace::generate::GenerateReport)> {
+        use crate::trace::generate;
+        use rayon::prelude::*;
+        if opts.samples != 1 {
+            return generate::generate(mapping, width, height, self, opts, progress);
+        }
+        let eval = |dirs: &[[f32; 3]]| -> Result<Vec<f32>> {
+            let normals: Vec<[f64; 3]> = dirs
+                .par_iter()
+                .map(|d| (self.normal)(brdf::normalize(d.map(|v| v as f64))))
+                .collect();
+            let e = self.tree.irradiance_all(&normals);
+            let mut out = vec![0f32; dirs.len() * self.channels];
+            out.par_chunks_mut(ALL_CHUNK * self.channels)
+                .zip(e.par_chunks(ALL_CHUNK))
+                .for_each(|(o, e)| self.values(e, o));
+            Ok(out)
+        };
+        generate::generate_all(
+            mapping,
+            width,
+            height,
+            self.channels,
+            &eval,
+            ALL_BYTES,
+            opts,
+            progress,
+        )
+    }
+}
+
 impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> crate::trace::generate::RaySource for CosineSource<'_, F> {
     fn channels(&self) -> usize {
         self.channels
@@ -786,14 +958,7 @@ impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> crate::trace::generate::RaySource for C
             .collect();
         let mut e = vec![[0.0; 3]; normals.len()];
         self.tree.irradiance(&normals, &mut e);
-        let c = self.channels;
-        let grey = self.tree.channels == 1;
-        for (o, e) in out.chunks_exact_mut(c).zip(&e) {
-            for k in 0..c {
-                let v = if grey { e[0] } else { e[k] };
-                o[k] = (v * self.scale[k]) as f32;
-            }
-        }
+        self.values(&e, out);
         Ok(())
     }
 }
@@ -872,6 +1037,148 @@ mod tests {
 mod against_brute_force {
     use super::*;
     use crate::resample::IDENTITY;
+
+    #[test]
+    fn antipodes_by_one_integral_match_the_sum_over_their_texels() {
+        // Normals, their antipodes and near-repeats (1e-12 off, as rounding leaves a canvas's
+        // antipodal texels) at once: one integral per ± pair, each within the same bound as
+        // the normal's own.
+        for (channels, rot) in [(3, IDENTITY), (1, TURNED)] {
+            let data = map(channels);
+            let env = map_env(&data, channels);
+            let half = normals(150);
+            let mut ns = half.clone();
+            ns.extend(half.iter().map(|n| n.map(|v| -v)));
+            ns.extend(half.iter().take(20).map(|n| n.map(|v| -v * (1.0 + 1e-12))));
+            let t = CosineTree::build(&env, rot, 16).unwrap();
+            let scale = PI * envtree::brightness(t.mean, t.channels);
+            let (got, integrals) = t.irradiance_shared(&ns);
+            assert_eq!(integrals, 150);
+            let mut worst = 0.0f64;
+            for (n, g) in ns.iter().zip(&got) {
+                let w = brute(&data, channels, &rot, *n);
+                for q in 0..channels {
+                    worst = worst.max((g[q] - w[q]).abs() / scale);
+                }
+            }
+            eprintln!("{channels} channel(s), ± normals: worst {worst:.2e} of π L̄");
+            assert!(worst < 1e-4, "{worst:.2e}");
+            // The moment is the map's: E(n) − E(−n) = n·M by the brute force too.
+            for n in half.iter().take(5) {
+                let (a, b) = (
+                    brute(&data, channels, &rot, *n),
+                    brute(&data, channels, &rot, n.map(|v| -v)),
+                );
+                for q in 0..channels {
+                    let m = brdf::dot(*n, t.moment[q]);
+                    assert!(
+                        ((a[q] - b[q]) - m).abs() < 1e-9 * scale,
+                        "{q}: {} {m}",
+                        a[q] - b[q]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_canvas_takes_one_integral_per_antipodal_pair_on_any_thread_count() {
+        use crate::trace::generate::{generate_all, GenerateOptions};
+        let data = map(3);
+        let env = map_env(&data, 3);
+        let t = CosineTree::build(&env, IDENTITY, 16).unwrap();
+        let scale = PI * envtree::brightness(t.mean, t.channels);
+        let view = crate::frame::view::look_up([0.3, -0.5, -1.0], [0.0, 1.0, 0.0]).unwrap();
+        // (mapping, width, height, rotation, whether its texel centres come in ± pairs)
+        let cube = Mapping::parse("cube", None).unwrap();
+        for (m, w, h, rotation, paired) in [
+            (cube, 16, 96, IDENTITY, true),
+            (cube, 12, 72, view, true),
+            (
+                Mapping::parse("latlong", None).unwrap(),
+                64,
+                32,
+                IDENTITY,
+                true,
+            ),
+            (
+                Mapping::parse("octahedral", None).unwrap(),
+                32,
+                32,
+                IDENTITY,
+                true,
+            ),
+            (
+                Mapping::parse("sphere", None).unwrap(),
+                32,
+                32,
+                IDENTITY,
+                false,
+            ),
+        ] {
+            let opts = GenerateOptions {
+                rotation,
+                samples: 1,
+                ..Default::default()
+            };
+            let counts = std::sync::Mutex::new((0, 0));
+            let eval = |dirs: &[[f32; 3]]| -> Result<Vec<f32>> {
+                let ns: Vec<[f64; 3]> = dirs
+                    .iter()
+                    .map(|d| brdf::normalize(d.map(|v| v as f64)))
+                    .collect();
+                let (_, k) = t.irradiance_shared(&ns);
+                *counts.lock().unwrap() = (ns.len(), k);
+                Ok(vec![0.0; dirs.len()])
+            };
+            generate_all(m, w, h, 1, &eval, 0, &opts, None).unwrap();
+            let (n, k) = counts.into_inner().unwrap();
+            if paired {
+                assert_eq!(2 * k, n, "{}", m.name());
+            } else {
+                assert_eq!(k, n, "{}", m.name());
+            }
+            // The source on the whole canvas: within 2e-5 of π L̄ of its batches (other
+            // groups), the same bits on 1 and 3 threads.
+            let source = CosineSource {
+                tree: &t,
+                normal: |d| d,
+                scale: [1.0; 3],
+                channels: 3,
+            };
+            let (a, _) = crate::trace::generate::generate(m, w, h, &source, &opts, None).unwrap();
+            let run = |threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap()
+                    .install(|| source.generate(m, w, h, &opts, None).unwrap().0)
+            };
+            let b = run(1);
+            assert_eq!(b, run(3), "{}", m.name());
+            let worst = a
+                .data
+                .iter()
+                .zip(&b.data)
+                .map(|(x, y)| (x - y).abs() as f64 / scale)
+                .fold(0.0, f64::max);
+            assert!(worst < 2e-5, "{}: {worst:.2e}", m.name());
+        }
+    }
+
+    /// World → map: a rotation about the y axis by asin 0.6, for a turned frame.
+    const TURNED: [[f64; 3]; 3] = [[0.8, 0.0, 0.6], [0.0, 1.0, 0.0], [-0.6, 0.0, 0.8]];
+
+    /// The lat-long of [`map`]'s data (256×128).
+    fn map_env(data: &[f32], channels: usize) -> EnvMap<'_> {
+        EnvMap {
+            mapping: Mapping::parse("latlong", None).unwrap(),
+            width: 256,
+            height: 128,
+            channels,
+            data,
+        }
+    }
 
     /// Fibonacci normals over the sphere.
     fn normals(n: usize) -> Vec<[f64; 3]> {
@@ -967,18 +1274,9 @@ mod against_brute_force {
     #[test]
     fn a_map_with_a_sun_matches_the_sum_over_its_texels() {
         // A turned frame too: world → map a rotation about a slanted axis.
-        let (s, c) = (0.6f64, 0.8f64);
-        let turned = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]];
-        for (channels, rot) in [(3, IDENTITY), (1, turned)] {
+        for (channels, rot) in [(3, IDENTITY), (1, TURNED)] {
             let data = map(channels);
-            let ll = Mapping::parse("latlong", None).unwrap();
-            let env = EnvMap {
-                mapping: ll,
-                width: 256,
-                height: 128,
-                channels,
-                data: &data,
-            };
+            let env = map_env(&data, channels);
             let ns = normals(300);
             let want: Vec<[f64; 3]> = ns
                 .iter()
@@ -1008,14 +1306,7 @@ mod against_brute_force {
         // The same normals in groups of neighbours and one by one (the groups' cut is only
         // where work is shared, not what is summed).
         let data = map(3);
-        let ll = Mapping::parse("latlong", None).unwrap();
-        let env = EnvMap {
-            mapping: ll,
-            width: 256,
-            height: 128,
-            channels: 3,
-            data: &data,
-        };
+        let env = map_env(&data, 3);
         let t = CosineTree::build(&env, IDENTITY, 16).unwrap();
         let row: Vec<[f64; 3]> = (0..64)
             .map(|i| {

@@ -655,13 +655,7 @@ pub struct Shared {
 /// tiles of a cube face of any power-of-two size follow one another.
 pub(crate) fn spatial_key(n: [f64; 3]) -> u64 {
     let a = n.map(f64::abs);
-    let axis = if a[0] >= a[1] && a[0] >= a[2] {
-        0
-    } else if a[1] >= a[2] {
-        1
-    } else {
-        2
-    };
+    let axis = major_axis(n);
     let m = a[axis].max(f64::MIN_POSITIVE);
     let face = 2 * axis as u64 + (n[axis] < 0.0) as u64;
     let q = |v: f64| (((v / m).clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0) as u32;
@@ -674,6 +668,18 @@ pub(crate) fn spatial_key(n: [f64; 3]) -> u64 {
         (x | (x << 1)) & 0x5555_5555
     };
     (face << 32) | (spread(v) << 1) | spread(u)
+}
+
+/// The axis of `n`'s largest component (the lowest of equals): the cube face `n` falls on.
+pub(crate) fn major_axis(n: [f64; 3]) -> usize {
+    let a = n.map(f64::abs);
+    if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    }
 }
 
 /// The indices of `ns` in the order of [`spatial_key`]: groups of consecutive ones are
@@ -1033,6 +1039,7 @@ impl Acc {
 
 /// The brightness the tree weighs and estimates errors by: the mean of the channels (each
 /// counts alike: a blue sky is not under-weighted), the channel itself for a grey map.
+#[inline]
 pub(crate) fn brightness(l: [f64; 3], channels: usize) -> f64 {
     if channels == 3 {
         (l[0] + l[1] + l[2]) / 3.0

@@ -111,7 +111,7 @@ impl ResolvedEnv {
 }
 
 /// The irradiance map of `env` (E(n) = ∫ L(l) max(0, n·l) dω, the full integral
-/// ([`cosine`], within 6e-5 of π L̄ of the brute-force sum), no spherical-harmonics truncation)
+/// ([`cosine`], within 1e-4 of π L̄ of the brute-force sum), no spherical-harmonics truncation)
 /// as a `width`×`height` canvas of `mapping` in the world frame, `samples` normals per texel.
 pub fn irradiance_map(
     env: &EnvMap,
@@ -132,7 +132,7 @@ pub fn irradiance_map(
         samples,
         ..Default::default()
     };
-    let (img, _) = crate::trace::generate::generate(mapping, width, height, &source, &opts, None)?;
+    let (img, _) = source.generate(mapping, width, height, &opts, None)?;
     Ok(img)
 }
 

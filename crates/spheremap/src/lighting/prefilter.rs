@@ -350,7 +350,7 @@ pub fn prefilter(
                 scale: [1.0 / std::f64::consts::PI; 3],
                 channels: tree.channels,
             };
-            let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
+            let (img, r) = source.generate(p.mapping, w, h, &gen, progress)?;
             (img, Method::Cosine, face, r.rays)
         } else if p.method == PrefilterMethod::Sampled {
             if pyramid.is_none() {

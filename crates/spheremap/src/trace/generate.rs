@@ -317,6 +317,31 @@ pub fn generate(
     opts: &GenerateOptions,
     progress: Option<&Progress>,
 ) -> Result<(Image, GenerateReport)> {
+    let c = source.channels();
+    check_canvas(mapping, width, height, c, opts)?;
+    let mut out = Image::new(width, height, c);
+    let report = match opts.precision {
+        Precision::F32 => run::<f32>(mapping, &mut out, source, opts, progress)?,
+        Precision::F64 => run::<f64>(mapping, &mut out, source, opts, progress)?,
+    };
+    if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
+        return Err(Error::cancelled("the generation"));
+    }
+    if mapping.has_outside() {
+        fill_outside(mapping, &mut out, opts.outside, opts.samples == 1);
+    }
+    Ok((out, report))
+}
+
+/// The checks of [`generate`]'s arguments: the canvas's size, the samples, `c` channels, the
+/// position and rotation, the memory the image takes.
+fn check_canvas(
+    mapping: Mapping,
+    width: usize,
+    height: usize,
+    c: usize,
+    opts: &GenerateOptions,
+) -> Result<()> {
     mapping
         .size_of(width, height, "size")
         .map_err(|e| Error::param("size", e.to_string()))?;
@@ -328,7 +353,6 @@ pub fn generate(
             ));
         }
     }
-    let c = source.channels();
     if !(1..=MAX_CHANNELS).contains(&c) {
         return Err(Error::param(
             "fire_ray",
@@ -345,18 +369,124 @@ pub fn generate(
         3 * (width as u128 * height as u128 * c as u128 * 4),
         opts.max_memory,
     )?;
-    let mut out = Image::new(width, height, c);
-    let report = match opts.precision {
-        Precision::F32 => run::<f32>(mapping, &mut out, source, opts, progress)?,
-        Precision::F64 => run::<f64>(mapping, &mut out, source, opts, progress)?,
+    Ok(())
+}
+
+/// What [`generate_all`] calls with every ray's direction: `channels` values per ray.
+pub type CanvasEval<'a> = dyn Fn(&[[f32; 3]]) -> Result<Vec<f32>> + 'a;
+
+/// [`generate`] for a source that takes the whole canvas at once, because its rays share work
+/// beyond neighbouring rows (e.g. the irradiance at antipodal normals): one ray per texel
+/// (`opts.samples == 1`), the rays [`generate`] would fire listed row by row, `eval` gets all of
+/// them and returns `channels` values per ray, and each texel takes its ray's value — the
+/// image [`generate`] makes from the same values, bit for bit.  `eval_bytes` is the memory
+/// `eval` takes per ray, counted against `opts.max_memory` with the list's own.
+#[allow(clippy::too_many_arguments)]
+pub fn generate_all(
+    mapping: Mapping,
+    width: usize,
+    height: usize,
+    channels: usize,
+    eval: &CanvasEval<'_>,
+    eval_bytes: u64,
+    opts: &GenerateOptions,
+    progress: Option<&Progress>,
+) -> Result<(Image, GenerateReport)> {
+    if opts.samples != 1 {
+        return Err(Error::param(
+            "samples",
+            format!(
+                "{} rays per texel; a whole-canvas source takes 1",
+                opts.samples
+            ),
+        ));
+    }
+    check_canvas(mapping, width, height, channels, opts)?;
+    let (w, h, c) = (width, height, channels);
+    // Per ray its direction (twice: by rows, then listed), its values, what `eval` takes.
+    crate::base::error::check_memory(
+        "size",
+        (w as u128 * h as u128) * (24 + 4 * c as u128 + eval_bytes as u128),
+        opts.max_memory,
+    )?;
+    let rows: Vec<(Vec<u32>, Vec<[f32; 3]>)> = match opts.precision {
+        Precision::F32 => centre_rays::<f32>(mapping, w, h, opts),
+        Precision::F64 => centre_rays::<f64>(mapping, w, h, opts),
     };
+    let dirs: Vec<[f32; 3]> = rows.iter().flat_map(|r| r.1.iter().copied()).collect();
+    let values = eval(&dirs)?;
+    if values.len() != dirs.len() * c {
+        return Err(Error::param(
+            "eval",
+            format!(
+                "returned {} values for {} rays of {c} channels",
+                values.len(),
+                dirs.len()
+            ),
+        ));
+    }
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
         return Err(Error::cancelled("the generation"));
     }
-    if mapping.has_outside() {
-        fill_outside(mapping, &mut out, opts.outside, opts.samples == 1);
+    // Each row's values start where its rays do.
+    let mut starts = Vec::with_capacity(h);
+    let mut at = 0;
+    for r in &rows {
+        starts.push(at);
+        at += r.1.len();
     }
+    let mut out = Image::new(w, h, c);
+    out.data
+        .par_chunks_mut(w * c)
+        .zip(rows.par_iter().zip(starts.par_iter()))
+        .for_each(|(row, ((xs, _), &at))| {
+            for (k, &x) in xs.iter().enumerate() {
+                row[x as usize * c..][..c].copy_from_slice(&values[(at + k) * c..][..c]);
+            }
+        });
+    if mapping.has_outside() {
+        fill_outside(mapping, &mut out, opts.outside, true);
+    }
+    if let Some(p) = progress {
+        p.total.store(h, Ordering::Relaxed);
+        p.done.store(h, Ordering::Relaxed);
+    }
+    let n = dirs.len() as u64;
+    let report = GenerateReport {
+        rays: n,
+        texels: n,
+        max_texel_samples: (n > 0) as u32,
+    };
     Ok((out, report))
+}
+
+/// Per row: the texels that fire a ray with one ray per texel, and their rays' directions,
+/// exactly as [`run`] makes them.
+fn centre_rays<T: Real>(
+    m: Mapping,
+    w: usize,
+    h: usize,
+    opts: &GenerateOptions,
+) -> Vec<(Vec<u32>, Vec<[f32; 3]>)> {
+    let d = Dst::<T>::new(m, w, h, &opts.rotation, opts.outside);
+    (0..h)
+        .into_par_iter()
+        .map_init(Batch::default, |b, y| {
+            b.dirs.clear();
+            b.owner.clear();
+            let mut xs = Vec::new();
+            let mut wsum = 0.0;
+            for (x0, x1) in row_spans(m, w, h, y) {
+                for x in x0..x1 {
+                    if centre_on_map(m, w, h, x, y) {
+                        texel_rays(&d, x, y, x, opts, b, &mut wsum);
+                        xs.push(x as u32);
+                    }
+                }
+            }
+            (xs, b.dirs.clone())
+        })
+        .collect()
 }
 
 /// The texel spans of row `y` that meet the map (the whole row for mappings without discs).
@@ -382,10 +512,12 @@ pub fn row_spans(mapping: Mapping, w: usize, h: usize, y: usize) -> Vec<(usize, 
         .collect()
 }
 
-/// Whether the texel centre lies on the map (inside the disc for disc mappings).
+/// Whether the texel centre lies on the map (inside the disc for disc mappings; every centre
+/// of the others, which cover their canvas).
 pub(crate) fn centre_on_map(m: Mapping, w: usize, h: usize, x: usize, y: usize) -> bool {
-    m.uv_to_dir([(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64])
-        .is_some()
+    !m.has_outside()
+        || m.uv_to_dir([(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64])
+            .is_some()
 }
 
 /// One call's rays and where their colours go.
