@@ -4,13 +4,14 @@
 The references are independent of the core: the GGX split-sum kernel and its normalization in
 numpy from the textbook formulas; the files' bytes parsed here from the KTX 2.0 and DDS
 specifications; a cube KTX2 read by `ktx-parse`, the KTX 2.0 parser of three.js's
-`KTX2Loader` and glTF-Transform (npm, run by Node.js), its faces checked against the cube-map
-face table of the OpenGL and Vulkan specifications. (The Rust tests open the same files with the
-`ktx2` and `ddsfile` crates; OpenImageIO 3.2's DDS reader reads no float formats, "Unsupported
-DXGI format" for RGBA16F and RGBA32F, so it cannot be one of them.)
+`KTX2Loader` and glTF-Transform, and cube and 2D DDS files read by Babylon.js's `DDSTools` (both
+from npm, run by Node.js), the faces checked against the cube-map face table of the OpenGL and
+Vulkan specifications. (The Rust tests open the same files with the `ktx2` and `ddsfile` crates;
+OpenImageIO 3.2's and Pillow's DDS readers read no float formats, "Unsupported DXGI format" for
+RGBA16F and RGBA32F, so they cannot be among them.)
 
-The `ktx-parse` test installs it with npm into target/peers on first use; it is skipped when
-Node.js or npm is missing, unless SPHEREMAP_REQUIRE_NODE=1 (CI sets it).
+The Node.js tests install their package with npm into target/peers on first use; they are
+skipped when Node.js or npm is missing, unless SPHEREMAP_REQUIRE_NODE=1 (CI sets it).
 """
 
 import json
@@ -30,6 +31,7 @@ HERE = os.path.dirname(__file__)
 SKY = os.path.join(HERE, "..", "testdata", "hdri", "sky.exr")
 PEERS = os.path.join(HERE, "..", "target", "peers")
 KTX_PARSE = "ktx-parse@2.0.0"
+BABYLON = "@babylonjs/core@9.37.1"
 
 
 def ggx_d(alpha, c):
@@ -281,29 +283,42 @@ def test_bad_textures_are_refused_with_the_reason(tmp_path):
     assert not (tmp_path / "x.ktx2").exists()
 
 
-# -- an independent reader: ktx-parse (three.js's KTX2 parser) ------------------------------------
+# -- independent readers: ktx-parse (three.js's KTX2 parser), Babylon.js's DDS reader -------------
 
 
-@pytest.fixture(scope="module")
-def ktx_parse():
-    """The path of ktx-parse's ES module, installed by npm into target/peers on first use."""
+def npm_peer(spec, module):
+    """The path of `module` (relative to node_modules) of the npm package `spec`, installed
+    into target/peers on first use; skips (fails where SPHEREMAP_REQUIRE_NODE=1) without
+    Node.js, npm or the package."""
     required = os.environ.get("SPHEREMAP_REQUIRE_NODE") == "1"
     if not (shutil.which("node") and shutil.which("npm")):
         if required:
             pytest.fail("Node.js and npm required (SPHEREMAP_REQUIRE_NODE=1) but missing")
         pytest.skip("Node.js or npm is missing")
-    module = os.path.abspath(os.path.join(PEERS, "node_modules", "ktx-parse", "dist", "index.mjs"))
-    if not os.path.exists(module):
+    path = os.path.abspath(os.path.join(PEERS, "node_modules", module))
+    if not os.path.exists(path):
         p = subprocess.run(
-            ["npm", "install", "--no-save", "--no-audit", "--no-fund", "--prefix", PEERS, KTX_PARSE],
+            ["npm", "install", "--no-save", "--no-audit", "--no-fund", "--prefix", PEERS, spec],
             capture_output=True,
             text=True,
         )
-        if p.returncode != 0 or not os.path.exists(module):
+        if p.returncode != 0 or not os.path.exists(path):
             if required:
-                pytest.fail(f"npm install {KTX_PARSE} failed: {p.stderr[-500:]}")
-            pytest.skip(f"npm install {KTX_PARSE} failed")
-    return module
+                pytest.fail(f"npm install {spec} failed: {p.stderr[-500:]}")
+            pytest.skip(f"npm install {spec} failed")
+    return path
+
+
+@pytest.fixture(scope="module")
+def ktx_parse():
+    """The path of ktx-parse's ES module."""
+    return npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
+
+
+@pytest.fixture(scope="module")
+def babylon_dds():
+    """The path of Babylon.js's DDS reader (`DDSTools`), an ES module."""
+    return npm_peer(BABYLON, os.path.join("@babylonjs", "core", "Misc", "dds.js"))
 
 
 READ_KTX2 = """
@@ -388,3 +403,95 @@ def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_p
     assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
     assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
     assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
+
+
+# Babylon.js's DDS loader: `GetDDSInfo` reads the header, `UploadDDSLevels` walks the faces and
+# levels and hands each to the engine's upload, here an engine that records them (float
+# textures available, half floats not, so RGBA16F levels are widened by Babylon's own
+# FromHalfFloat). Babylon uploads face k to GL's TEXTURE_CUBE_MAP_POSITIVE_X + k.
+READ_DDS = """
+import { DDSTools } from %s;
+import { readFileSync, writeFileSync } from "node:fs";
+const [src, out] = process.argv.slice(2);
+const buf = readFileSync(src);
+const data = new Uint8Array(buf.buffer.slice(buf.byteOffset, buf.byteOffset + buf.byteLength));
+const info = DDSTools.GetDDSInfo(data);
+const uploads = [];
+const engine = {
+  getCaps: () => ({ s3tc: null, textureFloat: true, textureFloatLinearFiltering: true,
+                    textureHalfFloat: false, textureHalfFloatLinearFiltering: false }),
+  _getRGBABufferInternalSizedFormat: () => 0,
+  _getUnpackAlignement: () => 4,
+  _uploadDataToTextureDirectly: (texture, view, face, lod) => {
+    uploads.push({ face, lod, type: view.constructor.name, length: view.length });
+    writeFileSync(`${out}/face${face}_level${lod}.bin`,
+                  new Uint8Array(view.buffer, view.byteOffset, view.byteLength));
+  },
+  _uploadCompressedDataToTextureDirectly: () => { throw new Error("compressed"); },
+};
+const texture = {};
+DDSTools.UploadDDSLevels(engine, texture, data, info, true, info.isCube ? 6 : 1);
+console.log(JSON.stringify({ info, uploads, textureType: texture.type, format: texture.format }));
+"""
+
+
+def babylon_read(tmp_path, module, path):
+    script = tmp_path / "read_dds.mjs"
+    script.write_text(READ_DDS % json.dumps("file://" + module))
+    p = subprocess.run(["node", script, path, tmp_path], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_a_cube_dds_read_by_babylon_has_its_faces_where_the_format_says(tmp_path, babylon_dds, half):
+    env = latlong_dirs(64, 128).astype(np.float32) + 2
+    src = tmp_path / "dirs.exr"
+    spheremap.write_image(str(src), env)
+    out = tmp_path / "dirs.dds"
+    f = 16
+    args = ["prefilter", src, "-o", out, "--size", f, "--levels", "3", "--samples", "1"]
+    p = cli(*args, *(["--half"] if half else []))
+    assert p.returncode == 0, p.stderr
+    meta = babylon_read(tmp_path, babylon_dds, out)
+    info = meta["info"]
+    assert (info["width"], info["height"], info["mipmapCount"]) == (f, f, 3)
+    assert info["isCube"] and info["isFourCC"] and not info["isCompressed"]
+    assert info["dxgiFormat"] == (10 if half else 2)  # R16G16B16A16_FLOAT / R32G32B32A32_FLOAT
+    assert info["textureType"] == (2 if half else 1)  # Babylon's HALF_FLOAT / FLOAT
+    assert meta["textureType"] == 1 and meta["format"] == 5  # read as RGBA float
+    # Every face with all its levels, face by face.
+    assert [(u["face"], u["lod"]) for u in meta["uploads"]] == [(k, i) for k in range(6) for i in range(3)]
+    ours, cube = spheremap.read_texture(out)
+    assert cube
+    for i, lv in enumerate(ours):
+        fi = f >> i
+        for k in range(6):
+            px = np.fromfile(tmp_path / f"face{k}_level{i}.bin", np.float32).reshape(fi, fi, 4)
+            assert np.array_equal(px, lv[k]), (k, i)
+            assert (px[..., 3] == 1).all()
+    got = np.stack([np.fromfile(tmp_path / f"face{k}_level0.bin", np.float32).reshape(f, f, 4) for k in range(6)])
+    got = got[..., :3].astype(np.float64) - 2
+    want = gl_face_dirs(f)
+    err = np.linalg.norm(got - want, axis=-1)
+    assert err.max() < 0.005, err.max()
+    assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_a_2d_dds_mip_chain_read_by_babylon_is_what_was_written(tmp_path, babylon_dds, half):
+    rng = np.random.default_rng(7)
+    levels = [rng.random((max(1, 8 >> i), max(1, 32 >> i), 4), dtype=np.float32) * 100 for i in range(6)]
+    out = tmp_path / "chain.dds"
+    spheremap.write_texture(out, levels, half=half)
+    meta = babylon_read(tmp_path, babylon_dds, out)
+    info = meta["info"]
+    assert (info["width"], info["height"], info["mipmapCount"], info["isCube"]) == (32, 8, 6, False)
+    assert info["dxgiFormat"] == (10 if half else 2)
+    assert [(u["face"], u["lod"]) for u in meta["uploads"]] == [(0, i) for i in range(6)]
+    for i, lv in enumerate(levels):
+        px = np.fromfile(tmp_path / f"face0_level{i}.bin", np.float32).reshape(lv.shape)
+        want = lv.astype(np.float16).astype(np.float32) if half else lv
+        assert np.array_equal(px, want), i
