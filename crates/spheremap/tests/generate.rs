@@ -4,7 +4,7 @@
 use spheremap::images::Image;
 use spheremap::resample::{self, EnvMap, Outside, Precision, ResampleOptions};
 use spheremap::trace::generate::{
-    generate, generate_all, EnvSource, FnSource, GenerateOptions, RaySource,
+    generate, generate_all, planned_rays, EnvSource, FnSource, GenerateOptions, RaySource,
 };
 use spheremap::trace::scene::{
     self, Environment, Light, Material, SceneBuilder, Shading, TriangleInput,
@@ -279,6 +279,49 @@ fn whole_canvas_sources_make_the_same_image() {
     let eval = |dirs: &[[f32; 3]]| -> spheremap::Result<Vec<f32>> { Ok(vec![0.0; dirs.len()]) };
     let e = generate_all(SPHERE, 8, 8, 1, &eval, 0, &opts(4), None).unwrap_err();
     assert!(e.to_string().contains("samples"), "{e}");
+}
+
+/// The rays counted from the sample rules are the rays fired (with the black outside, the
+/// samples off the disc are dropped: no more than counted), and a canvas refused by
+/// `generate` is refused by the count.
+#[test]
+fn planned_rays_are_the_rays_fired() {
+    let rot = views()[2];
+    let cube = Mapping::parse("cube", None).unwrap();
+    let angular = Mapping::parse("angular", None).unwrap();
+    let source = FnSource::new(1, |_: [f32; 3], d: [f32; 3], out: &mut [f32]| out[0] = d[0]);
+    for (m, w, h) in [(SPHERE, 33, 33), (angular, 20, 20), (cube, 6, 36)] {
+        for samples in [1, 4, 9] {
+            for (outside, precision) in [
+                (Outside::Gutter, Precision::F32),
+                (Outside::Black, Precision::F64),
+            ] {
+                let o = GenerateOptions {
+                    rotation: rot,
+                    outside,
+                    precision,
+                    max_samples: 64,
+                    ..opts(samples)
+                };
+                let planned = planned_rays(m, w, h, 1, &o).unwrap();
+                let (_, r) = generate(m, w, h, &source, &o, None).unwrap();
+                let what = format!("{} {w}x{h} samples {samples} {outside:?}", m.name());
+                if outside == Outside::Black && m.has_outside() && samples > 1 {
+                    assert!(r.rays < planned, "{what}: {} of {planned}", r.rays);
+                } else {
+                    assert_eq!(r.rays, planned, "{what}");
+                }
+                // Stretched texels (the disc's rim) take more than `samples`.
+                if m == SPHERE && samples > 1 {
+                    assert!(planned > r.texels * samples as u64, "{what}");
+                }
+            }
+        }
+    }
+    for bad in [0, 1 << 20] {
+        let e = planned_rays(SPHERE, bad, bad, 1, &opts(4)).unwrap_err();
+        assert!(e.to_string().contains("size"), "{e}");
+    }
 }
 
 /// The mappings without an outside cover their canvas: every texel centre has a direction

@@ -215,6 +215,65 @@ fn the_grid_of_normals_keeps_the_integrals() {
     }
 }
 
+/// A bake takes the grid of normals exactly where it costs no more integrals than the
+/// samples' own, and reports the integrals it took.
+#[test]
+fn a_bake_takes_the_cheaper_of_the_grid_and_the_samples() {
+    use spheremap::lighting::matcap::{bake, grid_integrals, Bake, Method};
+    use spheremap::resample::EnvMap;
+    use spheremap::trace::generate::{planned_rays, GenerateOptions};
+    let mut img = constant(32, 16, 1.0);
+    for (k, v) in img.data.iter_mut().enumerate() {
+        *v += (k % 7) as f32;
+    }
+    let env = EnvMap::new(
+        spheremap::Mapping::parse("latlong", None).unwrap(),
+        &img,
+        "ramp",
+    )
+    .unwrap();
+    let view = spheremap::frame::view::look_up([0.3, -0.4, -1.0], [0.0, 1.0, 0.0]).unwrap();
+    let m = Material::Ggx { alpha: 0.36 };
+    let grid = grid_integrals(m);
+    // 129 points across (the least): the points of the disc and of its rim's ring.
+    assert!((13_000..15_500).contains(&grid), "{grid}");
+    let sphere = spheremap::Mapping::parse("sphere", None).unwrap();
+    // (size, samples): fewer rays than the grid's integrals, then more.
+    for (size, samples, table) in [(16, 1, false), (40, 4, false), (64, 4, true)] {
+        let b = Bake {
+            material: m,
+            albedo: [1.0; 3],
+            size,
+            view,
+            world_to_env: spheremap::frame::view::IDENTITY,
+            samples,
+            max_samples: 64,
+            seed: 0,
+            outside: spheremap::resample::Outside::Gutter,
+            max_memory: u64::MAX,
+            rule: Default::default(),
+            normal_table: None,
+        };
+        let gen = GenerateOptions {
+            samples,
+            max_samples: 64,
+            rotation: view,
+            ..Default::default()
+        };
+        let rays = planned_rays(sphere, size, size, 1, &gen).unwrap();
+        eprintln!("{size}² × {samples}: {rays} rays, grid {grid}");
+        assert_eq!(
+            rays <= grid,
+            !table,
+            "{size}² × {samples}: {rays} rays, grid {grid}"
+        );
+        let (_, chosen) = bake(&env, &b, None).unwrap();
+        assert_eq!(chosen.method, Method::Tree);
+        // The grid's integrals, or the samples' own: the rays counted.
+        assert_eq!(chosen.integrals, rays.min(grid), "{size}² × {samples}");
+    }
+}
+
 mod prefilter {
     use super::*;
     use spheremap::lighting::prefilter::{split_sum_norm, RoughnessMap};

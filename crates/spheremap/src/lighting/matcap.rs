@@ -34,7 +34,7 @@ use crate::frame::view::{self, Mat3};
 use crate::images::Image;
 use crate::mappings::mapping::Mapping;
 use crate::resample::{EnvMap, Progress, Sampler};
-use crate::trace::generate::{generate, GenerateOptions, RaySource};
+use crate::trace::generate::{generate, planned_rays, GenerateOptions, RaySource};
 
 /// The finest cube face the tree is built at.
 pub const TREE_FACE_CAP: usize = 512;
@@ -69,8 +69,9 @@ pub struct Bake {
     pub outside: crate::resample::Outside,
     pub max_memory: u64,
     pub rule: CutRule,
-    /// Integrate on a grid of normals and interpolate ([`NormalTable`]): `None` when it costs
-    /// fewer integrals than the samples do.
+    /// Integrate on a grid of normals and interpolate ([`NormalTable`]); `None`: where that
+    /// takes no more integrals ([`grid_integrals`]) than the samples' own
+    /// ([`planned_rays`]).
     pub normal_table: Option<bool>,
 }
 
@@ -97,8 +98,8 @@ pub struct BakeReport {
     pub method: Method,
     /// The tree's cube face (0 for the mirror).
     pub tree_face: usize,
-    /// Lighting integrals computed (one per spatial sample, or one per point of the grid of
-    /// normals when the bake uses one).
+    /// Lighting integrals computed (one per spatial sample, or, when the bake uses a grid of
+    /// normals, one per point of the grid and two per point beyond its rim).
     pub integrals: u64,
     pub max_texel_samples: u32,
 }
@@ -189,9 +190,12 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         view: b.view,
     };
     let m = NormalTable::size_for(b.material);
-    let direct = (b.size * b.size) as f64 * 1.3 * b.samples.max(1) as f64;
+    let use_table = match b.normal_table {
+        Some(t) => t,
+        None => NormalTable::integrals_for(m) <= planned_rays(sphere, b.size, b.size, out_c, &gen)?,
+    };
     let mut integrals = 0;
-    if b.normal_table.unwrap_or((m * m) as f64 <= direct) {
+    if use_table {
         let t = NormalTable::build(&source, m, progress);
         integrals = t.integrals;
         source.table = Some(t);
@@ -202,6 +206,12 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         rep.integrals = integrals;
     }
     Ok((img, rep))
+}
+
+/// The integrals a bake of `material` takes on its grid of normals (the same for every size
+/// and sample count).
+pub fn grid_integrals(material: Material) -> u64 {
+    NormalTable::integrals_for(NormalTable::size_for(material))
 }
 
 /// How `material`'s integrals over `env` are computed, and the tree face they use: the tree at
@@ -247,10 +257,46 @@ impl NormalTable {
         ((GRID_PER_WIDTH * std::f64::consts::PI / width).ceil() as usize + 1).clamp(129, 1025)
     }
 
+    /// The grid's spacing, for `m` points across the disc.
+    fn spacing(m: usize) -> f64 {
+        2.0 / (m - 1) as f64
+    }
+
+    /// Grid point (i, j) of an `m`-point grid: its (a, b) and ρ = |(a, b)|.
+    fn point(m: usize, i: usize, j: usize) -> (f64, f64, f64) {
+        let h = Self::spacing(m);
+        let a = -1.0 + (i as f64 - Self::PAD as f64) * h;
+        let b = -1.0 + (j as f64 - Self::PAD as f64) * h;
+        (a, b, a.hypot(b))
+    }
+
+    /// The points a lookup can read: ρ within 2√2 spacings of the disc (a lookup inside the
+    /// disc reads points up to that far from it; the rest of the square's corners are never
+    /// read).
+    fn read(m: usize, rho: f64) -> bool {
+        rho <= 1.0 + 2.0 * std::f64::consts::SQRT_2 * Self::spacing(m) * (1.0 + 1e-9)
+    }
+
+    /// The integrals [`NormalTable::build`] takes for an `m`-point grid: one per point read,
+    /// two per point beyond the rim.
+    fn integrals_for(m: usize) -> u64 {
+        use rayon::prelude::*;
+        let side = m + 2 * Self::PAD;
+        (0..side)
+            .into_par_iter()
+            .map(|j| {
+                (0..side)
+                    .map(|i| Self::point(m, i, j).2)
+                    .filter(|&rho| Self::read(m, rho))
+                    .map(|rho| 1 + (rho > 1.0) as u64)
+                    .sum::<u64>()
+            })
+            .sum()
+    }
+
     fn build(src: &MatcapSource, m: usize, progress: Option<&Progress>) -> NormalTable {
         use rayon::prelude::*;
         let side = m + 2 * Self::PAD;
-        let h = 2.0 / (m - 1) as f64;
         let view = &src.view;
         // The world normal at (ρ, φ) of the equidistant disc.
         let at = |rho: f64, ca: f64, sa: f64| {
@@ -258,17 +304,9 @@ impl NormalTable {
             let ne = [theta.sin() * ca, theta.sin() * sa, theta.cos()];
             [0, 1, 2].map(|k| view[k][0] * ne[0] + view[k][1] * ne[1] + view[k][2] * ne[2])
         };
-        // A lookup inside the disc reads points up to 2√2 spacings from it; the rest of the
-        // square's corners are never read.
-        let reach = 1.0 + 2.0 * std::f64::consts::SQRT_2 * h * (1.0 + 1e-9);
-        let rho_of = |i: usize, j: usize| {
-            let a = -1.0 + (i as f64 - Self::PAD as f64) * h;
-            let b = -1.0 + (j as f64 - Self::PAD as f64) * h;
-            (a, b, a.hypot(b))
-        };
         // Grid point (i, j): its normal, or beyond the rim the two whose line it is on.
         let normals = |i: usize, j: usize| -> ([f64; 3], Option<[f64; 3]>) {
-            let (a, b, rho) = rho_of(i, j);
+            let (a, b, rho) = Self::point(m, i, j);
             let (ca, sa) = if rho > 0.0 {
                 (a / rho, b / rho)
             } else {
@@ -283,6 +321,7 @@ impl NormalTable {
         };
         // Tiles of TILE×TILE points share one cut of the tree.
         let tiles = side.div_ceil(TILE);
+        let integrals = std::sync::atomic::AtomicU64::new(0);
         let parts: Vec<Vec<(usize, [f32; 3])>> = (0..tiles * tiles)
             .into_par_iter()
             .map(|t| {
@@ -292,7 +331,7 @@ impl NormalTable {
                 let points: Vec<(usize, [f64; 3], Option<[f64; 3]>)> = (ty * TILE
                     ..((ty + 1) * TILE).min(side))
                     .flat_map(|j| (tx * TILE..((tx + 1) * TILE).min(side)).map(move |i| (j, i)))
-                    .filter(|&(j, i)| rho_of(i, j).2 <= reach)
+                    .filter(|&(j, i)| Self::read(m, Self::point(m, i, j).2))
                     .map(|(j, i)| {
                         let (n1, n2) = normals(i, j);
                         (j * side + i, n1, n2)
@@ -306,6 +345,7 @@ impl NormalTable {
                     .flat_map(|p| std::iter::once(p.1).chain(p.2))
                     .collect();
                 let values = src.radiances(&list);
+                integrals.fetch_add(list.len() as u64, std::sync::atomic::Ordering::Relaxed);
                 let mut k = 0;
                 points
                     .iter()
@@ -326,11 +366,14 @@ impl NormalTable {
             })
             .collect();
         let mut data = vec![[0f32; 3]; side * side];
-        let integrals = parts.iter().map(|p| p.len() as u64).sum();
         for (k, v) in parts.into_iter().flatten() {
             data[k] = v;
         }
-        NormalTable { m, data, integrals }
+        NormalTable {
+            m,
+            data,
+            integrals: integrals.into_inner(),
+        }
     }
 
     /// Catmull–Rom at view-space normal `ne` (unit, ne.z ≥ 0).
@@ -346,7 +389,7 @@ impl NormalTable {
             (1.0, 0.0)
         };
         let rho = theta / std::f64::consts::FRAC_PI_2;
-        let h = 2.0 / (self.m - 1) as f64;
+        let h = Self::spacing(self.m);
         let fx = (rho * ca + 1.0) / h + Self::PAD as f64;
         let fy = (rho * sa + 1.0) / h + Self::PAD as f64;
         let side = self.m + 2 * Self::PAD;

@@ -478,7 +478,7 @@ fn centre_rays<T: Real>(
             let mut wsum = 0.0;
             for (x0, x1) in row_spans(m, w, h, y) {
                 for x in x0..x1 {
-                    if centre_on_map(m, w, h, x, y) {
+                    if fires(m, w, h, x, y, opts) {
                         texel_rays(&d, x, y, x, opts, b, &mut wsum);
                         xs.push(x as u32);
                     }
@@ -487,6 +487,58 @@ fn centre_rays<T: Real>(
             (xs, b.dirs.clone())
         })
         .collect()
+}
+
+/// The rays [`generate`] fires for a `width`×`height` canvas of `mapping` with `channels`
+/// channels under `opts`, counted from the sample rules without firing any (with
+/// [`Outside::Black`] the samples that fall off a disc are dropped, so at most this many):
+/// what a caller weighs against another way to the same image.  The canvas is checked as
+/// [`generate`] checks it.
+pub fn planned_rays(
+    mapping: Mapping,
+    width: usize,
+    height: usize,
+    channels: usize,
+    opts: &GenerateOptions,
+) -> Result<u64> {
+    check_canvas(mapping, width, height, channels, opts)?;
+    Ok(match opts.precision {
+        Precision::F32 => count_rays::<f32>(mapping, width, height, opts),
+        Precision::F64 => count_rays::<f64>(mapping, width, height, opts),
+    })
+}
+
+fn count_rays<T: Real>(m: Mapping, w: usize, h: usize, opts: &GenerateOptions) -> u64 {
+    let d = Dst::<T>::new(m, w, h, &opts.rotation, opts.outside);
+    (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut n = 0u64;
+            for (x0, x1) in row_spans(m, w, h, y) {
+                for x in x0..x1 {
+                    if fires(m, w, h, x, y, opts) {
+                        n += texel_samples(&d, x, y, opts) as u64;
+                    }
+                }
+            }
+            n
+        })
+        .sum()
+}
+
+/// Whether texel (x, y) of a row's span fires rays: all do, but with one sample per texel
+/// only those whose centre lies on the map.
+fn fires(m: Mapping, w: usize, h: usize, x: usize, y: usize, opts: &GenerateOptions) -> bool {
+    opts.samples != 1 || centre_on_map(m, w, h, x, y)
+}
+
+/// The samples texel (x, y) takes: 1, or its strata ([`footprint_strata`]).
+fn texel_samples<T: Real>(d: &Dst<T>, x: usize, y: usize, opts: &GenerateOptions) -> usize {
+    if opts.samples == 1 {
+        return 1;
+    }
+    let (nx, ny) = footprint_strata(d, x as f64 + 0.5, y as f64 + 0.5, opts);
+    nx * ny
 }
 
 /// The texel spans of row `y` that meet the map (the whole row for mappings without discs).
@@ -566,7 +618,7 @@ fn run<T: Real>(
                 let y = chunk * rows + r;
                 for (x0, x1) in row_spans(m, w, h, y) {
                     for x in x0..x1 {
-                        if opts.samples == 1 && !centre_on_map(m, w, h, x, y) {
+                        if !fires(m, w, h, x, y, opts) {
                             continue;
                         }
                         n_texels += 1;
