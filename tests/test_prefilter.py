@@ -360,17 +360,36 @@ def gl_face_dirs(f):
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-@pytest.mark.parametrize("half", [False, True])
-def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_path, ktx_parse, half):
-    # An environment whose radiance is its direction (+ 2, to stay positive).
+def prefiltered_dirs(tmp_path, name, half, f=16):
+    """`spheremap prefilter` of an environment whose radiance is its direction (+ 2, to stay
+    positive) to the cube texture `name` (faces of f, 3 levels); returns its path."""
     env = latlong_dirs(64, 128).astype(np.float32) + 2
     src = tmp_path / "dirs.exr"
     spheremap.write_image(str(src), env)
-    out = tmp_path / "dirs.ktx2"
-    f = 16
+    out = tmp_path / name
     args = ["prefilter", src, "-o", out, "--size", f, "--levels", "3", "--samples", "1"]
     p = cli(*args, *(["--half"] if half else []))
     assert p.returncode == 0, p.stderr
+    return out
+
+
+def assert_faces_hold_their_directions(level0):
+    """Level 0 (roughness 0) of `prefiltered_dirs` is the environment: each texel of the (6, F,
+    F, 4) faces holds its own direction, the one the GL / Vulkan face table gives that texel of
+    that face, and not by luck: every other face order or a flip of rows or columns is far off."""
+    got = level0[..., :3].astype(np.float64) - 2
+    want = gl_face_dirs(level0.shape[1])
+    err = np.linalg.norm(got - want, axis=-1)
+    assert err.max() < 0.005, err.max()
+    assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
+    assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_path, ktx_parse, half):
+    f = 16
+    out = prefiltered_dirs(tmp_path, "dirs.ktx2", half, f)
     script = tmp_path / "read.mjs"
     script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
     p = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
@@ -392,17 +411,8 @@ def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_p
         # Faces one after another, +X -X +Y -Y +Z -Z, and what spheremap reads back is the same.
         assert np.array_equal(px.astype(np.float32), lv), i
         assert (px[..., 3] == 1).all()
-    # Level 0 (roughness 0) is the environment: each texel holds its own direction, the
-    # direction the GL / Vulkan face table gives that texel of that face.
     px = np.frombuffer((tmp_path / "level0.bin").read_bytes(), np.float16 if half else np.float32)
-    got = px.reshape(6, f, f, 4)[..., :3].astype(np.float64) - 2
-    want = gl_face_dirs(f)
-    err = np.linalg.norm(got - want, axis=-1)
-    assert err.max() < 0.005, err.max()
-    # ...and not by luck: every other face order or a flip of rows or columns is far off.
-    assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
-    assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
-    assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
+    assert_faces_hold_their_directions(px.reshape(6, f, f, 4))
 
 
 # Babylon.js's DDS loader: `GetDDSInfo` reads the header, `UploadDDSLevels` walks the faces and
@@ -445,14 +455,8 @@ def babylon_read(tmp_path, module, path):
 
 @pytest.mark.parametrize("half", [False, True])
 def test_a_cube_dds_read_by_babylon_has_its_faces_where_the_format_says(tmp_path, babylon_dds, half):
-    env = latlong_dirs(64, 128).astype(np.float32) + 2
-    src = tmp_path / "dirs.exr"
-    spheremap.write_image(str(src), env)
-    out = tmp_path / "dirs.dds"
     f = 16
-    args = ["prefilter", src, "-o", out, "--size", f, "--levels", "3", "--samples", "1"]
-    p = cli(*args, *(["--half"] if half else []))
-    assert p.returncode == 0, p.stderr
+    out = prefiltered_dirs(tmp_path, "dirs.dds", half, f)
     meta = babylon_read(tmp_path, babylon_dds, out)
     info = meta["info"]
     assert (info["width"], info["height"], info["mipmapCount"]) == (f, f, 3)
@@ -470,14 +474,9 @@ def test_a_cube_dds_read_by_babylon_has_its_faces_where_the_format_says(tmp_path
             px = np.fromfile(tmp_path / f"face{k}_level{i}.bin", np.float32).reshape(fi, fi, 4)
             assert np.array_equal(px, lv[k]), (k, i)
             assert (px[..., 3] == 1).all()
-    got = np.stack([np.fromfile(tmp_path / f"face{k}_level0.bin", np.float32).reshape(f, f, 4) for k in range(6)])
-    got = got[..., :3].astype(np.float64) - 2
-    want = gl_face_dirs(f)
-    err = np.linalg.norm(got - want, axis=-1)
-    assert err.max() < 0.005, err.max()
-    assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
-    assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
-    assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
+    assert_faces_hold_their_directions(
+        np.stack([np.fromfile(tmp_path / f"face{k}_level0.bin", np.float32).reshape(f, f, 4) for k in range(6)])
+    )
 
 
 @pytest.mark.parametrize("half", [False, True])
