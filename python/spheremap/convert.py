@@ -36,6 +36,7 @@ def convert(
     max_memory: int | None = None,
     out: npt.NDArray[np.float32] | None = None,
     taps: str = "bilinear",
+    conserve: bool = True,
 ) -> npt.NDArray[np.float32]:
     """Converts an environment map between mappings (the engine of ``spheremap convert``).
 
@@ -55,6 +56,10 @@ def convert(
         (4x4 Catmull-Rom, clamped to the nearest 2x2's range; sharper where output texels are
         as small as the input's or smaller; slower).
     outside: "gutter" (mirror across a disc's rim, default) or "black".
+    conserve: keep the light (default, with samples > 1): the input's brightest texels (a sun,
+        a softbox) are integrated exactly over the output's texels and the sampled part
+        normalized, so the output's power (sum of L times texel solid angle) is the input's;
+        False leaves the sampled filter alone.
     look, up: the output's view (world vectors of the eye's -Z and +Y), or yaw/pitch/roll in
         degrees; src_look/src_up: the input's view when it was made for one.
     precision: "f32" (fast) or "f64" (reference).
@@ -125,6 +130,7 @@ def convert(
         "outside": outside,
         "seed": int(seed),
         "precision": precision,
+        "conserve": bool(conserve),
         "max_memory": max_memory,
     }
     res = _ext.convert(image=np.ascontiguousarray(a, dtype=np.float32), job=job, out=out)

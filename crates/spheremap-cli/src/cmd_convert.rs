@@ -73,6 +73,12 @@ pub struct Args {
     /// Read/write LDR files as linear values (no sRGB transfer).
     #[arg(long)]
     linear: bool,
+    /// Leave out the light-keeping step: by default (with --samples > 1) the input's
+    /// brightest texels (a sun, a softbox) are integrated exactly over the output's texels and
+    /// the sampled part normalized, so the output's power is the input's (see --json's
+    /// "light"); with this flag the sampled filter alone decides.
+    #[arg(long)]
+    no_conserve: bool,
     #[command(flatten)]
     job: crate::job::JobFlags,
 }
@@ -100,6 +106,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         outside: a.sampling.outside,
         seed: a.sampling.seed,
         precision: a.precision,
+        conserve: !a.no_conserve,
         max_memory: Some(a.job.max_memory()?),
         nonfinite: a.job.nonfinite.clone(),
         linear: a.linear,
@@ -134,7 +141,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     } else if !a.job.quiet {
         eprintln!(
-            "{} ({} {}) -> {} ({} {}, {}x{}): {:.1} lookups/texel, {:.3} s",
+            "{} ({} {}) -> {} ({} {}, {}x{}): {:.1} lookups/texel, power {:+.3} %, {:.3} s",
             r.input,
             r.from,
             r.from_preset,
@@ -144,6 +151,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             r.width,
             r.height,
             r.lookups as f64 / (r.width * r.height) as f64,
+            100.0 * r.light.worst_signed_power_error(),
             r.seconds
         );
     }

@@ -36,8 +36,9 @@ use crate::images::note::MapNote;
 use crate::images::Image;
 use crate::mappings::cube::FACE_NAMES;
 use crate::mappings::mapping::{name_fields, Mapping};
+use crate::resample::energy::{LightCheck, Moments};
 use crate::resample::{
-    resample, resample_into, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
+    resample, resample_into, IDENTITY, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
     ResampleReport, Taps, DEFAULT_SAMPLES,
 };
 use serde::{Deserialize, Serialize};
@@ -89,6 +90,9 @@ pub struct ConvertJob {
     pub seed: u64,
     /// f32 (fast) or f64 (reference) arithmetic.
     pub precision: String,
+    /// Keep the light: with samples > 1, the source's brightest texels are integrated exactly
+    /// (`resample::peaks`); false leaves the sampled filter alone.
+    pub conserve: bool,
     /// Refuse a job needing more memory than this many bytes (`None`: the default,
     /// `$SPHEREMAP_MAX_MEMORY` or 16 GiB).
     pub max_memory: Option<u64>,
@@ -129,6 +133,7 @@ impl Default for ConvertJob {
             outside: "gutter".into(),
             seed: 0,
             precision: "f32".into(),
+            conserve: true,
             max_memory: None,
             nonfinite: "error".into(),
             linear: false,
@@ -167,6 +172,11 @@ pub struct ConvertReport {
     pub max_texel_samples: u32,
     /// Same mapping, size and view: the texels were copied.
     pub copied: bool,
+    /// Source texels integrated exactly as peaks (`conserve`).
+    pub peak_texels: u64,
+    /// The light the output holds against the source's: power per channel and the SH9
+    /// irradiance (before the output format's clipping or half rounding).
+    pub light: LightCheck,
     pub seconds: f64,
     /// Values the output format clipped, and values beyond the half range (clamped with
     /// `clamp_half`).
@@ -269,6 +279,7 @@ impl ConvertJob {
             seed: self.seed,
             precision: Precision::parse(&self.precision)?,
             max_memory: self.max_memory.unwrap_or_else(default_max_memory),
+            conserve: self.conserve,
         };
         Ok(Resolved {
             src,
@@ -405,6 +416,10 @@ impl ConvertJob {
         let n = self.size_for(&r, r.src.size_of(img.width, img.height, input.first())?)?;
         let (w, h) = r.dst.canvas(n);
         let (out, report) = resample(&env, r.dst, w, h, &r.options, progress)?;
+        let light = LightCheck::compare(
+            &Moments::of(&env, &IDENTITY),
+            &Moments::of(&EnvMap::new(r.dst, &out, "output")?, &r.rotation),
+        );
         let wopts = self.write_options();
         let written = write_env_files(&output, r.dst, &out, layout, &r.out_view, &wopts)?;
         let losses = Format::from_extension(Path::new(&written[0]))
@@ -431,6 +446,8 @@ impl ConvertJob {
             lookups: report.lookups,
             max_texel_samples: report.max_texel_samples,
             copied: report.copied,
+            peak_texels: report.peak_texels,
+            light,
             seconds: t0.elapsed().as_secs_f64(),
             clipped: losses.clipped,
             clamped_half: losses.beyond_half,

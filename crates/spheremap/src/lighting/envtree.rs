@@ -150,14 +150,7 @@ pub fn face_needed(material: Material) -> usize {
     }
 }
 
-/// The light channels of a map with `c` channels: RGB of RGB(A), else the first (grey).
-pub fn light_channels(c: usize) -> usize {
-    if c >= 3 {
-        3
-    } else {
-        1
-    }
-}
+pub use crate::resample::energy::light_channels;
 
 /// Every point a tree of leaves of face `leaf_face` sums: each texel of the map as k×k points
 /// (the map's bilinear radiance over its area; k grows until the points are about half such a

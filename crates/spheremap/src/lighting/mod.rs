@@ -399,7 +399,9 @@ pub struct PrefilterRequest {
     pub look: Option<[f64; 3]>,
     pub up: Option<[f64; 3]>,
     /// Spatial samples per texel (default 1, the texel's centre: each level's lobe is as wide
-    /// as its texels), the most one may take, the jitter's seed, the gutter rule.
+    /// as its texels; the mirror level 0 takes at least the conversion's default, 4, filtered
+    /// over each texel's footprint with its peaks integrated), the most one may take, the
+    /// jitter's seed, the gutter rule.
     pub samples: u32,
     pub max_samples: u32,
     pub seed: u64,

@@ -48,6 +48,7 @@ use crate::base::error::{Error, Result};
 use crate::frame::view::Mat3;
 use crate::images::Image;
 use crate::mappings::mapping::Mapping;
+use crate::resample::energy::{LightCheck, Moments};
 use crate::resample::{EnvMap, Outside, Progress, Sampler};
 use crate::trace::generate::{generate, GenerateOptions, RaySource};
 
@@ -244,6 +245,9 @@ pub struct LevelReport {
     pub integrals: u64,
     /// Time the level took (the tree's build included).
     pub seconds: f64,
+    /// The light the level holds against the environment's: power per channel (every level:
+    /// the kernels are normalized), and for the mirror level the SH9 irradiance.
+    pub light: LightCheck,
 }
 
 /// The sizes of the levels of `p`.
@@ -283,6 +287,8 @@ pub fn prefilter(
         ));
     }
     let mut out = Vec::with_capacity(p.levels);
+    // The environment's light, for each level's report.
+    let source = Moments::of(env, &crate::resample::IDENTITY);
     // One tree at a time, rebuilt when a level needs another face.
     let mut tree: Option<EnvTree> = None;
     let mut pyramid: Option<CubePyramid> = None;
@@ -297,6 +303,15 @@ pub fn prefilter(
         let material = match roughness {
             None => Material::Lambert,
             Some(r) => Material::Ggx { alpha: r * r },
+        };
+        // The mirror level is the environment itself, filtered over each texel's footprint
+        // like any conversion (with its peaks integrated, so it keeps the light): at least the
+        // conversion's default samples.
+        let mirror = material == (Material::Ggx { alpha: 0.0 });
+        let samples = if mirror {
+            p.samples.max(crate::resample::DEFAULT_SAMPLES)
+        } else {
+            p.samples
         };
         let gen = GenerateOptions {
             samples: p.samples,
@@ -317,7 +332,7 @@ pub fn prefilter(
                 size: n,
                 view: p.view,
                 world_to_env: p.world_to_env,
-                samples: p.samples,
+                samples,
                 max_samples: p.max_samples,
                 seed: p.seed,
                 outside: p.outside,
@@ -327,10 +342,10 @@ pub fn prefilter(
             };
             let (img, r) = matcap::bake(env, &bake, progress)?;
             (img, r.method, r.tree_face, r.integrals)
-        } else if material == (Material::Ggx { alpha: 0.0 }) {
+        } else if mirror {
             // The mirror: the environment resampled.
             let opts = crate::resample::ResampleOptions {
-                samples: p.samples,
+                samples,
                 max_samples: p.max_samples,
                 outside: p.outside,
                 rotation: crate::frame::view::mul(&p.world_to_env, &p.view),
@@ -383,6 +398,16 @@ pub fn prefilter(
             let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
             (img, method, face, r.rays)
         };
+        let light = {
+            let level = EnvMap::new(p.mapping, &img, "level")?;
+            let rotation = crate::frame::view::mul(&p.world_to_env, &p.view);
+            let moments = Moments::of(&level, &rotation);
+            if mirror {
+                LightCheck::compare(&source, &moments)
+            } else {
+                LightCheck::power_only(&source, &moments)
+            }
+        };
         out.push((
             img,
             LevelReport {
@@ -394,6 +419,7 @@ pub fn prefilter(
                 tree_face,
                 integrals,
                 seconds: t0.elapsed().as_secs_f64(),
+                light,
             },
         ));
     }

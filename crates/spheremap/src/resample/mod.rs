@@ -59,9 +59,11 @@ use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 mod dest;
+pub mod energy;
 mod filtered;
 mod gather;
 mod lanes;
+pub mod peaks;
 mod pyramid;
 mod rows;
 mod source;
@@ -228,6 +230,10 @@ pub struct ResampleOptions {
     /// Refuse a job whose estimated allocation is over this many bytes
     /// ([`crate::base::error::default_max_memory`]).
     pub max_memory: u64,
+    /// Keep the light: with `samples > 1`, texels far brighter than the map's mean are split
+    /// off and integrated exactly over the output's texels ([`peaks`]), so the output's power
+    /// Σ L·dω is the source's.  Default on; off gives the sampled filter alone.
+    pub conserve: bool,
 }
 
 /// The default sample count (adaptive, at least 4 per texel).
@@ -247,6 +253,7 @@ impl Default for ResampleOptions {
             seed: 0,
             precision: Precision::F32,
             max_memory: crate::base::error::default_max_memory(),
+            conserve: true,
         }
     }
 }
@@ -371,6 +378,8 @@ pub struct ResampleReport {
     /// The conversion was the identity (same mapping and preset, same canvas, no turn): the
     /// texels were copied ([`is_identity`]).
     pub copied: bool,
+    /// Source texels integrated exactly as peaks ([`ResampleOptions::conserve`]).
+    pub peak_texels: u64,
 }
 
 /// Whether converting `src` into a `width`×`height` canvas of `dst` with `rotation` is the
@@ -492,7 +501,21 @@ fn resample_uninit(
     if is_identity(src, dst, w, h, &opts.rotation) {
         return Ok(copy_identity(src, dst, opts.outside, progress, out));
     }
-    let report = match (opts.precision, src.channels) {
+    // Keeping the light: the smooth part sampled, the peaks integrated after.
+    let peaks = if opts.conserve && opts.samples > 1 {
+        peaks::split(src)
+    } else {
+        None
+    };
+    let smooth;
+    let (whole, src) = match peaks.as_ref().and_then(|p| p.smooth.as_ref()) {
+        Some(data) => {
+            smooth = EnvMap { data, ..*src };
+            (src, &smooth)
+        }
+        None => (src, src),
+    };
+    let mut report = match (opts.precision, src.channels) {
         (Precision::F32, 1) => run::<f32, 1>(src, dst, w, h, opts, progress, out),
         (Precision::F32, 2) => run::<f32, 2>(src, dst, w, h, opts, progress, out),
         (Precision::F32, 3) => run::<f32, 3>(src, dst, w, h, opts, progress, out),
@@ -504,6 +527,31 @@ fn resample_uninit(
     }?;
     if progress.is_some_and(|p| p.cancel.load(Ordering::Relaxed)) {
         return Err(Error::cancelled("the conversion"));
+    }
+    if let Some(p) = &peaks {
+        // SAFETY: the conversion above wrote every value; f32 and MaybeUninit<f32> share
+        // their layout.
+        let out = unsafe { &mut *(out as *mut [MaybeUninit<f32>] as *mut [f32]) };
+        let (rot, o) = (&opts.rotation, opts.outside);
+        match whole.channels {
+            1 => {
+                peaks::normalize::<1>(p, dst, (w, h), o, out);
+                peaks::splat::<1>(p, whole, dst, (w, h), rot, o, out)
+            }
+            2 => {
+                peaks::normalize::<2>(p, dst, (w, h), o, out);
+                peaks::splat::<2>(p, whole, dst, (w, h), rot, o, out)
+            }
+            3 => {
+                peaks::normalize::<3>(p, dst, (w, h), o, out);
+                peaks::splat::<3>(p, whole, dst, (w, h), rot, o, out)
+            }
+            _ => {
+                peaks::normalize::<4>(p, dst, (w, h), o, out);
+                peaks::splat::<4>(p, whole, dst, (w, h), rot, o, out)
+            }
+        }
+        report.peak_texels = p.len() as u64;
     }
     Ok(report)
 }
@@ -537,6 +585,7 @@ fn copy_identity(
         lookups: 0,
         max_texel_samples: 0,
         copied: true,
+        peak_texels: 0,
     }
 }
 
@@ -699,6 +748,7 @@ fn run<T: Real, const C: usize>(
             lookups: (w * h) as u64,
             max_texel_samples: 1,
             copied: false,
+            peak_texels: 0,
         };
         return Ok(report);
     }
@@ -775,6 +825,7 @@ fn run<T: Real, const C: usize>(
             lookups: lookups.into_inner(),
             max_texel_samples: max_n.into_inner() as u32,
             copied: false,
+            peak_texels: 0,
         };
         return Ok(report);
     }
@@ -809,6 +860,7 @@ fn run<T: Real, const C: usize>(
         lookups: lookups.into_inner(),
         max_texel_samples: max_n.into_inner() as u32,
         copied: false,
+        peak_texels: 0,
     };
     Ok(report)
 }
