@@ -10,47 +10,8 @@
 use spheremap::images::codec::{read_image, ReadOptions};
 use spheremap::images::Image;
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::energy::{LightCheck, Moments};
+use spheremap::resample::energy::{add_sun, LightCheck, Moments};
 use spheremap::resample::{resample, EnvMap, ResampleOptions, IDENTITY};
-
-/// `img` (a lat-long) with a sun of diameter `deg` toward `dir` holding `fraction` of the
-/// result's power.
-pub fn insert_sun(img: &mut Image, dir: [f64; 3], deg: f64, fraction: f64) {
-    let ll = Mapping::parse("latlong", None).unwrap();
-    let (w, h, c) = (img.width, img.height, img.channels);
-    let env = EnvMap::new(ll, img, "map").unwrap();
-    let power = Moments::of(&env, &IDENTITY).m0;
-    let cos_r = (deg.to_radians() / 2.0).cos();
-    let mut cover = vec![0f64; w * h];
-    let mut sun_sa = 0.0;
-    const G: usize = 8;
-    for y in 0..h {
-        for x in 0..w {
-            let mut n = 0;
-            for b in 0..G {
-                for a in 0..G {
-                    let uv = [
-                        (x as f64 + (a as f64 + 0.5) / G as f64) / w as f64,
-                        (y as f64 + (b as f64 + 0.5) / G as f64) / h as f64,
-                    ];
-                    let d = ll.uv_to_dir(uv).unwrap();
-                    if d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2] >= cos_r {
-                        n += 1;
-                    }
-                }
-            }
-            let f = n as f64 / (G * G) as f64;
-            cover[y * w + x] = f;
-            sun_sa += f * ll.texel_solid_angle(x, y, w, h);
-        }
-    }
-    for k in 0..3.min(c) {
-        let add = fraction / (1.0 - fraction) * power[k] / sun_sa;
-        for (i, f) in cover.iter().enumerate() {
-            img.data[i * c + k] += (f * add) as f32;
-        }
-    }
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -61,7 +22,8 @@ fn main() {
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
-    let to = std::env::var("TO").unwrap_or("cube,sphere,latlong,octahedral,angular,paraboloid".into());
+    let to =
+        std::env::var("TO").unwrap_or("cube,sphere,latlong,octahedral,angular,paraboloid".into());
     let sun: Option<(f64, f64)> = std::env::var("SUN").ok().map(|v| {
         let p: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect();
         (p[0], p[1])
@@ -80,11 +42,14 @@ fn main() {
         if let Some((deg, f)) = sun {
             let d = [0.35f64, 0.6, -0.72];
             let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            insert_sun(&mut img, d.map(|x| x / l), deg, f);
+            add_sun(&mut img, ll, d.map(|x| x / l), deg, f).unwrap();
         }
         let env = EnvMap::new(ll, &img, "map").unwrap();
         let source = Moments::of(&env, &IDENTITY);
-        let name = std::path::Path::new(path).file_stem().unwrap().to_string_lossy();
+        let name = std::path::Path::new(path)
+            .file_stem()
+            .unwrap()
+            .to_string_lossy();
         for m in to.split(',') {
             let dst = Mapping::parse(m, None).unwrap();
             for &n in &sizes {

@@ -38,8 +38,8 @@ use crate::mappings::cube::FACE_NAMES;
 use crate::mappings::mapping::{name_fields, Mapping};
 use crate::resample::energy::{LightCheck, Moments};
 use crate::resample::{
-    resample, resample_into, IDENTITY, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
-    ResampleReport, Taps, DEFAULT_SAMPLES,
+    resample, resample_into, EnvMap, Filter, Outside, Precision, Progress, ResampleOptions,
+    ResampleReport, Taps, DEFAULT_SAMPLES, IDENTITY,
 };
 use serde::{Deserialize, Serialize};
 use std::path::Path;

@@ -18,6 +18,9 @@
 //! units of the source's mean irradiance π L̄ (the unit the irradiance tolerances use).
 
 use super::EnvMap;
+use crate::base::error::{Error, Result};
+use crate::images::Image;
+use crate::mappings::mapping::Mapping;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -54,62 +57,59 @@ impl Moments {
         let rows = env.mapping.texel_rows(w, h);
         type Acc = ([f64; 3], [[f64; 3]; 3], [[f64; 6]; 3], f64);
         let zero: Acc = ([0.0; 3], [[0.0; 3]; 3], [[0.0; 6]; 3], 0.0);
-        let (m0, m1, m2, sa) = (0..h)
+        // Per row, in order (the sums do not depend on the threads).
+        let per_row: Vec<Acc> = (0..h)
             .into_par_iter()
             .with_min_len(4)
-            .fold(
-                || (zero, Vec::new()),
-                |(mut a, mut texels), y| {
-                    rows.row(y, &mut texels);
-                    let row = &env.data[y * w * c..(y + 1) * w * c];
-                    for (x, (px, &(om, dir))) in row.chunks_exact(c).zip(texels.iter()).enumerate() {
-                        if !(om > 0.0) {
-                            continue;
+            .map_init(Vec::new, |texels, y| {
+                let mut a = zero;
+                rows.row(y, texels);
+                let row = &env.data[y * w * c..(y + 1) * w * c];
+                for (x, (px, &(om, dir))) in row.chunks_exact(c).zip(texels.iter()).enumerate() {
+                    if !(om > 0.0) {
+                        continue;
+                    }
+                    // A rim texel whose centre is off its disc: the mean direction of its
+                    // part on the map.
+                    let Some(d0) = dir.or_else(|| on_map_direction(env.mapping, x, y, w, h)) else {
+                        continue;
+                    };
+                    let r = rotation;
+                    let d: [f64; 3] = std::array::from_fn(|i| {
+                        r[i][0] * d0[0] + r[i][1] * d0[1] + r[i][2] * d0[2]
+                    });
+                    let q = [
+                        d[0] * d[0],
+                        d[1] * d[1],
+                        d[2] * d[2],
+                        d[0] * d[1],
+                        d[0] * d[2],
+                        d[1] * d[2],
+                    ];
+                    a.3 += om;
+                    for k in 0..lc {
+                        let l = px[k] as f64 * om;
+                        a.0[k] += l;
+                        for i in 0..3 {
+                            a.1[k][i] += l * d[i];
                         }
-                        // A rim texel whose centre is off its disc: the mean direction of its
-                        // part on the map.
-                        let Some(d0) = dir.or_else(|| on_map_direction(env.mapping, x, y, w, h))
-                        else {
-                            continue;
-                        };
-                        let r = rotation;
-                        let d: [f64; 3] =
-                            std::array::from_fn(|i| r[i][0] * d0[0] + r[i][1] * d0[1] + r[i][2] * d0[2]);
-                        let q = [
-                            d[0] * d[0],
-                            d[1] * d[1],
-                            d[2] * d[2],
-                            d[0] * d[1],
-                            d[0] * d[2],
-                            d[1] * d[2],
-                        ];
-                        a.3 += om;
-                        for k in 0..lc {
-                            let l = px[k] as f64 * om;
-                            a.0[k] += l;
-                            for i in 0..3 {
-                                a.1[k][i] += l * d[i];
-                            }
-                            for i in 0..6 {
-                                a.2[k][i] += l * q[i];
-                            }
+                        for i in 0..6 {
+                            a.2[k][i] += l * q[i];
                         }
                     }
-                    (a, texels)
-                },
-            )
-            .map(|(a, _)| a)
-            .reduce(
-                || zero,
-                |a, b| {
-                    (
-                        std::array::from_fn(|k| a.0[k] + b.0[k]),
-                        std::array::from_fn(|k| std::array::from_fn(|i| a.1[k][i] + b.1[k][i])),
-                        std::array::from_fn(|k| std::array::from_fn(|i| a.2[k][i] + b.2[k][i])),
-                        a.3 + b.3,
-                    )
-                },
-            );
+                }
+                a
+            })
+            .collect();
+        let (mut m0, mut m1, mut m2, mut sa) = zero;
+        for a in &per_row {
+            for k in 0..3 {
+                m0[k] += a.0[k];
+                (0..3).for_each(|i| m1[k][i] += a.1[k][i]);
+                (0..6).for_each(|i| m2[k][i] += a.2[k][i]);
+            }
+            sa += a.3;
+        }
         Moments {
             channels: lc,
             m0,
@@ -219,6 +219,74 @@ impl LightCheck {
     }
 }
 
+/// Adds a sun to `img` (a canvas of `mapping`): a disc of `diameter_deg` degrees toward unit
+/// direction `dir` (the map's frame), of uniform radiance, holding `fraction` of the result's
+/// power in each light channel.  Texels are covered by 8×8 points each.  For tests and
+/// measurements of how outputs keep small bright sources.
+pub fn add_sun(
+    img: &mut Image,
+    mapping: Mapping,
+    dir: [f64; 3],
+    diameter_deg: f64,
+    fraction: f64,
+) -> Result<()> {
+    if !(0.0..1.0).contains(&fraction) {
+        return Err(Error::param(
+            "fraction",
+            format!("{fraction} is not in [0, 1)"),
+        ));
+    }
+    if !(diameter_deg > 0.0 && diameter_deg < 180.0) {
+        return Err(Error::param(
+            "diameter",
+            format!("{diameter_deg}° is not in (0, 180)"),
+        ));
+    }
+    let (w, h, c) = (img.width, img.height, img.channels);
+    let power = {
+        let env = EnvMap::new(mapping, img, "map")?;
+        Moments::of(&env, &super::IDENTITY).m0
+    };
+    let cos_r = (diameter_deg.to_radians() / 2.0).cos();
+    const G: usize = 8;
+    let cover: Vec<f64> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let mut n = 0;
+            for b in 0..G {
+                for a in 0..G {
+                    let uv = [
+                        (x as f64 + (a as f64 + 0.5) / G as f64) / w as f64,
+                        (y as f64 + (b as f64 + 0.5) / G as f64) / h as f64,
+                    ];
+                    if let Some(d) = mapping.uv_to_dir(uv) {
+                        if d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2] >= cos_r {
+                            n += 1;
+                        }
+                    }
+                }
+            }
+            n as f64 / (G * G) as f64 * mapping.texel_solid_angle(x, y, w, h)
+        })
+        .collect();
+    let sun_sa: f64 = cover.iter().sum();
+    if !(sun_sa > 0.0) {
+        return Err(Error::param("diameter", "the sun covers no texel's points"));
+    }
+    for k in 0..light_channels(c) {
+        // Radiance × solid angle per texel, as radiance: ∝ covered solid angle / texel's.
+        let add = fraction / (1.0 - fraction) * power[k] / sun_sa;
+        for (i, &f) in cover.iter().enumerate() {
+            if f > 0.0 {
+                let om = mapping.texel_solid_angle(i % w, i / w, w, h);
+                img.data[i * c + k] += (add * f / om) as f32;
+            }
+        }
+    }
+    Ok(())
+}
+
 /// 642 directions: a twice-subdivided icosahedron's vertices, normalized.
 fn directions() -> Vec<[f64; 3]> {
     let t = (1.0 + 5f64.sqrt()) / 2.0;
@@ -276,7 +344,12 @@ fn directions() -> Vec<[f64; 3]> {
                     v.len() - 1
                 });
             }
-            next.extend([[t[0], m[0], m[2]], [t[1], m[1], m[0]], [t[2], m[2], m[1]], m]);
+            next.extend([
+                [t[0], m[0], m[2]],
+                [t[1], m[1], m[0]],
+                [t[2], m[2], m[1]],
+                m,
+            ]);
         }
         f = next;
     }

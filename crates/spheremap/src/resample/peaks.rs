@@ -70,69 +70,87 @@ impl Peaks {
 pub(crate) fn split(src: &EnvMap) -> Option<Peaks> {
     let (w, h, c) = (src.width, src.height, src.channels);
     let rows = src.mapping.texel_rows(w, h);
-    // The mean radiance per channel, over the map's solid angle.
-    let (sums, total) = (0..h)
+    let disc = src.mapping.has_outside();
+    // Per row (in order, so that the sums do not depend on the threads): Σ L dω, Σ |L| dω and
+    // Σ dω over the texels the sampled path reads (of a disc, those whose centre is on it).
+    let per_row: Vec<([f64; 4], [f64; 4], f64)> = (0..h)
         .into_par_iter()
         .with_min_len(8)
-        .fold(
-            || ([0f64; 4], 0f64, Vec::new()),
-            |(mut s, mut t, mut om), y| {
-                rows.solid_angles(y, &mut om);
-                let row = &src.data[y * w * c..(y + 1) * w * c];
-                for (px, &o) in row.chunks_exact(c).zip(&om) {
-                    if o > 0.0 {
-                        for k in 0..c {
-                            s[k] += px[k] as f64 * o;
-                        }
-                        t += o;
+        .map_init(Vec::new, |om, y| {
+            rows.solid_angles(y, om);
+            let row = &src.data[y * w * c..(y + 1) * w * c];
+            let (mut s, mut a, mut t) = ([0f64; 4], [0f64; 4], 0f64);
+            for (x, (px, &o)) in row.chunks_exact(c).zip(om.iter()).enumerate() {
+                if o > 0.0 && (!disc || centre_on_map(src, x, y)) {
+                    for k in 0..c {
+                        s[k] += px[k] as f64 * o;
+                        a[k] += (px[k] as f64).abs() * o;
                     }
+                    t += o;
                 }
-                (s, t, om)
-            },
-        )
-        .map(|(s, t, _)| (s, t))
-        .reduce(
-            || ([0f64; 4], 0f64),
-            |(a, ta), (b, tb)| (std::array::from_fn(|k| a[k] + b[k]), ta + tb),
-        );
+            }
+            (s, a, t)
+        })
+        .collect();
+    let (mut sums, mut abs, mut total) = ([0f64; 4], [0f64; 4], 0f64);
+    for (s, a, t) in &per_row {
+        for k in 0..4 {
+            sums[k] += s[k];
+            abs[k] += a[k];
+        }
+        total += t;
+    }
     if !(total > 0.0) {
         return None;
     }
-    let tau: [f64; 4] = std::array::from_fn(|k| PEAK_RATIO * sums[k] / total);
+    // Only light channels whose values are radiance are kept: positive power, and negative
+    // values (a lossy codec's small undershoots) that weigh less than a fifth of it.  On
+    // signed data a power is no measure of anything.
+    let lc = super::energy::light_channels(c);
+    let light: [bool; 4] = std::array::from_fn(|k| {
+        // Σ L⁻ dω = (Σ |L| dω − Σ L dω) / 2.
+        k < lc && sums[k] > 0.0 && (abs[k] - sums[k]) / 2.0 <= 0.2 * sums[k]
+    });
+    let tau: [f64; 4] = std::array::from_fn(|k| {
+        if light[k] {
+            PEAK_RATIO * sums[k] / total
+        } else {
+            f64::INFINITY
+        }
+    });
+    // The power the sampled path sees: what it reads, spread over the whole sphere.
+    let seen = 4.0 * std::f64::consts::PI / total;
+    let mut smooth_power: [f64; 4] =
+        std::array::from_fn(|k| if light[k] { sums[k] * seen } else { f64::NAN });
     // Each candidate texel with its ratio to the threshold (the largest over its channels).
     let ratio = |px: &[f32]| {
         (0..c)
-            .filter(|&k| tau[k] > 0.0)
+            .filter(|&k| light[k])
             .map(|k| px[k] as f64 / tau[k])
             .fold(0f64, f64::max)
     };
     let mut cand: Vec<(u32, f64)> = (0..h)
         .into_par_iter()
         .with_min_len(8)
-        .fold(
-            || (Vec::new(), Vec::new()),
-            |(mut found, mut om): (Vec<(u32, f64)>, Vec<f64>), y| {
-                rows.solid_angles(y, &mut om);
-                let row = &src.data[y * w * c..(y + 1) * w * c];
-                for (x, (px, &o)) in row.chunks_exact(c).zip(&om).enumerate() {
-                    let r = ratio(px);
-                    if r > 1.0 && o > 0.0 {
-                        found.push(((y * w + x) as u32, r));
-                    }
+        .map_init(Vec::new, |om, y| {
+            rows.solid_angles(y, om);
+            let row = &src.data[y * w * c..(y + 1) * w * c];
+            let mut found = Vec::new();
+            for (x, (px, &o)) in row.chunks_exact(c).zip(om.iter()).enumerate() {
+                let r = ratio(px);
+                if r > 1.0 && o > 0.0 && (!disc || centre_on_map(src, x, y)) {
+                    found.push(((y * w + x) as u32, r));
                 }
-                (found, om)
-            },
-        )
-        .map(|(f, _)| f)
-        .reduce(Vec::new, |mut a, mut b| {
-            a.append(&mut b);
-            a
-        });
+            }
+            found
+        })
+        .flatten()
+        .collect();
     if cand.is_empty() {
         return Some(Peaks {
             smooth: None,
             texels: Vec::new(),
-            smooth_power: sums,
+            smooth_power,
         });
     }
     // Too many: raise the threshold to the cap's ratio.
@@ -152,7 +170,6 @@ pub(crate) fn split(src: &EnvMap) -> Option<Peaks> {
         }
     });
     let mut smooth = src.data.to_vec();
-    let mut smooth_power = sums;
     let texels = cand
         .iter()
         .map(|&(i, _)| {
@@ -165,7 +182,7 @@ pub(crate) fn split(src: &EnvMap) -> Option<Peaks> {
                 if *v > limit[k] {
                     excess[k] = *v - limit[k];
                     *v = limit[k];
-                    smooth_power[k] -= excess[k] as f64 * om;
+                    smooth_power[k] -= excess[k] as f64 * om * seen;
                 }
             }
             (x as u32, y as u32, excess)
@@ -176,6 +193,15 @@ pub(crate) fn split(src: &EnvMap) -> Option<Peaks> {
         texels,
         smooth_power,
     })
+}
+
+/// Whether texel (x, y)'s centre is on the map (the sampled path reads no other of a disc).
+fn centre_on_map(src: &EnvMap, x: usize, y: usize) -> bool {
+    let uv = [
+        (x as f64 + 0.5) / src.width as f64,
+        (y as f64 + 0.5) / src.height as f64,
+    ];
+    src.mapping.uv_to_dir(uv).is_some()
 }
 
 /// The sampled part's total, normalized: each channel of `out` (the smooth part converted)
@@ -194,30 +220,31 @@ pub(crate) fn normalize<const C: usize>(
         return;
     }
     let rows = dst.texel_rows(w, h);
-    let power = out
+    // Per row, in order (the sum does not depend on the threads).
+    let per_row: Vec<[f64; C]> = out
         .par_chunks(w * C)
         .enumerate()
         .with_min_len(8)
-        .fold(
-            || ([0f64; C], Vec::new()),
-            |(mut p, mut om), (y, row)| {
-                rows.solid_angles(y, &mut om);
-                for (px, &o) in row.chunks_exact(C).zip(&om) {
-                    for k in 0..C {
-                        p[k] += px[k] as f64 * o;
-                    }
+        .map_init(Vec::new, |om, (y, row)| {
+            rows.solid_angles(y, om);
+            let mut p = [0f64; C];
+            for (px, &o) in row.chunks_exact(C).zip(om.iter()) {
+                for k in 0..C {
+                    p[k] += px[k] as f64 * o;
                 }
-                (p, om)
-            },
-        )
-        .map(|(p, _)| p)
-        .reduce(|| [0f64; C], |a, b| std::array::from_fn(|k| a[k] + b[k]));
-    let lc = super::energy::light_channels(C);
-    let gain: [f32; C] = std::array::from_fn(|k| {
-        let g = peaks.smooth_power[k] / power[k];
-        if k >= lc {
-            return 1.0;
+            }
+            p
+        })
+        .collect();
+    let mut power = [0f64; C];
+    for p in &per_row {
+        for k in 0..C {
+            power[k] += p[k];
         }
+    }
+    let gain: [f32; C] = std::array::from_fn(|k| {
+        // (NaN for a channel that is no radiance: left alone.)
+        let g = peaks.smooth_power[k] / power[k];
         if (0.5..=2.0).contains(&g) {
             g as f32
         } else {
@@ -313,16 +340,16 @@ pub(crate) fn splat<const C: usize>(
     let mut given: Vec<(usize, [f64; C])> = peaks
         .texels
         .par_iter()
-        .fold(
-            || (Vec::new(), Vec::new()),
-            |(mut all, mut cells): (Vec<(usize, [f64; C])>, Vec<(usize, f64)>),
-             &(x, y, excess)| {
+        .map_init(
+            Vec::new,
+            |cells: &mut Vec<(usize, f64)>, &(x, y, excess)| {
+                let mut all: Vec<(usize, [f64; C])> = Vec::new();
                 let (x, y) = (x as f64, y as f64);
                 let omega = src
                     .mapping
                     .texel_solid_angle(x as usize, y as usize, sw, sh);
                 if !(omega > 0.0) {
-                    return (all, cells);
+                    return all;
                 }
                 // The texel's extent on the output canvas, from its centre and edge midpoints.
                 let k = match src_dir(x + 0.5, y + 0.5) {
@@ -335,9 +362,13 @@ pub(crate) fn splat<const C: usize>(
                                 let p = to_dst(d);
                                 2.0 * (p[0] - pc[0]).hypot(p[1] - pc[1])
                             })
-                            .fold(0f64, |a, b| if b.is_nan() { f64::INFINITY } else { a.max(b) });
-                        (CELLS_PER_TEXEL * span).ceil().clamp(K_MIN as f64, K_MAX as f64)
-                            as usize
+                            .fold(
+                                0f64,
+                                |a, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
+                            );
+                        (CELLS_PER_TEXEL * span)
+                            .ceil()
+                            .clamp(K_MIN as f64, K_MAX as f64) as usize
                     }
                     None => K_MAX,
                 };
@@ -357,7 +388,7 @@ pub(crate) fn splat<const C: usize>(
                     }
                 }
                 if !(wsum > 0.0) {
-                    return (all, cells);
+                    return all;
                 }
                 cells.sort_unstable_by_key(|c| c.0);
                 let mut i = 0;
@@ -371,15 +402,13 @@ pub(crate) fn splat<const C: usize>(
                     let share = omega * wt / wsum;
                     all.push((j0, std::array::from_fn(|k| excess[k] as f64 * share)));
                 }
-                (all, cells)
+                all
             },
         )
-        .map(|(all, _)| all)
-        .reduce(Vec::new, |mut a, mut b| {
-            a.append(&mut b);
-            a
-        });
-    given.sort_unstable_by_key(|g| g.0);
+        .flatten()
+        .collect();
+    // (Stable: equal texels keep the peaks' order, so the sums do not depend on the threads.)
+    given.sort_by_key(|g| g.0);
     let mut merged: Vec<(usize, [f64; C])> = Vec::with_capacity(given.len());
     for (j, p) in given {
         match merged.last_mut() {
