@@ -258,8 +258,8 @@ def test_a_sun_keeps_its_power_from_python_and_the_cli(hdri, tmp_path):
     power = (env * om_src[..., None]).sum(axis=(0, 1))
 
     def kept(out, mapping, n):
-        om = spheremap.texel_solid_angles(mapping, *(n, 6 * n) if mapping == "cube" else (n,))
         faces = out.reshape(-1, out.shape[-2], out.shape[-1]) if mapping == "cube" else out
+        om = spheremap.texel_solid_angles(mapping, faces.shape[1], faces.shape[0])
         return (faces * om[..., None]).sum(axis=(0, 1)) / power - 1
 
     for mapping, n in [("cube", 16), ("sphere", 64), ("octahedral", 32)]:

@@ -380,7 +380,9 @@ def assert_faces_hold_their_directions(level0):
     got = level0[..., :3].astype(np.float64) - 2
     want = gl_face_dirs(level0.shape[1])
     err = np.linalg.norm(got - want, axis=-1)
-    assert err.max() < 0.005, err.max()
+    # Level 0 is each texel's footprint average (as `convert`), not its centre's value: the
+    # mean direction over a corner texel of a 16² face is 0.018 from its centre's.
+    assert err.max() < 0.03, err.max()
     assert np.linalg.norm(got - want[[1, 0, 2, 3, 4, 5]], axis=-1).max() > 1
     assert np.linalg.norm(got - want[:, ::-1], axis=-1).max() > 1
     assert np.linalg.norm(got - want[:, :, ::-1], axis=-1).max() > 1
