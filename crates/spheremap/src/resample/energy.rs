@@ -19,6 +19,7 @@
 
 use super::EnvMap;
 use crate::base::error::{Error, Result};
+use crate::frame::conventions::mat3_mul;
 use crate::images::Image;
 use crate::mappings::mapping::Mapping;
 use rayon::prelude::*;
@@ -74,10 +75,7 @@ impl Moments {
                     let Some(d0) = dir.or_else(|| on_map_direction(env.mapping, x, y, w, h)) else {
                         continue;
                     };
-                    let r = rotation;
-                    let d: [f64; 3] = std::array::from_fn(|i| {
-                        r[i][0] * d0[0] + r[i][1] * d0[1] + r[i][2] * d0[2]
-                    });
+                    let d = mat3_mul(rotation, d0);
                     let q = [
                         d[0] * d[0],
                         d[1] * d[1],
@@ -138,6 +136,22 @@ impl Moments {
     }
 }
 
+/// The canvas (u, v) of the centres of a g×g grid over texel (x, y) of a `w`×`h` canvas.
+pub(crate) fn texel_points(
+    x: usize,
+    y: usize,
+    (w, h): (usize, usize),
+    g: usize,
+) -> impl Iterator<Item = [f64; 2]> {
+    (0..g * g).map(move |i| {
+        let (a, b) = (i % g, i / g);
+        [
+            (x as f64 + (a as f64 + 0.5) / g as f64) / w as f64,
+            (y as f64 + (b as f64 + 0.5) / g as f64) / h as f64,
+        ]
+    })
+}
+
 /// The normalized mean direction of the part of texel (x, y) on the map (16×16 points), or
 /// `None` where no point is.
 fn on_map_direction(
@@ -147,18 +161,11 @@ fn on_map_direction(
     w: usize,
     h: usize,
 ) -> Option<[f64; 3]> {
-    const G: usize = 16;
     let mut s = [0f64; 3];
-    for b in 0..G {
-        for a in 0..G {
-            let uv = [
-                (x as f64 + (a as f64 + 0.5) / G as f64) / w as f64,
-                (y as f64 + (b as f64 + 0.5) / G as f64) / h as f64,
-            ];
-            if let Some(d) = m.uv_to_dir(uv) {
-                let wt = m.density(uv);
-                (0..3).for_each(|i| s[i] += wt * d[i]);
-            }
+    for uv in texel_points(x, y, (w, h), 16) {
+        if let Some(d) = m.uv_to_dir(uv) {
+            let wt = m.density(uv);
+            (0..3).for_each(|i| s[i] += wt * d[i]);
         }
     }
     let l = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
@@ -253,20 +260,10 @@ pub fn add_sun(
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let mut n = 0;
-            for b in 0..G {
-                for a in 0..G {
-                    let uv = [
-                        (x as f64 + (a as f64 + 0.5) / G as f64) / w as f64,
-                        (y as f64 + (b as f64 + 0.5) / G as f64) / h as f64,
-                    ];
-                    if let Some(d) = mapping.uv_to_dir(uv) {
-                        if d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2] >= cos_r {
-                            n += 1;
-                        }
-                    }
-                }
-            }
+            let n = texel_points(x, y, (w, h), G)
+                .filter_map(|uv| mapping.uv_to_dir(uv))
+                .filter(|d| d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2] >= cos_r)
+                .count();
             n as f64 / (G * G) as f64 * mapping.texel_solid_angle(x, y, w, h)
         })
         .collect();

@@ -276,14 +276,9 @@ pub(crate) fn splat<const C: usize>(
     let (sw, sh) = (src.width, src.height);
     let (wf, hf) = (w as f64, h as f64);
     // Source direction → destination canvas pixel position (NaN where it has none).
+    let back: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| rotation[j][i]));
     let to_dst = |d: [f64; 3]| {
-        let r = rotation;
-        let e = [
-            r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
-            r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
-            r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
-        ];
-        let uv = dst.dir_to_uv(e);
+        let uv = dst.dir_to_uv(crate::frame::conventions::mat3_mul(&back, d));
         [uv[0] * wf, uv[1] * hf]
     };
     let src_dir = |u: f64, v: f64| src.mapping.uv_to_dir([u / sw as f64, v / sh as f64]);
@@ -374,18 +369,13 @@ pub(crate) fn splat<const C: usize>(
                 };
                 cells.clear();
                 let mut wsum = 0.0;
-                for b in 0..k {
-                    for a in 0..k {
-                        let u = x + (a as f64 + 0.5) / k as f64;
-                        let v = y + (b as f64 + 0.5) / k as f64;
-                        let uv = [u / sw as f64, v / sh as f64];
-                        let Some(d) = src.mapping.uv_to_dir(uv) else {
-                            continue;
-                        };
-                        let wt = src.mapping.density(uv);
-                        wsum += wt;
-                        taps(to_dst(d), &mut |j, b| cells.push((j, wt * b)));
-                    }
+                for uv in super::energy::texel_points(x as usize, y as usize, (sw, sh), k) {
+                    let Some(d) = src.mapping.uv_to_dir(uv) else {
+                        continue;
+                    };
+                    let wt = src.mapping.density(uv);
+                    wsum += wt;
+                    taps(to_dst(d), &mut |j, b| cells.push((j, wt * b)));
                 }
                 if !(wsum > 0.0) {
                     return all;
@@ -485,22 +475,15 @@ fn on_map(
 /// The fraction of texel (x, y)'s weight that lies on the map, as the sampled path weighs it
 /// with [`Outside::Black`] (the mapping's density on an 8×8 grid).
 fn covered(dst: Mapping, x: usize, y: usize, w: usize, h: usize) -> f64 {
-    const G: usize = 8;
     let (mut on, mut all) = (0.0, 0.0);
-    for b in 0..G {
-        for a in 0..G {
-            let uv = [
-                (x as f64 + (a as f64 + 0.5) / G as f64) / w as f64,
-                (y as f64 + (b as f64 + 0.5) / G as f64) / h as f64,
-            ];
-            let wt = match dst {
-                Mapping::Sphere(_) | Mapping::Octahedral => 1.0,
-                m => m.density(uv),
-            };
-            all += wt;
-            if dst.uv_to_dir(uv).is_some() {
-                on += wt;
-            }
+    for uv in super::energy::texel_points(x, y, (w, h), 8) {
+        let wt = match dst {
+            Mapping::Sphere(_) | Mapping::Octahedral => 1.0,
+            m => m.density(uv),
+        };
+        all += wt;
+        if dst.uv_to_dir(uv).is_some() {
+            on += wt;
         }
     }
     if all > 0.0 {
