@@ -496,3 +496,85 @@ def test_a_2d_dds_mip_chain_read_by_babylon_is_what_was_written(tmp_path, babylo
         px = np.fromfile(tmp_path / f"face0_level{i}.bin", np.float32).reshape(lv.shape)
         want = lv.astype(np.float16).astype(np.float32) if half else lv
         assert np.array_equal(px, want), i
+
+
+def rgb9e5_unpack(words):
+    """RGB9E5 texels as EXT_texture_shared_exponent defines them: 9-bit mantissas in bits 0-8,
+    9-17, 18-26 and the shared exponent (bias 15) in bits 27-31; value = m * 2^(e - 15 - 9)."""
+    w = words.astype(np.uint64)
+    e = (w >> 27).astype(np.int64)
+    m = np.stack([(w >> s) & 511 for s in (0, 9, 18)], -1).astype(np.float64)
+    return m * np.exp2(e - 24)[..., None]
+
+
+@pytest.mark.parametrize("encode,zstd", [("bc6h", 9), ("rgb9e5", None)])
+def test_an_encoded_cube_ktx2_read_by_ktx_parse(tmp_path, ktx_parse, encode, zstd):
+    """A prefiltered cube written as BC6H blocks (Zstandard-supercompressed) or RGB9E5 texels:
+    ktx-parse reads the format, the data format descriptor and the levels; the RGB9E5 levels,
+    unpacked here by the extension's formula, are what spheremap reads back; the --json
+    report gives each level's power against the uncompressed level."""
+    f = 16
+    env = latlong_dirs(64, 128).astype(np.float32) + 2
+    src = tmp_path / "dirs.exr"
+    spheremap.write_image(str(src), env)
+    out = tmp_path / "enc.ktx2"
+    args = ["prefilter", src, "-o", out, "--size", f, "--levels", "3", "--json", "--encode", encode]
+    p = cli(*args, *(["--zstd", zstd] if zstd else []))
+    assert p.returncode == 0, p.stderr
+    report = json.loads(p.stdout)
+    assert report["encode"] == encode
+    assert len(report["compression"]) == 3
+    for lv in report["compression"]:
+        assert max(abs(e) for e in lv["power_error"]) < 5e-3, lv
+        assert lv["clamped"] == 0 and lv["rmsle"] < 0.01, lv
+    script = tmp_path / "read.mjs"
+    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
+    p = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    meta = json.loads(p.stdout)
+    bc6h = encode == "bc6h"
+    # VK_FORMAT_BC6H_UFLOAT_BLOCK / VK_FORMAT_E5B9G9R9_UFLOAT_PACK32; KHR_DF_MODEL_BC6H / RGBSDA.
+    assert meta["vkFormat"] == (143 if bc6h else 123)
+    assert meta["typeSize"] == (1 if bc6h else 4)
+    assert (meta["faces"], meta["levels"], meta["supercompression"]) == (6, 3, 2 if zstd else 0)
+    assert (meta["colorModel"], meta["transfer"], meta["primaries"]) == (133 if bc6h else 1, 1, 1)
+    ours, cube = spheremap.read_texture(out)
+    assert cube
+    for i, lv in enumerate(ours):
+        fi = f >> i
+        size = 6 * (-(-fi // 4)) ** 2 * 16 if bc6h else 6 * fi * fi * 4
+        assert meta["uncompressed"][i] == size
+        assert lv.shape == (6, fi, fi, 3)
+        assert np.isfinite(lv).all() and (lv >= 0).all()
+        if not bc6h:
+            raw = np.frombuffer((tmp_path / f"level{i}.bin").read_bytes(), "<u4")
+            assert np.array_equal(rgb9e5_unpack(raw).reshape(6, fi, fi, 3).astype(np.float32), lv)
+    # Level 0 still holds each texel's direction where the GL / Vulkan face table puts it.
+    assert_faces_hold_their_directions(np.concatenate([ours[0], np.ones_like(ours[0][..., :1])], -1))
+
+
+def test_write_texture_encodes_and_reports_each_level_s_light(tmp_path):
+    rng = np.random.default_rng(3)
+    f = 16
+    levels = [rng.gamma(0.5, 2.0, (6, f >> i, f >> i, 3)).astype(np.float32) for i in range(3)]
+    levels[0][2, 5, 7] = 4000.0  # a small bright source
+    for encode in spheremap.ENCODINGS:
+        path = tmp_path / f"t_{encode}.ktx2"
+        rep = spheremap.write_texture(path, levels, cube=True, encode=encode, zstd=5, mapping="cube")
+        back, cube = spheremap.read_texture(path)
+        assert cube and len(back) == 3
+        if encode == "float":
+            assert rep is None
+            assert all(np.array_equal(b[..., :3], lv) for b, lv in zip(back, levels))
+            continue
+        assert [set(r) >= {"power_error", "power_error_unrepaired", "rmsle", "blocks", "repaired"} for r in rep]
+        for b, lv, r in zip(back, levels, rep):
+            assert b.shape == lv.shape and (b >= 0).all()
+            assert max(abs(e) for e in r["power_error"]) < 0.02, r
+    with pytest.raises(ValueError, match="encode"):
+        spheremap.write_texture(tmp_path / "x.ktx2", levels, cube=True, encode="bc7")
+    with pytest.raises(ValueError, match="zstd"):
+        spheremap.write_texture(tmp_path / "x.ktx2", levels, cube=True, zstd=0)
+    with pytest.raises(ValueError, match="zstd"):
+        spheremap.write_texture(tmp_path / "x.dds", levels, cube=True, zstd=3)
+    assert not (tmp_path / "x.dds").exists() and not (tmp_path / "x.ktx2").exists()

@@ -14,6 +14,7 @@ from __future__ import annotations
 from ._spheremap import DataError, Error, LimitError, UnsupportedError, __version__
 from .names import (
     CUBE_LAYOUTS,
+    ENCODINGS,
     FILTERS,
     LENS_MODELS,
     MAPPINGS,
@@ -73,6 +74,7 @@ __all__ = [
     "info",
     "write_image",
     "MAPPINGS",
+    "ENCODINGS",
     "dir_to_uv",
     "uv_to_dir",
     "texel_solid_angles",

@@ -233,5 +233,12 @@ def write_image(
     path: str, array: Any, linear: bool, png16: bool, half: bool, clamp_half: bool, note: str | None
 ) -> tuple[int, int]: ...
 def write_texture(
-    path: str, levels: list[Any], cube: bool, half: bool, clamp_half: bool, note: str | None
-) -> None: ...
+    path: str,
+    levels: list[Any],
+    cube: bool,
+    half: bool,
+    clamp_half: bool,
+    note: str | None,
+    encode: str,
+    zstd: int | None,
+) -> list[dict[str, Any]] | None: ...

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from . import _spheremap as _ext
 from ._args import _ArrayLike, _choice, _floats, _size_any, _vec3
-from .names import MAPPINGS
+from .names import ENCODINGS, MAPPINGS
 
 
 def read_image(
@@ -100,6 +100,9 @@ def write_image(
         raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
+    _choice(encode, "encode", ENCODINGS)
+    if zstd is not None and (isinstance(zstd, bool) or not isinstance(zstd, int) or not 1 <= zstd <= 22):
+        raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
     clipped, clamped = _ext.write_image(
         path=os.fspath(path),
         array=np.ascontiguousarray(a, dtype=np.float32),
@@ -143,11 +146,21 @@ def write_texture(
     preset: str | None = None,
     look: npt.ArrayLike | None = None,
     up: npt.ArrayLike | None = None,
-) -> None:
+    encode: str = "float",
+    zstd: int | None = None,
+) -> list[dict[str, Any]] | None:
     """Writes mip levels (level 0 first; level i is max(1, W >> i) x max(1, H >> i)) as a KTX2
     or DDS texture (by the extension), RGBA float32 or `half`, atomically. With `cube`, each
     level is (6, F, F, C) faces (or their (6F, F, C) stack) in GL order +X, -X, +Y, -Y, +Z, -Z
     and the file holds a cube map. mapping, preset, look, up: recorded in a KTX2 file as write_image records them.
+
+    encode: "float" (RGBA float32 or `half`), "bc6h" (BC6H_UF16 blocks) or "rgb9e5" (shared
+    exponent), both RGB in 0..65504 (rgb9e5: 65408; values outside are clamped with a warning
+    naming the power lost) and kept to each level's light: blocks that leak are encoded again.
+    Their weights are the texel solid angles of the cube's faces or of `mapping`. Returns, for
+    an encoding other than float, one dict per level: blocks, repaired, power_error and
+    power_error_unrepaired (per channel, decoded / written - 1), rmsle, rmsle_unrepaired,
+    clamped, range_loss; else None. zstd: KTX2 Zstandard supercompression level (1-22).
     """
 
     arrays = []
@@ -164,6 +177,9 @@ def write_texture(
         raise ValueError("levels: a texture needs at least one level")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
+    _choice(encode, "encode", ENCODINGS)
+    if zstd is not None and (isinstance(zstd, bool) or not isinstance(zstd, int) or not 1 <= zstd <= 22):
+        raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
     note = None
     if mapping is not None:
         _choice(mapping, "mapping", MAPPINGS)
@@ -176,11 +192,13 @@ def write_texture(
         )
     elif (preset, look, up) != (None, None, None):
         raise ValueError("mapping: preset, look and up describe a mapping; name it")
-    _ext.write_texture(
+    return _ext.write_texture(
         path=os.fspath(path),
         levels=arrays,
         cube=bool(cube),
         half=bool(half),
         clamp_half=bool(clamp_half),
         note=note,
+        encode=encode,
+        zstd=zstd,
     )

@@ -10,6 +10,8 @@ SINGULAR_MODES = tuple(_ext.names("singular"))
 MATCAP_VARIANTS = tuple(_ext.names("matcap"))
 #: Environment mappings (dir_to_uv, uv_to_dir, texel_solid_angles, convert).
 MAPPINGS = tuple(_ext.names("mapping"))
+#: KTX2/DDS texel encodings (write_texture's encode, the CLI's --encode).
+ENCODINGS = tuple(_ext.names("encode"))
 #: Cube-map file layouts (see the README's diagram); "dice" = "hcross".
 CUBE_LAYOUTS = tuple(_ext.names("layout"))
 #: Reconstruction filters of convert.

@@ -113,6 +113,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         png16: a.job.png16,
         half: a.job.half,
         clamp_half: a.job.clamp_half,
+        encode: a.job.encoding(),
+        zstd: a.job.zstd,
         force: a.job.force,
     };
     let progress = Progress::default();

@@ -17,6 +17,15 @@ pub struct JobFlags {
     /// 16-bit PNG output.
     #[arg(long)]
     pub png16: bool,
+    /// KTX2/DDS texels: float (RGBA half with --half, else 32-bit), bc6h (BC6H_UF16 blocks)
+    /// or rgb9e5 (shared exponent). bc6h and rgb9e5 keep each level's light: blocks that
+    /// leak are encoded again (the --json summary reports the power per level); values
+    /// outside 0..65504 (rgb9e5: 65408) are clamped with a warning naming the power lost.
+    #[arg(long, default_value = "float", value_parser = crate::names::core("encode"))]
+    pub encode: String,
+    /// KTX2: supercompress each level with Zstandard at this level (1-22).
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(i32).range(1..=22))]
+    pub zstd: Option<i32>,
     /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
     /// $SPHEREMAP_MAX_MEMORY or 16G).
     #[arg(long)]
@@ -65,7 +74,15 @@ impl JobFlags {
             png16: self.png16,
             half: self.half,
             clamp_half: self.clamp_half,
+            encode: self.encoding(),
+            zstd: self.zstd,
         }
+    }
+
+    /// The `--encode` value (checked by its value parser).
+    pub fn encoding(&self) -> spheremap::images::compress::Encoding {
+        spheremap::images::compress::Encoding::parse("--encode", &self.encode)
+            .expect("checked by the value parser")
     }
 
     /// Adds what writing `img` to `path` lost ([`spheremap::images::codec::Losses`]) to a `--json`

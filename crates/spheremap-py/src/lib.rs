@@ -678,18 +678,23 @@ fn read_texture<'py>(
     Ok((levels, tex.cube))
 }
 
-/// Writes levels (level 0 first; a cube's as F x 6F face stacks) as a KTX2 or DDS texture.
+/// Writes levels (level 0 first; a cube's as F x 6F face stacks) as a KTX2 or DDS texture;
+/// with an `encode` other than "float", returns what encoding did to each level's light (a
+/// list of dicts), else None.
 #[pyfunction]
-#[pyo3(signature = (path, levels, cube, half, clamp_half, note))]
-fn write_texture(
-    py: Python<'_>,
+#[pyo3(signature = (path, levels, cube, half, clamp_half, note, encode, zstd))]
+#[allow(clippy::too_many_arguments)]
+fn write_texture<'py>(
+    py: Python<'py>,
     path: std::path::PathBuf,
-    levels: Vec<PyReadonlyArrayDyn<'_, f32>>,
+    levels: Vec<PyReadonlyArrayDyn<'py, f32>>,
     cube: bool,
     half: bool,
     clamp_half: bool,
     note: Option<String>,
-) -> PyResult<()> {
+    encode: String,
+    zstd: Option<i32>,
+) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::images::codec::WriteOptions;
     let levels = levels
         .iter()
@@ -697,16 +702,21 @@ fn write_texture(
         .map(|(i, a)| image_of(a, &format!("levels[{i}]")))
         .collect::<PyResult<Vec<_>>>()?;
     let tex = spheremap::images::container::Texture { cube, levels };
+    let encode = spheremap::images::compress::Encoding::parse("encode", &encode).map_err(to_py)?;
     let opts = WriteOptions {
         half,
         clamp_half,
+        encode,
+        zstd,
         ..Default::default()
     };
-    py.detach(|| {
-        tex.check("levels")?;
-        spheremap::images::codec::write_texture(&path, &tex, &opts, note.as_deref())
-    })
-    .map_err(to_py)
+    let report = py
+        .detach(|| {
+            tex.check("levels")?;
+            spheremap::images::codec::write_texture(&path, &tex, &opts, note.as_deref())
+        })
+        .map_err(to_py)?;
+    pythonize::pythonize(py, &report).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// The SH9 report of `spheremap irradiance --json` for an environment array, as a dict;

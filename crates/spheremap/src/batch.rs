@@ -17,6 +17,7 @@
 
 use crate::base::error::{check_map_size, Error, Result};
 use crate::images::codec::{ReadOptions, WriteOptions};
+use crate::images::compress::Encoding;
 use crate::images::cube_layout::Layout;
 use crate::images::envmap::{read_env_layout, read_note, EnvFiles, EnvReader};
 use crate::images::format::Format;
@@ -44,7 +45,7 @@ pub const MANIFEST: &str = "manifest.jsonl";
 /// Keys every output table takes besides its operation's own.
 const COMMON_KEYS: [&str; 2] = ["op", "name"];
 /// Output encoding keys the lighting operations take (`convert` has them among its own).
-const WRITE_KEYS: [&str; 3] = ["half", "clamp_half", "png16"];
+const WRITE_KEYS: [&str; 5] = ["half", "clamp_half", "png16", "encode", "zstd"];
 
 /// How the lighting operations write their images.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -53,6 +54,10 @@ pub struct WriteFlags {
     pub half: bool,
     pub clamp_half: bool,
     pub png16: bool,
+    /// KTX2/DDS texel encoding ([`crate::images::compress`]).
+    pub encode: Encoding,
+    /// KTX2 Zstandard supercompression level.
+    pub zstd: Option<i32>,
 }
 
 impl WriteFlags {
@@ -62,6 +67,8 @@ impl WriteFlags {
             png16: self.png16,
             half: self.half,
             clamp_half: self.clamp_half,
+            encode: self.encode,
+            zstd: self.zstd,
         }
     }
 }

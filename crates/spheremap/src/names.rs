@@ -16,7 +16,7 @@ use crate::resample::{Filter, Outside, Precision, Taps};
 use crate::Singular;
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
-pub const KINDS: [&str; 17] = [
+pub const KINDS: [&str; 18] = [
     "mapping",
     "filter",
     "taps",
@@ -34,6 +34,7 @@ pub const KINDS: [&str; 17] = [
     "material",
     "roughness_map",
     "prefilter_method",
+    "encode",
 ];
 
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
@@ -58,6 +59,7 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "material" => &crate::lighting::brdf::Material::NAMES,
         "roughness_map" => &crate::lighting::prefilter::RoughnessMap::NAMES,
         "prefilter_method" => &crate::lighting::prefilter::PrefilterMethod::NAMES,
+        "encode" => &crate::images::compress::ENCODING_NAMES,
         _ => return None,
     })
 }
@@ -85,6 +87,7 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
         "material" => crate::lighting::brdf::Material::parse(value, 0.5).map(drop),
         "roughness_map" => crate::lighting::prefilter::RoughnessMap::parse(value).map(drop),
         "prefilter_method" => crate::lighting::prefilter::PrefilterMethod::parse(value).map(drop),
+        "encode" => crate::images::compress::Encoding::parse(arg, value).map(drop),
         _ => Err(Error::param(
             "kind",
             format!(

@@ -10,6 +10,7 @@
 //! * Header sizes are checked against [`Limits`] before any pixel memory is allocated.
 //! * Writes are atomic (temporary file + rename; see [`crate::base::files::atomic_write`]).
 
+use super::compress::{Encoding, LevelCompression};
 use super::format::Format;
 use super::Image;
 use crate::base::error::{Error, Result};
@@ -40,6 +41,51 @@ pub struct WriteOptions {
     pub half: bool,
     /// With `half`: clamp values beyond the half range to ±65504 instead of refusing them.
     pub clamp_half: bool,
+    /// KTX2 and DDS: how texels are encoded ([`crate::images::compress`]; `half` applies to
+    /// `Float`).  Other formats refuse any encoding but `Float`.
+    pub encode: Encoding,
+    /// KTX2: Zstandard supercompression of each level at this level (1–22).
+    pub zstd: Option<i32>,
+}
+
+/// Zstandard's levels, as `--zstd` takes them.
+pub const ZSTD_LEVELS: std::ops::RangeInclusive<i32> = 1..=22;
+
+impl WriteOptions {
+    /// Checks the encoding and supercompression against the output format; errors name
+    /// `path`'s option.
+    pub fn check_for(&self, path: &Path, format: Format) -> Result<()> {
+        if let Some(z) = self.zstd {
+            if !ZSTD_LEVELS.contains(&z) {
+                return Err(Error::param(
+                    "zstd",
+                    format!("Zstandard level {z}; the levels are 1 to 22"),
+                ));
+            }
+            if format != Format::Ktx2 {
+                return Err(Error::param(
+                    "zstd",
+                    format!(
+                        "{}: Zstandard supercompression is written in KTX2 only, not {}",
+                        path.display(),
+                        format.name()
+                    ),
+                ));
+            }
+        }
+        if self.encode != Encoding::Float && !format.is_container() {
+            return Err(Error::param(
+                "encode",
+                format!(
+                    "{}: {} texels are written in KTX2 or DDS, not {}",
+                    path.display(),
+                    self.encode.name(),
+                    format.name()
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The largest finite half-float.
@@ -461,7 +507,13 @@ pub fn encode_with_note(
         |e: image::ImageError| Error::data(path, format!("cannot encode {}: {e}", format.name()));
     let mut buf = Cursor::new(Vec::new());
     let (w, h, c) = (img.width as u32, img.height as u32, img.channels);
-    if matches!(format, Format::Exr | Format::Ktx2 | Format::Dds) && opts.half && !opts.clamp_half {
+    opts.check_for(path, format)?;
+    let float = opts.encode == Encoding::Float;
+    if matches!(format, Format::Exr | Format::Ktx2 | Format::Dds)
+        && opts.half
+        && !opts.clamp_half
+        && float
+    {
         let l = Losses::of(img, format, opts);
         if l.beyond_half > 0 {
             return Err(beyond_half_error(path, &l));
@@ -475,7 +527,7 @@ pub fn encode_with_note(
                 cube: false,
                 levels: vec![img.clone()],
             };
-            return encode_texture(path, &tex, format, opts, note);
+            return encode_texture(path, &tex, format, opts, note).map(|(b, _)| b);
         }
         Format::Hdr => {
             let rgb = to_rgb(img);
@@ -569,61 +621,94 @@ pub fn beyond_half_error(path: &Path, l: &Losses) -> Error {
     )
 }
 
-/// Encodes a texture (mip levels, cube faces) as KTX2 or DDS (`opts.half`: 16-bit floats,
-/// values beyond the half range refused unless `opts.clamp_half`, as for EXR); `note` goes
-/// into KTX2's key/value data (DDS has no place for it).
+/// Encodes a texture (mip levels, cube faces) as KTX2 or DDS: float texels (`opts.half`:
+/// 16-bit, values beyond the half range refused unless `opts.clamp_half`, as for EXR) or
+/// encoded ones (`opts.encode`, keeping the light: [`crate::images::compress`]; their report
+/// per level is returned); `note` goes into KTX2's key/value data (DDS has no place for it)
+/// and gives a 2D map's mapping, whose texel solid angles weigh the light.
 pub fn encode_texture(
     path: &Path,
     tex: &super::container::Texture,
     format: Format,
     opts: &WriteOptions,
     note: Option<&str>,
-) -> Result<Vec<u8>> {
-    let mut clamped;
-    let mut tex = tex;
-    if opts.half {
-        let mut beyond = Losses::default();
-        for l in &tex.levels {
-            let x = Losses::of(l, format, opts);
-            beyond.beyond_half += x.beyond_half;
-            beyond.largest = beyond.largest.max(x.largest);
-        }
-        if beyond.beyond_half > 0 {
-            if !opts.clamp_half {
-                return Err(beyond_half_error(path, &beyond));
+) -> Result<(Vec<u8>, Option<Vec<LevelCompression>>)> {
+    use super::container::{Stored, StoredLevels};
+    if !format.is_container() {
+        return Err(Error::param(
+            "output",
+            format!("{} holds one image, not a texture", format.name()),
+        ));
+    }
+    opts.check_for(path, format)?;
+    tex.check("texture")?;
+    let (stored, report) = if opts.encode == Encoding::Float {
+        let mut clamped;
+        let mut tex = tex;
+        if opts.half {
+            let mut beyond = Losses::default();
+            for l in &tex.levels {
+                let x = Losses::of(l, format, opts);
+                beyond.beyond_half += x.beyond_half;
+                beyond.largest = beyond.largest.max(x.largest);
             }
-            clamped = tex.clone();
-            for l in &mut clamped.levels {
-                for v in &mut l.data {
-                    if v.is_finite() {
-                        *v = v.clamp(-HALF_MAX, HALF_MAX);
+            if beyond.beyond_half > 0 {
+                if !opts.clamp_half {
+                    return Err(beyond_half_error(path, &beyond));
+                }
+                clamped = tex.clone();
+                for l in &mut clamped.levels {
+                    for v in &mut l.data {
+                        if v.is_finite() {
+                            *v = v.clamp(-HALF_MAX, HALF_MAX);
+                        }
                     }
                 }
+                tex = &clamped;
             }
-            tex = &clamped;
         }
-    }
-    match format {
+        (StoredLevels::float(tex, opts.half)?, None)
+    } else {
+        let mapping = note
+            .and_then(super::note::MapNote::parse)
+            .filter(|n| n.layout.is_none() || tex.cube)
+            .map(|n| n.mapping);
+        let c = super::compress::compress(
+            &path.display().to_string(),
+            &tex.levels,
+            tex.cube,
+            opts.encode,
+            mapping,
+        )?;
+        (
+            StoredLevels {
+                cube: tex.cube,
+                size: tex.size(),
+                stored: Stored::Encoded(c.encoding),
+                surfaces: c.surfaces,
+            },
+            Some(c.report),
+        )
+    };
+    let bytes = match format {
         Format::Ktx2 => {
             let extra: Vec<(&str, &str)> =
                 note.map(|n| (super::note::KEY, n)).into_iter().collect();
-            super::container::encode_ktx2(tex, opts.half, &extra)
+            super::container::encode_ktx2_stored(&stored, &extra, opts.zstd)?
         }
-        Format::Dds => super::container::encode_dds(tex, opts.half),
-        _ => Err(Error::param(
-            "output",
-            format!("{} holds one image, not a texture", format.name()),
-        )),
-    }
+        _ => super::container::encode_dds_stored(&stored),
+    };
+    Ok((bytes, report))
 }
 
-/// Writes a texture atomically as KTX2 or DDS, by the extension of `path`.
+/// Writes a texture atomically as KTX2 or DDS, by the extension of `path`; returns what
+/// encoding did to each level's light when `opts.encode` is not `Float`.
 pub fn write_texture(
     path: &Path,
     tex: &super::container::Texture,
     opts: &WriteOptions,
     note: Option<&str>,
-) -> Result<()> {
+) -> Result<Option<Vec<LevelCompression>>> {
     let format = Format::from_extension(path)
         .filter(|f| f.is_container())
         .ok_or_else(|| {
@@ -635,10 +720,11 @@ pub fn write_texture(
                 ),
             )
         })?;
-    let bytes = encode_texture(path, tex, format, opts, note)?;
+    let (bytes, report) = encode_texture(path, tex, format, opts, note)?;
     atomic_write(path, |f| {
         f.write_all(&bytes).map_err(|e| Error::io(path, e))
-    })
+    })?;
+    Ok(report)
 }
 
 /// Reads a KTX2 or DDS file with all its levels (a cube's as face stacks).

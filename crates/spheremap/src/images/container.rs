@@ -1,6 +1,6 @@
 //! KTX2 and DDS: the GPU texture containers engines load, holding every mip level and, for a
-//! cube map, the six faces.  Uncompressed float texels only (no block compression, no
-//! supercompression).
+//! cube map, the six faces.  Texels are floats, BC6H blocks or RGB9E5
+//! ([`crate::images::compress`]); KTX2 levels may be Zstandard-supercompressed.
 //!
 //! ## What is written
 //!
@@ -27,16 +27,28 @@
 //! A cube file therefore reads as the face stack of its level 0, noted `mapping=cube
 //! preset=gl layout=vstrip` unless the file records another note.
 //!
+//! Encoded texels ([`crate::images::compress`]): BC6H as KTX2 `VK_FORMAT_BC6H_UFLOAT_BLOCK`
+//! (143; typeSize 1, a BC6H data format descriptor: model 133, 4×4 texel blocks, one 128-bit
+//! unsigned float sample) and DDS `DXGI_FORMAT_BC6H_UF16` (95, with a linear size instead of
+//! a pitch); RGB9E5 as KTX2 `VK_FORMAT_E5B9G9R9_UFLOAT_PACK32` (123, the six-sample
+//! descriptor of Khronos's `dfdutils`) and DDS `DXGI_FORMAT_R9G9B9E5_SHAREDEXP` (67).  A level
+//! smaller than a block takes one block.  With Zstandard supercompression (KTX2 only, scheme
+//! 2), each level is compressed on its own, without padding between levels, and its index
+//! records both lengths.
+//!
 //! ## What is read
 //!
-//! KTX2 with the float formats R16, RGB16, RGBA16, R32, RGB32 or RGBA32 (`SFLOAT`), any
-//! `KTXorientation` (rows or columns running the other way are turned to row 0 at the top);
-//! DDS with a DX10 header of the same DXGI float formats, or a legacy header with the D3D
-//! float codes (111 R16F, 113 A16B16G16R16F, 114 R32F, 116 A32B32G32R32F).  Block-compressed,
-//! integer, supercompressed, 3D and array textures are refused with the reason.  Sizes are
-//! checked against [`Limits`] before anything is allocated, and every offset against the
-//! file's length.
+//! KTX2 with the float formats R16, RGB16, RGBA16, R32, RGB32 or RGBA32 (`SFLOAT`), BC6H
+//! (unsigned) or E5B9G9R9, uncompressed or Zstandard-supercompressed, any `KTXorientation`
+//! (rows or columns running the other way are turned to row 0 at the top; not for BC6H,
+//! whose blocks are stored as written); DDS with a DX10 header of the same DXGI formats, or a
+//! legacy header with the D3D float codes (111 R16F, 113 A16B16G16R16F, 114 R32F, 116
+//! A32B32G32R32F).  BC6H decodes through `bcdec_rs` to 3 channels, RGB9E5 to 3 channels.
+//! Other block-compressed, integer, BasisLZ/zlib-supercompressed, 3D and array textures are
+//! refused with the reason.  Sizes are checked against [`Limits`] before anything is
+//! allocated, and every offset against the file's length.
 
+use super::compress::{self, Encoding};
 use super::limits::Limits;
 use super::Image;
 use crate::base::error::{Error, Result};
@@ -64,20 +76,141 @@ pub enum Container {
     Dds,
 }
 
-/// The stored texel types.
+/// How a level's texels are stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Texel {
-    F16,
-    F32,
+pub enum Stored {
+    /// Floats of `bytes` (2: half, 4: float) per value, `channels` values per texel.
+    Float { bytes: usize, channels: usize },
+    /// Encoded texels (BC6H blocks, RGB9E5).
+    Encoded(Encoding),
 }
 
-impl Texel {
-    fn bytes(self) -> usize {
+impl Stored {
+    /// Bytes a `w`×`h` surface (one face of one level) takes.
+    pub fn surface_bytes(self, w: usize, h: usize) -> usize {
         match self {
-            Texel::F16 => 2,
-            Texel::F32 => 4,
+            Stored::Float { bytes, channels } => w * h * bytes * channels,
+            Stored::Encoded(e) => compress::surface_bytes(e, w, h).expect("encoded"),
         }
     }
+
+    /// A KTX2 level's alignment without supercompression: lcm(texel block size, 4).
+    fn align(self) -> usize {
+        match self {
+            Stored::Float { bytes, channels } => (bytes * channels).max(4).next_multiple_of(4),
+            Stored::Encoded(Encoding::Bc6h) => 16,
+            Stored::Encoded(_) => 4,
+        }
+    }
+
+    fn vk_format(self) -> u32 {
+        match self {
+            Stored::Float { bytes: 2, .. } => 97,
+            Stored::Float { .. } => 109,
+            Stored::Encoded(Encoding::Bc6h) => 143,
+            Stored::Encoded(Encoding::Rgb9e5) => 123,
+            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+        }
+    }
+
+    fn dxgi_format(self) -> u32 {
+        match self {
+            Stored::Float { bytes: 2, .. } => 10,
+            Stored::Float { .. } => 2,
+            Stored::Encoded(Encoding::Bc6h) => 95,
+            Stored::Encoded(Encoding::Rgb9e5) => 67,
+            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+        }
+    }
+
+    fn type_size(self) -> u32 {
+        match self {
+            Stored::Float { bytes, .. } => bytes as u32,
+            Stored::Encoded(Encoding::Bc6h) => 1,
+            Stored::Encoded(_) => 4,
+        }
+    }
+
+    /// Decodes a `w`×`h` surface.
+    fn decode(self, raw: &[u8], w: usize, h: usize) -> Image {
+        match self {
+            Stored::Float { bytes, channels } => texels(raw, w, h, channels, bytes),
+            Stored::Encoded(e) => compress::decode_surface(e, raw, w, h),
+        }
+    }
+
+    /// The KTX2 data format descriptor (its total size first).
+    fn dfd(self) -> Vec<u8> {
+        // (bit offset, bit length, channel with qualifiers, lower, upper)
+        type Sample = (u16, u8, u8, u32, u32);
+        let (model, block, plane, samples): (u8, [u8; 4], u8, Vec<Sample>) = match self {
+            Stored::Float { bytes, .. } => {
+                let bits = (bytes * 8) as u16;
+                (
+                    1, // RGBSDA
+                    [0; 4],
+                    (4 * bytes) as u8,
+                    [0u8, 1, 2, 15]
+                        .into_iter()
+                        .enumerate()
+                        .map(|(i, ch)| {
+                            // float, signed; -1.0 .. 1.0
+                            (
+                                i as u16 * bits,
+                                (bits - 1) as u8,
+                                ch | 0xC0,
+                                0xBF80_0000,
+                                0x3F80_0000,
+                            )
+                        })
+                        .collect(),
+                )
+            }
+            // KHR_DF_MODEL_BC6H, 4×4 blocks of 16 bytes, one unsigned float sample 0.0 .. 1.0.
+            Stored::Encoded(Encoding::Bc6h) => {
+                (133, [3, 3, 0, 0], 16, vec![(0, 127, 0x80, 0, 0x3F80_0000)])
+            }
+            // E5B9G9R9 as Khronos's dfdutils describe it: per channel a 9-bit mantissa (upper
+            // 8448) and the shared 5-bit exponent (qualifier EXPONENT, bias 15, upper 31).
+            Stored::Encoded(Encoding::Rgb9e5) => (
+                1,
+                [0; 4],
+                4,
+                (0u8..3)
+                    .flat_map(|ch| [(9 * ch as u16, 8, ch, 0, 8448), (27, 4, ch | 0x20, 15, 31)])
+                    .collect(),
+            ),
+            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+        };
+        let block_size = 24 + 16 * samples.len();
+        let mut dfd = Vec::with_capacity(4 + block_size);
+        dfd.extend(((4 + block_size) as u32).to_le_bytes());
+        dfd.extend(0u32.to_le_bytes()); // vendor 0 (Khronos), descriptor type 0 (basic)
+        dfd.extend(2u16.to_le_bytes()); // version 2
+        dfd.extend((block_size as u16).to_le_bytes());
+        dfd.extend([model, 1, 1, 0]); // BT.709 primaries, linear, straight alpha
+        dfd.extend(block);
+        dfd.extend([plane, 0, 0, 0, 0, 0, 0, 0]);
+        for (offset, len, channel, lower, upper) in samples {
+            dfd.extend(offset.to_le_bytes());
+            dfd.push(len);
+            dfd.push(channel);
+            dfd.extend([0u8; 4]);
+            dfd.extend(lower.to_le_bytes());
+            dfd.extend(upper.to_le_bytes());
+        }
+        dfd
+    }
+}
+
+/// A texture's stored bytes: per level, per face.
+#[derive(Clone, Debug)]
+pub struct StoredLevels {
+    pub cube: bool,
+    /// Level 0's width and height (a cube's: its face's).
+    pub size: (usize, usize),
+    pub stored: Stored,
+    pub surfaces: Vec<Vec<Vec<u8>>>,
 }
 
 impl Texture {
@@ -163,43 +296,63 @@ fn rgba(p: &[f32]) -> [f32; 4] {
     }
 }
 
-fn put_texels(out: &mut Vec<u8>, img: &Image, texel: Texel) {
-    out.reserve(img.width * img.height * 4 * texel.bytes());
-    for p in img.data.chunks_exact(img.channels) {
+fn put_texels(out: &mut Vec<u8>, data: &[f32], channels: usize, bytes: usize) {
+    out.reserve(data.len() / channels * 4 * bytes);
+    for p in data.chunks_exact(channels) {
         for v in rgba(p) {
-            match texel {
-                Texel::F16 => out.extend(exr::prelude::f16::from_f32(v).to_le_bytes()),
-                Texel::F32 => out.extend(v.to_le_bytes()),
+            match bytes {
+                2 => out.extend(exr::prelude::f16::from_f32(v).to_le_bytes()),
+                _ => out.extend(v.to_le_bytes()),
             }
         }
+    }
+}
+
+impl StoredLevels {
+    /// A texture's texels as RGBA floats (`half`: 16-bit).
+    pub fn float(tex: &Texture, half: bool) -> Result<StoredLevels> {
+        tex.check("texture")?;
+        let bytes = if half { 2 } else { 4 };
+        let nf = if tex.cube { 6 } else { 1 };
+        let surfaces = tex
+            .levels
+            .iter()
+            .map(|l| {
+                let n = l.data.len() / nf;
+                (0..nf)
+                    .map(|f| {
+                        let mut out = Vec::new();
+                        put_texels(&mut out, &l.data[f * n..(f + 1) * n], l.channels, bytes);
+                        out
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok(StoredLevels {
+            cube: tex.cube,
+            size: tex.size(),
+            stored: Stored::Float { bytes, channels: 4 },
+            surfaces,
+        })
     }
 }
 
 /// Encodes `tex` as KTX2 (`half`: 16-bit floats) with `extra` key/value pairs (beside
 /// `KTXorientation` and `KTXwriter`).
 pub fn encode_ktx2(tex: &Texture, half: bool, extra: &[(&str, &str)]) -> Result<Vec<u8>> {
-    tex.check("texture")?;
-    let texel = if half { Texel::F16 } else { Texel::F32 };
-    let tb = texel.bytes();
-    let (w, h) = tex.size();
-    let faces = if tex.cube { 6 } else { 1 };
-    // The data format descriptor: one basic block, four samples.
-    let mut dfd = Vec::new();
-    dfd.extend((4u32 + 24 + 16 * 4).to_le_bytes());
-    dfd.extend(0u32.to_le_bytes()); // vendor 0 (Khronos), descriptor type 0 (basic)
-    dfd.extend(2u16.to_le_bytes()); // version 2
-    dfd.extend((24u16 + 16 * 4).to_le_bytes());
-    dfd.extend([1, 1, 1, 0]); // RGBSDA, BT.709, linear, straight alpha
-    dfd.extend([0u8; 4]); // 1×1×1×1 texel blocks
-    dfd.extend([(4 * tb) as u8, 0, 0, 0, 0, 0, 0, 0]);
-    for (i, channel) in [0u8, 1, 2, 15].into_iter().enumerate() {
-        dfd.extend(((i * tb * 8) as u16).to_le_bytes());
-        dfd.push((tb * 8 - 1) as u8);
-        dfd.push(channel | 0x80 | 0x40); // float, signed
-        dfd.extend([0u8; 4]);
-        dfd.extend(0xBF80_0000u32.to_le_bytes()); // -1.0
-        dfd.extend(0x3F80_0000u32.to_le_bytes()); // 1.0
-    }
+    encode_ktx2_stored(&StoredLevels::float(tex, half)?, extra, None)
+}
+
+/// Encodes stored levels as KTX2 with `extra` key/value pairs, each level Zstandard-compressed
+/// at `zstd`'s level when given.
+pub fn encode_ktx2_stored(
+    t: &StoredLevels,
+    extra: &[(&str, &str)],
+    zstd: Option<i32>,
+) -> Result<Vec<u8>> {
+    let (w, h) = t.size;
+    let faces = if t.cube { 6 } else { 1 };
+    let dfd = t.stored.dfd();
     // Key/value data, sorted by key.
     let writer = format!("spheremap {}", env!("CARGO_PKG_VERSION"));
     let mut kv: Vec<(&str, &str)> = vec![("KTXorientation", "rd"), ("KTXwriter", &writer)];
@@ -215,26 +368,46 @@ pub fn encode_ktx2(tex: &Texture, half: bool, extra: &[(&str, &str)]) -> Result<
         kvd.push(0);
         kvd.resize(kvd.len().next_multiple_of(4), 0);
     }
-    let n = tex.levels.len();
+    let n = t.surfaces.len();
     let header = 12 + 9 * 4 + 4 * 4 + 2 * 8 + 3 * 8 * n;
     let dfd_at = header;
     let kvd_at = dfd_at + dfd.len();
     let data_at = kvd_at + kvd.len();
-    let align = (4 * tb).max(4);
-    // Levels smallest first.
-    let mut index = vec![(0usize, 0usize); n];
+    // Supercompressed levels are not padded.
+    let align = if zstd.is_some() { 1 } else { t.stored.align() };
+    // Levels smallest first: (offset, stored length, uncompressed length).
+    let mut index = vec![(0usize, 0usize, 0usize); n];
     let mut body = Vec::new();
     for i in (0..n).rev() {
         let pad = (data_at + body.len()).next_multiple_of(align) - (data_at + body.len());
         body.resize(body.len() + pad, 0);
         let start = data_at + body.len();
-        put_texels(&mut body, &tex.levels[i], texel);
-        index[i] = (start, data_at + body.len() - start);
+        let raw: Vec<u8> = t.surfaces[i].concat();
+        match zstd {
+            Some(level) => {
+                let z = zstd::bulk::compress(&raw, level).map_err(|e| {
+                    Error::param("zstd", format!("Zstandard compression failed: {e}"))
+                })?;
+                body.extend(&z);
+            }
+            None => body.extend(&raw),
+        }
+        index[i] = (start, data_at + body.len() - start, raw.len());
     }
-    let mut out = Vec::with_capacity(kvd_at + kvd.len() + body.len());
+    let mut out = Vec::with_capacity(data_at + body.len());
     out.extend(KTX2_MAGIC);
-    let vk = if half { 97u32 } else { 109 };
-    for v in [vk, tb as u32, w as u32, h as u32, 0, 0, faces, n as u32, 0] {
+    let scheme = if zstd.is_some() { 2 } else { 0 };
+    for v in [
+        t.stored.vk_format(),
+        t.stored.type_size(),
+        w as u32,
+        h as u32,
+        0,
+        0,
+        faces,
+        n as u32,
+        scheme,
+    ] {
         out.extend(v.to_le_bytes());
     }
     for v in [dfd_at, dfd.len(), kvd_at, kvd.len()] {
@@ -242,10 +415,10 @@ pub fn encode_ktx2(tex: &Texture, half: bool, extra: &[(&str, &str)]) -> Result<
     }
     out.extend(0u64.to_le_bytes());
     out.extend(0u64.to_le_bytes());
-    for (at, len) in &index {
+    for (at, len, raw) in &index {
         out.extend((*at as u64).to_le_bytes());
         out.extend((*len as u64).to_le_bytes());
-        out.extend((*len as u64).to_le_bytes());
+        out.extend((*raw as u64).to_le_bytes());
     }
     debug_assert_eq!(out.len(), dfd_at);
     out.extend(dfd);
@@ -256,18 +429,25 @@ pub fn encode_ktx2(tex: &Texture, half: bool, extra: &[(&str, &str)]) -> Result<
 
 /// Encodes `tex` as DDS with the DX10 header (`half`: 16-bit floats).
 pub fn encode_dds(tex: &Texture, half: bool) -> Result<Vec<u8>> {
-    tex.check("texture")?;
-    let texel = if half { Texel::F16 } else { Texel::F32 };
-    let (w, h) = tex.size();
-    let n = tex.levels.len() as u32;
+    Ok(encode_dds_stored(&StoredLevels::float(tex, half)?))
+}
+
+/// Encodes stored levels as DDS with the DX10 header.
+pub fn encode_dds_stored(t: &StoredLevels) -> Vec<u8> {
+    let (w, h) = t.size;
+    let n = t.surfaces.len() as u32;
     let mut out = Vec::new();
     out.extend(DDS_MAGIC);
-    let caps = 0x1000 | if n > 1 { 0x8 | 0x40_0000 } else { 0 } | if tex.cube { 0x8 } else { 0 };
-    let caps2: u32 = if tex.cube { 0x200 | 0xFC00 } else { 0 };
-    // CAPS | HEIGHT | WIDTH | PITCH | PIXELFORMAT | MIPMAPCOUNT
-    let flags = 0x1 | 0x2 | 0x4 | 0x8 | 0x1000 | 0x2_0000u32;
-    let pitch = (w * 4 * texel.bytes()) as u32;
-    for v in [124u32, flags, h as u32, w as u32, pitch, 0, n] {
+    let caps = 0x1000 | if n > 1 { 0x8 | 0x40_0000 } else { 0 } | if t.cube { 0x8 } else { 0 };
+    let caps2: u32 = if t.cube { 0x200 | 0xFC00 } else { 0 };
+    // CAPS | HEIGHT | WIDTH | PIXELFORMAT | MIPMAPCOUNT, and PITCH (uncompressed) or
+    // LINEARSIZE (block-compressed).
+    let (size_flag, pitch) = match t.stored {
+        Stored::Encoded(Encoding::Bc6h) => (0x8_0000, t.stored.surface_bytes(w, h)),
+        s => (0x8, s.surface_bytes(w, 1)),
+    };
+    let flags = 0x1 | 0x2 | 0x4 | size_flag | 0x1000 | 0x2_0000u32;
+    for v in [124u32, flags, h as u32, w as u32, pitch as u32, 0, n] {
         out.extend(v.to_le_bytes());
     }
     out.extend([0u8; 44]); // reserved
@@ -280,26 +460,17 @@ pub fn encode_dds(tex: &Texture, half: bool) -> Result<Vec<u8>> {
     for v in [caps as u32, caps2, 0, 0, 0] {
         out.extend(v.to_le_bytes());
     }
-    let dxgi = if half { 10u32 } else { 2 };
-    let misc = if tex.cube { 0x4 } else { 0 };
-    for v in [dxgi, 3, misc, 1, 0] {
+    let misc = if t.cube { 0x4 } else { 0 };
+    for v in [t.stored.dxgi_format(), 3, misc, 1, 0] {
         out.extend(v.to_le_bytes());
     }
-    let faces = if tex.cube { 6 } else { 1 };
+    let faces = if t.cube { 6 } else { 1 };
     for f in 0..faces {
-        for l in &tex.levels {
-            let lh = l.height / faces;
-            let face = Image {
-                width: l.width,
-                height: lh,
-                channels: l.channels,
-                data: l.data[f * l.width * lh * l.channels..(f + 1) * l.width * lh * l.channels]
-                    .to_vec(),
-            };
-            put_texels(&mut out, &face, texel);
+        for l in &t.surfaces {
+            out.extend(&l[f]);
         }
     }
-    Ok(out)
+    out
 }
 
 struct Reader<'a> {
@@ -341,13 +512,13 @@ impl Reader<'_> {
 }
 
 /// Texels `raw` (`channels` values of `texel` each) as an image `w`×`h`.
-fn texels(raw: &[u8], w: usize, h: usize, channels: usize, texel: Texel) -> Image {
-    let data = match texel {
-        Texel::F16 => raw
+fn texels(raw: &[u8], w: usize, h: usize, channels: usize, bytes: usize) -> Image {
+    let data = match bytes {
+        2 => raw
             .chunks_exact(2)
             .map(|b| exr::prelude::f16::from_le_bytes([b[0], b[1]]).to_f32())
             .collect(),
-        Texel::F32 => raw
+        _ => raw
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect(),
@@ -393,30 +564,33 @@ pub fn decode_ktx2(path: &Path, bytes: &[u8], limits: &Limits) -> Result<(Textur
     let f = |i: usize| r.u32(12 + 4 * i);
     let (vk, w, h, depth, layers, faces, levels, scheme) =
         (f(0)?, f(2)?, f(3)?, f(4)?, f(5)?, f(6)?, f(7)?, f(8)?);
-    let (channels, texel) = match vk {
-        76 => (1, Texel::F16),
-        90 => (3, Texel::F16),
-        97 => (4, Texel::F16),
-        100 => (1, Texel::F32),
-        106 => (3, Texel::F32),
-        109 => (4, Texel::F32),
+    let float = |bytes, channels| Stored::Float { bytes, channels };
+    let stored = match vk {
+        76 => float(2, 1),
+        90 => float(2, 3),
+        97 => float(2, 4),
+        100 => float(4, 1),
+        106 => float(4, 3),
+        109 => float(4, 4),
+        143 => Stored::Encoded(Encoding::Bc6h),
+        123 => Stored::Encoded(Encoding::Rgb9e5),
         0 => {
             return Err(r.bad(
                 "the format is VK_FORMAT_UNDEFINED (Basis Universal or another \
-                               encoded payload); spheremap reads uncompressed float textures",
+                               encoded payload); spheremap reads float, BC6H and RGB9E5 textures",
             ))
         }
         _ => {
             return Err(r.bad(format!(
-                "VkFormat {vk} is not an uncompressed float format; spheremap reads \
-                 R16/R16G16B16/R16G16B16A16/R32/R32G32B32/R32G32B32A32_SFLOAT"
+                "VkFormat {vk} is not a format spheremap reads (R16/R16G16B16/R16G16B16A16/\
+                 R32/R32G32B32/R32G32B32A32_SFLOAT, BC6H_UFLOAT_BLOCK, E5B9G9R9_UFLOAT_PACK32)"
             )))
         }
     };
-    if scheme != 0 {
+    if scheme != 0 && scheme != 2 {
         return Err(r.bad(format!(
-            "supercompression scheme {scheme} (zstd, zlib or BasisLZ) is not read; \
-             write the file without supercompression"
+            "supercompression scheme {scheme} (BasisLZ or zlib) is not read; spheremap \
+             reads uncompressed and Zstandard-supercompressed levels"
         )));
     }
     if depth > 1 {
@@ -469,13 +643,45 @@ pub fn decode_ktx2(path: &Path, bytes: &[u8], limits: &Limits) -> Result<(Textur
         let (lw, lh) = Texture::level_size(w, h, i);
         let at = r.u64(80 + 24 * i)?;
         let len = r.u64(80 + 24 * i + 8)?;
-        let want = (lw * lh * nf * channels * texel.bytes()) as u64;
-        if len != want {
+        let want = (stored.surface_bytes(lw, lh) * nf) as u64;
+        let raw_len = r.u64(80 + 24 * i + 16)?;
+        let stored_bytes = r.slice(at, len)?;
+        let inflated;
+        let raw = if scheme == 2 {
+            if raw_len != want {
+                return Err(r.bad(format!(
+                    "level {i} inflates to {raw_len} bytes; a {lw}x{lh} level of {nf} \
+                     face(s) holds {want}"
+                )));
+            }
+            inflated = zstd::bulk::decompress(stored_bytes, want as usize)
+                .map_err(|e| r.bad(format!("level {i}'s Zstandard data: {e}")))?;
+            if inflated.len() as u64 != want {
+                return Err(r.bad(format!(
+                    "level {i} inflates to {} bytes, not {want}",
+                    inflated.len()
+                )));
+            }
+            &inflated[..]
+        } else {
+            if len != want {
+                return Err(r.bad(format!(
+                    "level {i} holds {len} bytes; a {lw}x{lh} level of {nf} face(s) holds {want}"
+                )));
+            }
+            stored_bytes
+        };
+        let face_bytes = stored.surface_bytes(lw, lh);
+        let faces: Vec<Image> = (0..nf)
+            .map(|f| stored.decode(&raw[f * face_bytes..(f + 1) * face_bytes], lw, lh))
+            .collect();
+        let mut img = stack(faces);
+        if (flip_x || flip_y) && matches!(stored, Stored::Encoded(Encoding::Bc6h)) {
             return Err(r.bad(format!(
-                "level {i} holds {len} bytes; a {lw}x{lh} level of {nf} face(s) holds {want}"
+                "KTXorientation {:?} on BC6H blocks is not read (write rows top first, \"rd\")",
+                String::from_utf8_lossy(&orientation)
             )));
         }
-        let mut img = texels(r.slice(at, len)?, lw, lh * nf, channels, texel);
         if flip_x || flip_y {
             for f in 0..nf {
                 flip(&mut img, f * lh, lh, flip_x, flip_y);
@@ -484,6 +690,20 @@ pub fn decode_ktx2(path: &Path, bytes: &[u8], limits: &Limits) -> Result<(Textur
         out.push(img);
     }
     Ok((Texture { cube, levels: out }, kv))
+}
+
+/// Surfaces of one size stacked top to bottom.
+fn stack(faces: Vec<Image>) -> Image {
+    if faces.len() == 1 {
+        return faces.into_iter().next().expect("one");
+    }
+    let (w, h, c) = (faces[0].width, faces[0].height, faces[0].channels);
+    Image {
+        width: w,
+        height: h * faces.len(),
+        channels: c,
+        data: faces.into_iter().flat_map(|f| f.data).collect(),
+    }
 }
 
 /// Mirrors rows `y0..y0+h` of `img` in x and/or y.
@@ -518,7 +738,8 @@ pub fn decode_dds(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Texture>
     let caps2 = r.u32(112)?;
     let mut at = 128usize;
     let dx10 = pf_flags & 0x4 != 0 && &bytes[84..88] == b"DX10";
-    let (channels, texel, cube) = if dx10 {
+    let float = |bytes, channels| Stored::Float { bytes, channels };
+    let (stored, cube) = if dx10 {
         let (dxgi, dim, misc, array) = (r.u32(128)?, r.u32(132)?, r.u32(136)?, r.u32(140)?);
         at += 20;
         if dim != 3 {
@@ -529,26 +750,29 @@ pub fn decode_dds(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Texture>
         if array > 1 {
             return Err(r.bad(format!("texture arrays ({array} elements) are not read")));
         }
-        let (c, t) = match dxgi {
-            2 => (4, Texel::F32),
-            6 => (3, Texel::F32),
-            10 => (4, Texel::F16),
-            41 => (1, Texel::F32),
-            54 => (1, Texel::F16),
+        let s = match dxgi {
+            2 => float(4, 4),
+            6 => float(4, 3),
+            10 => float(2, 4),
+            41 => float(4, 1),
+            54 => float(2, 1),
+            95 => Stored::Encoded(Encoding::Bc6h),
+            67 => Stored::Encoded(Encoding::Rgb9e5),
             _ => {
                 return Err(r.bad(format!(
-                    "DXGI format {dxgi} is not an uncompressed float format; spheremap reads \
-                     R16G16B16A16_FLOAT, R32G32B32A32_FLOAT, R32G32B32_FLOAT, R32_FLOAT, R16_FLOAT"
+                    "DXGI format {dxgi} is not a format spheremap reads (R16G16B16A16_FLOAT, \
+                     R32G32B32A32_FLOAT, R32G32B32_FLOAT, R32_FLOAT, R16_FLOAT, BC6H_UF16, \
+                     R9G9B9E5_SHAREDEXP)"
                 )))
             }
         };
-        (c, t, misc & 0x4 != 0)
+        (s, misc & 0x4 != 0)
     } else {
-        let (c, t) = match (pf_flags & 0x4 != 0, fourcc) {
-            (true, 111) => (1, Texel::F16),
-            (true, 113) => (4, Texel::F16),
-            (true, 114) => (1, Texel::F32),
-            (true, 116) => (4, Texel::F32),
+        let s = match (pf_flags & 0x4 != 0, fourcc) {
+            (true, 111) => float(2, 1),
+            (true, 113) => float(2, 4),
+            (true, 114) => float(4, 1),
+            (true, 116) => float(4, 4),
             _ => {
                 return Err(r.bad(
                     "not a float texture (spheremap reads DDS with a DX10 header of a float \
@@ -560,7 +784,7 @@ pub fn decode_dds(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Texture>
         if cube && caps2 & 0xFC00 != 0xFC00 {
             return Err(r.bad("a cube map without all six faces"));
         }
-        (c, t, cube)
+        (s, cube)
     };
     if depth > 1 && caps2 & 0x20_0000 != 0 {
         return Err(r.bad("volume textures are not read"));
@@ -573,24 +797,20 @@ pub fn decode_dds(path: &Path, bytes: &[u8], limits: &Limits) -> Result<Texture>
         return Err(r.bad(format!("{mips} mip levels for a {w}x{h} texture")));
     }
     let nf = if cube { 6 } else { 1 };
-    let mut levels: Vec<Image> = (0..mips)
-        .map(|i| {
-            let (lw, lh) = Texture::level_size(w, h, i);
-            Image::new(lw, lh * nf, channels)
-        })
-        .collect();
+    let mut faces: Vec<Vec<Image>> = vec![Vec::with_capacity(nf); mips];
     let mut pos = at as u64;
-    for f in 0..nf {
-        for (i, l) in levels.iter_mut().enumerate() {
+    for _ in 0..nf {
+        for (i, l) in faces.iter_mut().enumerate() {
             let (lw, lh) = Texture::level_size(w, h, i);
-            let len = (lw * lh * channels * texel.bytes()) as u64;
-            let face = texels(r.slice(pos, len)?, lw, lh, channels, texel);
+            let len = stored.surface_bytes(lw, lh) as u64;
+            l.push(stored.decode(r.slice(pos, len)?, lw, lh));
             pos += len;
-            let n = face.data.len();
-            l.data[f * n..(f + 1) * n].copy_from_slice(&face.data);
         }
     }
-    Ok(Texture { cube, levels })
+    Ok(Texture {
+        cube,
+        levels: faces.into_iter().map(stack).collect(),
+    })
 }
 
 /// The value of key `key` in a KTX2 file's key/value data (without its NUL), read from the
@@ -734,11 +954,11 @@ mod tests {
         assert!(err(&k[..k.len() - 3]).contains("truncated"));
         assert!(err(&k[..20]).contains("truncated"));
         let mut z = k.clone();
-        z[44..48].copy_from_slice(&2u32.to_le_bytes());
+        z[44..48].copy_from_slice(&1u32.to_le_bytes());
         assert!(err(&z).contains("supercompression"), "{}", err(&z));
         let mut bc = k.clone();
-        bc[12..16].copy_from_slice(&143u32.to_le_bytes());
-        assert!(err(&bc).contains("VkFormat 143"));
+        bc[12..16].copy_from_slice(&145u32.to_le_bytes()); // BC7
+        assert!(err(&bc).contains("VkFormat 145"));
         let mut huge = k.clone();
         huge[20..24].copy_from_slice(&(1u32 << 20).to_le_bytes());
         huge[24..28].copy_from_slice(&(1u32 << 20).to_le_bytes());

@@ -4,6 +4,7 @@
 //! This module holds the type every image layer shares; it imports nothing from its children.
 
 pub mod codec;
+pub mod compress;
 pub mod container;
 pub mod cube_layout;
 pub mod draw;

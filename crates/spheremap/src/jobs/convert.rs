@@ -26,6 +26,7 @@
 use crate::base::error::{check_map_size, default_max_memory, Error, Result};
 use crate::frame::view::{self, Mat3};
 use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
+use crate::images::compress::Encoding;
 use crate::images::cube_layout::Layout;
 use crate::images::envmap::{
     check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, read_note,
@@ -105,6 +106,10 @@ pub struct ConvertJob {
     /// EXR output as half floats; `clamp_half` clamps values beyond 65504 instead of refusing.
     pub half: bool,
     pub clamp_half: bool,
+    /// KTX2/DDS texel encoding: float, bc6h or rgb9e5 ([`crate::images::compress`]).
+    pub encode: Encoding,
+    /// KTX2 Zstandard supercompression level (1–22).
+    pub zstd: Option<i32>,
     /// Allow an output to overwrite an input.
     pub force: bool,
 }
@@ -140,6 +145,8 @@ impl Default for ConvertJob {
             png16: false,
             half: false,
             clamp_half: false,
+            encode: Encoding::Float,
+            zstd: None,
             force: false,
         }
     }
@@ -177,6 +184,11 @@ pub struct ConvertReport {
     /// The light the output holds against the source's: power per channel and the SH9
     /// irradiance (before the output format's clipping or half rounding).
     pub light: LightCheck,
+    /// The KTX2/DDS texel encoding.
+    pub encode: Encoding,
+    /// With an encoding other than float: the light of the file as written, read back and
+    /// decoded, against the source's.
+    pub encoded_light: Option<LightCheck>,
     pub seconds: f64,
     /// Values the output format clipped, and values beyond the half range (clamped with
     /// `clamp_half`).
@@ -324,6 +336,8 @@ impl ConvertJob {
             png16: self.png16,
             half: self.half,
             clamp_half: self.clamp_half,
+            encode: self.encode,
+            zstd: self.zstd,
         }
     }
 
@@ -416,12 +430,26 @@ impl ConvertJob {
         let n = self.size_for(&r, r.src.size_of(img.width, img.height, input.first())?)?;
         let (w, h) = r.dst.canvas(n);
         let (out, report) = resample(&env, r.dst, w, h, &r.options, progress)?;
+        let source = Moments::of(&env, &IDENTITY);
         let light = LightCheck::compare(
-            &Moments::of(&env, &IDENTITY),
+            &source,
             &Moments::of(&EnvMap::new(r.dst, &out, "output")?, &r.rotation),
         );
         let wopts = self.write_options();
         let written = write_env_files(&output, r.dst, &out, layout, &r.out_view, &wopts)?;
+        // Encoded texels: the light of the file as written, decoded.
+        let encoded_light = match (wopts.encode, written.as_slice()) {
+            (Encoding::Float, _) => None,
+            (_, [one]) => {
+                let tex = crate::images::codec::read_texture(Path::new(one), &ropts)?;
+                let level0 = &tex.levels[0];
+                Some(LightCheck::compare(
+                    &source,
+                    &Moments::of(&EnvMap::new(r.dst, level0, one)?, &r.rotation),
+                ))
+            }
+            _ => None,
+        };
         let losses = Format::from_extension(Path::new(&written[0]))
             .map(|f| Losses::of(&out, f, &wopts))
             .unwrap_or_default();
@@ -448,6 +476,8 @@ impl ConvertJob {
             copied: report.copied,
             peak_texels: report.peak_texels,
             light,
+            encode: wopts.encode,
+            encoded_light,
             seconds: t0.elapsed().as_secs_f64(),
             clipped: losses.clipped,
             clamped_half: losses.beyond_half,

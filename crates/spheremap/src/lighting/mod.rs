@@ -475,6 +475,10 @@ pub struct PrefilterReport {
     pub roughness_map: &'static str,
     pub samples: u32,
     pub levels: Vec<prefilter::LevelReport>,
+    /// The KTX2/DDS texel encoding, and with one other than float, what it did to each
+    /// level's light ([`crate::images::compress`]).
+    pub encode: crate::images::compress::Encoding,
+    pub compression: Option<Vec<crate::images::compress::LevelCompression>>,
     pub seconds: f64,
 }
 
@@ -681,7 +685,10 @@ impl PrefilterRequest {
             !output.contains(LEVEL_TOKEN) && crate::images::format::Format::names_container(output);
         // Nothing is written unless every level can be: a value beyond half's range is found
         // before the first file.
-        if write.half && !write.clamp_half {
+        if write.half
+            && !write.clamp_half
+            && write.encode == crate::images::compress::Encoding::Float
+        {
             for (img, _) in &made {
                 let l = crate::images::codec::Losses::of(
                     img,
@@ -696,6 +703,7 @@ impl PrefilterRequest {
                 }
             }
         }
+        let mut compression = None;
         let written = if one_texture {
             // One texture with every level.
             let tag = MapNote {
@@ -708,7 +716,7 @@ impl PrefilterRequest {
                 cube,
                 levels: made.iter().map(|(i, _)| i.clone()).collect(),
             };
-            crate::images::codec::write_texture(
+            compression = crate::images::codec::write_texture(
                 std::path::Path::new(&names[0]),
                 &tex,
                 write,
@@ -734,6 +742,8 @@ impl PrefilterRequest {
                 roughness_map: p.map.name(),
                 samples: p.samples,
                 levels: made.into_iter().map(|(_, l)| l).collect(),
+                encode: write.encode,
+                compression,
                 seconds: t0.elapsed().as_secs_f64(),
             },
             r.notice,

@@ -1,0 +1,825 @@
+//! Encoded texels that keep the light: BC6H blocks and RGB9E5 packed texels for KTX2 and DDS,
+//! with spheremap's own lighting check and repair on top of the encoder.
+//!
+//! ## Encodings
+//!
+//! | name | stores | KTX2 `vkFormat` | DDS `DXGI_FORMAT` | range |
+//! |---|---|---|---|---|
+//! | `float` | RGBA half or float per texel | 97 / 109 | 10 / 2 | ±65,504 (half) / f32 |
+//! | `bc6h` | 4×4 blocks of 16 bytes, unsigned half RGB | 143 `BC6H_UFLOAT_BLOCK` | 95 `BC6H_UF16` | 0 … 65,504 |
+//! | `rgb9e5` | 32 bits per texel, shared exponent | 123 `E5B9G9R9_UFLOAT_PACK32` | 67 `R9G9B9E5_SHAREDEXP` | 0 … 65,408 |
+//!
+//! Both hold RGB (no alpha: a grey map is written to R, G and B, an alpha channel is dropped
+//! with a warning unless it is 1 everywhere) and no negative values.  A texel beyond the range
+//! is clamped to it and a negative one to 0, with a warning that states the power each
+//! channel loses; NaN and Inf are refused.
+//!
+//! ## Keeping the light
+//!
+//! An encoder minimises a per-texel error; nothing makes it keep a block's radiant power, and
+//! on maps with small bright sources the encoders people use lose percents of it.  So the
+//! blocks are checked after encoding, and repaired where they leak:
+//!
+//! 1. Every face of every level is cut into blocks (edge texels repeated to fill the blocks
+//!    at the right and bottom edges) and encoded (BC6H: Intel's ISPC encoder, `basic`
+//!    preset, through the `intel_tex_2` crate).
+//! 2. Each block is decoded (`bcdec_rs`) and its power per channel, Σ L·Ω over its texels with
+//!    the level's exact texel solid angles Ω (a cube face's, or the 2D map's mapping's from
+//!    its note; equal weights when the mapping is not known), compared with the source's.
+//! 3. A block whose power differs by more than [`BLOCK_TOLERANCE`] in a channel that carries
+//!    light is encoded again from its texels scaled, per channel, by the ratio of the source's
+//!    power to the decoded power (the ratio within [½, 2]); the new block is kept when its
+//!    power is closer.  This repeats up to [`REPAIR_ROUNDS`] times.
+//!
+//! Each block thus holds its own light, so the level's power and its low-order moments (SH9)
+//! hold with it.  [`LevelCompression`] reports, per level, the power error before and after
+//! the repair, the blocks repaired and the RMSLE.
+
+use super::Image;
+use crate::base::error::{Error, Result};
+use crate::mappings::mapping::Mapping;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// How a texture's texels are encoded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Encoding {
+    /// Half or 32-bit floats, uncompressed.
+    #[default]
+    Float,
+    /// BC6H, unsigned (`BC6H_UF16` / `BC6H_UFLOAT_BLOCK`).
+    Bc6h,
+    /// RGB9E5, shared exponent (`R9G9B9E5_SHAREDEXP` / `E5B9G9R9_UFLOAT_PACK32`).
+    Rgb9e5,
+}
+
+/// The encodings' names, as `--encode` and Python's `encode=` take them.
+pub const ENCODING_NAMES: [&str; 3] = ["float", "bc6h", "rgb9e5"];
+
+/// A block whose power differs from its source's by more than this (relative, per channel) is
+/// encoded again.
+pub const BLOCK_TOLERANCE: f64 = 1e-3;
+/// The most times a block is encoded again.
+pub const REPAIR_ROUNDS: usize = 6;
+/// The largest value BC6H's unsigned half holds.
+pub const BC6H_MAX: f32 = 65504.0;
+/// The largest value RGB9E5 holds: (2⁹ − 1)/2⁹ × 2¹⁶.
+pub const RGB9E5_MAX: f32 = 65408.0;
+
+impl Encoding {
+    pub const ALL: [Encoding; 3] = [Encoding::Float, Encoding::Bc6h, Encoding::Rgb9e5];
+
+    pub fn name(self) -> &'static str {
+        ENCODING_NAMES[Encoding::ALL
+            .iter()
+            .position(|e| *e == self)
+            .expect("listed")]
+    }
+
+    /// The encoding named `name`; errors name `what`.
+    pub fn parse(what: &str, name: &str) -> Result<Encoding> {
+        ENCODING_NAMES
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| Encoding::ALL[i])
+            .ok_or_else(|| {
+                Error::param(
+                    what,
+                    format!(
+                        "unknown encoding {name:?}; the encodings are {}",
+                        ENCODING_NAMES.join(", ")
+                    ),
+                )
+            })
+    }
+
+    /// The largest value the encoding holds (`None`: float, whose range the half/float
+    /// choice sets).
+    pub fn range(self) -> Option<f32> {
+        match self {
+            Encoding::Float => None,
+            Encoding::Bc6h => Some(BC6H_MAX),
+            Encoding::Rgb9e5 => Some(RGB9E5_MAX),
+        }
+    }
+}
+
+impl Serialize for Encoding {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Encoding {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        Encoding::parse("encode", &name).map_err(serde::de::Error::custom)
+    }
+}
+
+/// What encoding one level (all its faces) did to its light.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LevelCompression {
+    /// The level's blocks (BC6H) or texels (RGB9E5), all faces.
+    pub blocks: usize,
+    /// Blocks encoded again to keep their light.
+    pub repaired: usize,
+    /// The decoded level's power per channel (R, G, B) relative to the level written
+    /// (after any range clamp): decoded / source − 1.
+    pub power_error: [f64; 3],
+    /// The same for the encoder's blocks before the repair.
+    pub power_error_unrepaired: [f64; 3],
+    /// √mean (ln(1 + x̂) − ln(1 + x))² over the level's texels and channels.
+    pub rmsle: f64,
+    /// The same for the encoder's blocks before the repair.
+    pub rmsle_unrepaired: f64,
+    /// Values clamped to the encoding's range (above it, or negative).
+    pub clamped: u64,
+    /// The power per channel the clamp removed, relative to the level's (≤ 0 for values
+    /// above the range).
+    pub range_loss: [f64; 3],
+}
+
+/// A compressed texture: per level, per face, the encoded bytes; and per level what encoding
+/// did.
+#[derive(Clone, Debug)]
+pub struct Compressed {
+    pub encoding: Encoding,
+    pub surfaces: Vec<Vec<Vec<u8>>>,
+    pub report: Vec<LevelCompression>,
+}
+
+/// Texels per block side.
+fn block_side(e: Encoding) -> usize {
+    match e {
+        Encoding::Bc6h => 4,
+        _ => 1,
+    }
+}
+
+/// Bytes a `w`×`h` surface takes in encoding `e` (`None` for float).
+pub fn surface_bytes(e: Encoding, w: usize, h: usize) -> Option<usize> {
+    match e {
+        Encoding::Float => None,
+        Encoding::Bc6h => Some(w.div_ceil(4) * h.div_ceil(4) * 16),
+        Encoding::Rgb9e5 => Some(w * h * 4),
+    }
+}
+
+/// The solid angle of each texel of a `w`×`h` surface (a cube face when `face`), in rows;
+/// equal weights when the mapping is not known.
+pub fn texel_weights(mapping: Option<Mapping>, face: bool, w: usize, h: usize) -> Vec<f64> {
+    let mut out = vec![0.0; w * h];
+    out.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                *o = match mapping {
+                    _ if face => crate::mappings::cube::texel_solid_angle(x, y, w),
+                    Some(m) => m.texel_solid_angle(x, y, w, h),
+                    None => 1.0,
+                };
+            }
+        });
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
+// RGB9E5 (EXT_texture_shared_exponent's encoding, rounding to nearest).
+
+/// Packs an RGB texel (each in [0, 65408]) into RGB9E5.
+pub fn rgb9e5_pack(rgb: [f32; 3]) -> u32 {
+    const N: i32 = 9;
+    const B: i32 = 15;
+    let c = rgb.map(|v| {
+        if v > 0.0 {
+            (v as f64).min(RGB9E5_MAX as f64)
+        } else {
+            0.0
+        }
+    });
+    let maxc = c[0].max(c[1]).max(c[2]);
+    if maxc <= 0.0 {
+        return 0;
+    }
+    let mut e = (maxc.log2().floor() as i32).max(-B - 1) + 1 + B;
+    let scale = |e: i32| (2f64).powi(e - B - N);
+    let maxs = (maxc / scale(e) + 0.5).floor();
+    if maxs >= (1 << N) as f64 {
+        e += 1;
+    }
+    let m = c.map(|v| ((v / scale(e) + 0.5).floor() as u32).min(511));
+    m[0] | (m[1] << 9) | (m[2] << 18) | ((e as u32) << 27)
+}
+
+/// Unpacks an RGB9E5 texel.
+pub fn rgb9e5_unpack(p: u32) -> [f32; 3] {
+    let e = (p >> 27) as i32;
+    let s = (2f64).powi(e - 15 - 9);
+    [p & 511, (p >> 9) & 511, (p >> 18) & 511].map(|m| (m as f64 * s) as f32)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Block codecs.
+
+/// A block's texels (row by row) as RGB.
+type Texels = Vec<[f32; 3]>;
+
+/// Encodes blocks of `side`×`side` texels (each `side²` RGB values, rows first) into `bytes`
+/// per block, and decodes one.
+trait Codec: Sync {
+    fn side(&self) -> usize;
+    fn bytes(&self) -> usize;
+    fn encode(&self, blocks: &[Texels]) -> Vec<u8>;
+    fn decode(&self, block: &[u8]) -> Texels;
+}
+
+struct Bc6h;
+
+impl Codec for Bc6h {
+    fn side(&self) -> usize {
+        4
+    }
+    fn bytes(&self) -> usize {
+        16
+    }
+    fn encode(&self, blocks: &[Texels]) -> Vec<u8> {
+        bc6h_encode(blocks, &intel_tex_2::bc6h::basic_settings())
+    }
+    fn decode(&self, block: &[u8]) -> Texels {
+        bc6h_decode_block(block)
+    }
+}
+
+/// Encodes 4×4 blocks with ISPC's BC6H encoder.
+fn bc6h_encode(blocks: &[Texels], settings: &intel_tex_2::bc6h::EncodeSettings) -> Vec<u8> {
+    // Blocks side by side in a strip 4 texels high, in chunks encoded in parallel.
+    const CHUNK: usize = 64;
+    blocks
+        .par_chunks(CHUNK)
+        .flat_map_iter(|chunk| {
+            let n = chunk.len();
+            let stride = 4 * n * 8;
+            let mut data = vec![0u8; stride * 4];
+            for (b, t) in chunk.iter().enumerate() {
+                for (i, p) in t.iter().enumerate() {
+                    let (x, y) = (4 * b + i % 4, i / 4);
+                    let at = y * stride + x * 8;
+                    for (k, v) in [p[0], p[1], p[2], 1.0].into_iter().enumerate() {
+                        data[at + 2 * k..at + 2 * k + 2]
+                            .copy_from_slice(&exr::prelude::f16::from_f32(v).to_le_bytes());
+                    }
+                }
+            }
+            let surface = intel_tex_2::RgbaSurface {
+                data: &data,
+                width: 4 * n as u32,
+                height: 4,
+                stride: stride as u32,
+            };
+            intel_tex_2::bc6h::compress_blocks(settings, &surface)
+        })
+        .collect()
+}
+
+/// Decodes one BC6H (unsigned) block into its 16 texels, rows first.
+pub fn bc6h_decode_block(block: &[u8]) -> Vec<[f32; 3]> {
+    let mut half = [0u16; 48];
+    bcdec_rs::bc6h_half(block, &mut half, 12, false);
+    half.chunks_exact(3)
+        .map(|p| [0, 1, 2].map(|k| exr::prelude::f16::from_bits(p[k]).to_f32()))
+        .collect()
+}
+
+struct Rgb9e5;
+
+impl Codec for Rgb9e5 {
+    fn side(&self) -> usize {
+        1
+    }
+    fn bytes(&self) -> usize {
+        4
+    }
+    fn encode(&self, blocks: &[Texels]) -> Vec<u8> {
+        blocks
+            .iter()
+            .flat_map(|t| rgb9e5_pack(t[0]).to_le_bytes())
+            .collect()
+    }
+    fn decode(&self, block: &[u8]) -> Texels {
+        vec![rgb9e5_unpack(u32::from_le_bytes(
+            block[..4].try_into().expect("4 bytes"),
+        ))]
+    }
+}
+
+fn codec(e: Encoding) -> &'static dyn Codec {
+    match e {
+        Encoding::Bc6h => &Bc6h,
+        Encoding::Rgb9e5 => &Rgb9e5,
+        Encoding::Float => unreachable!("float texels are not block-encoded"),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Surfaces.
+
+/// One face of one level as RGB texels, clamped to the encoding's range.
+struct Surface {
+    w: usize,
+    h: usize,
+    rgb: Vec<[f32; 3]>,
+    omega: Vec<f64>,
+}
+
+/// Per channel power sums, f64.
+fn power(rgb: &[[f32; 3]], omega: &[f64]) -> [f64; 3] {
+    let mut p = [0.0; 3];
+    for (t, w) in rgb.iter().zip(omega) {
+        for k in 0..3 {
+            p[k] += t[k] as f64 * w;
+        }
+    }
+    p
+}
+
+/// The relative error of `got` against `want` in the channels that carry light (more than
+/// `floor`); 0 where none does.
+fn block_error(got: &[f64; 3], want: &[f64; 3], floor: &[f64; 3]) -> f64 {
+    (0..3)
+        .filter(|&k| want[k] > floor[k])
+        .map(|k| (got[k] / want[k] - 1.0).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The blocks of a surface (edge texels repeated past its right and bottom edges), with their
+/// texels' weights (0 for the repeated ones).
+fn blocks_of(s: &Surface, side: usize) -> (Vec<Texels>, Vec<Vec<f64>>) {
+    let (bx, by) = (s.w.div_ceil(side), s.h.div_ceil(side));
+    let mut blocks = Vec::with_capacity(bx * by);
+    let mut weights = Vec::with_capacity(bx * by);
+    for j in 0..by {
+        for i in 0..bx {
+            let mut t = Vec::with_capacity(side * side);
+            let mut w = Vec::with_capacity(side * side);
+            for y in 0..side {
+                for x in 0..side {
+                    let (px, py) = (i * side + x, j * side + y);
+                    let inside = px < s.w && py < s.h;
+                    let at = py.min(s.h - 1) * s.w + px.min(s.w - 1);
+                    t.push(s.rgb[at]);
+                    w.push(if inside { s.omega[at] } else { 0.0 });
+                }
+            }
+            blocks.push(t);
+            weights.push(w);
+        }
+    }
+    (blocks, weights)
+}
+
+/// What encoding one surface gave.
+struct SurfaceOut {
+    bytes: Vec<u8>,
+    blocks: usize,
+    repaired: usize,
+    source: [f64; 3],
+    unrepaired: [f64; 3],
+    decoded: [f64; 3],
+    log_sq: f64,
+    log_sq_unrepaired: f64,
+    values: usize,
+}
+
+/// The blocks of one surface while they are repaired.
+struct Repair<'a> {
+    c: &'a dyn Codec,
+    range: f32,
+    floor: [f64; 3],
+    /// Source texels and their weights, per block.
+    blocks: Vec<Texels>,
+    weights: Vec<Vec<f64>>,
+    /// The power each block should hold (its source's, plus what leaky neighbours carried
+    /// over).
+    target: Vec<[f64; 3]>,
+    /// The best block so far: bytes, decoded texels, power, input.
+    bytes: Vec<u8>,
+    decoded: Vec<Texels>,
+    got: Vec<[f64; 3]>,
+    best_in: Vec<Texels>,
+    /// The last block-gain try: input and power.
+    trial_in: Vec<Texels>,
+    trial_got: Vec<[f64; 3]>,
+    repaired: Vec<bool>,
+}
+
+impl Repair<'_> {
+    fn error(&self, b: usize, p: &[f64; 3]) -> f64 {
+        block_error(p, &self.target[b], &self.floor)
+    }
+
+    fn decode_all(&self, bytes: &[u8]) -> Vec<Texels> {
+        bytes
+            .par_chunks(self.c.bytes())
+            .map(|b| self.c.decode(b))
+            .collect()
+    }
+
+    fn scaled(&self, t: &Texels, f: &dyn Fn(usize, usize) -> f64) -> Texels {
+        t.iter()
+            .enumerate()
+            .map(|(i, p)| std::array::from_fn(|k| ((p[k] as f64 * f(i, k)) as f32).min(self.range)))
+            .collect()
+    }
+
+    /// Encodes the blocks that miss their target again, up to [`REPAIR_ROUNDS`] times.
+    fn rounds(&mut self) {
+        let nb = self.c.bytes();
+        for _ in 0..REPAIR_ROUNDS {
+            let bad: Vec<usize> = (0..self.blocks.len())
+                .filter(|&b| self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
+                .collect();
+            if bad.is_empty() {
+                break;
+            }
+            // Two tries per block: (1) the last try's texels scaled per channel by the power
+            // ratio; (2) the best block's texels each scaled by source / decoded (an encoder
+            // that bleeds one texel's colour into its neighbours is fed the opposite), then
+            // by the power ratio of the best block.
+            let mut inputs: Vec<Texels> = Vec::with_capacity(2 * bad.len());
+            for &b in &bad {
+                let gain = |got: &[f64; 3], k: usize| {
+                    let want = self.target[b][k];
+                    if want <= self.floor[k] {
+                        1.0
+                    } else if got[k] <= 0.0 {
+                        2.0
+                    } else {
+                        (want / got[k]).clamp(0.5, 2.0)
+                    }
+                };
+                inputs.push(self.scaled(&self.trial_in[b], &|_, k| gain(&self.trial_got[b], k)));
+                inputs.push(self.scaled(&self.best_in[b], &|i, k| {
+                    let (src, dec) = (self.blocks[b][i][k] as f64, self.decoded[b][i][k] as f64);
+                    let t = if dec > 0.0 && src > 0.0 {
+                        (src / dec).clamp(0.25, 4.0)
+                    } else {
+                        1.0
+                    };
+                    t * gain(&self.got[b], k)
+                }));
+            }
+            let enc = self.c.encode(&inputs);
+            let dec = self.decode_all(&enc);
+            for (i, &b) in bad.iter().enumerate() {
+                self.trial_got[b] = power(&dec[2 * i], &self.weights[b]);
+                self.trial_in[b] = inputs[2 * i].clone();
+                for j in [2 * i, 2 * i + 1] {
+                    let p = power(&dec[j], &self.weights[b]);
+                    if self.error(b, &p) < self.error(b, &self.got[b]) {
+                        self.got[b] = p;
+                        self.decoded[b] = dec[j].clone();
+                        self.best_in[b] = inputs[j].clone();
+                        self.bytes[b * nb..(b + 1) * nb]
+                            .copy_from_slice(&enc[j * nb..(j + 1) * nb]);
+                        self.repaired[b] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    /// What blocks still miss after their rounds is carried to their neighbours (within
+    /// `reach` blocks), shared in proportion to the neighbours' power in that channel and at
+    /// most [`CARRY_SHARE`] of it; returns whether anything was carried.
+    fn carry(&mut self, bx: usize, reach: usize) -> bool {
+        let n = self.blocks.len();
+        let by = n / bx;
+        let mut carried = false;
+        let mut order: Vec<usize> = (0..n)
+            .filter(|&b| self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
+            .collect();
+        order.sort_by(|&a, &b| {
+            let d = |b: usize| {
+                (0..3)
+                    .map(|k| (self.target[b][k] - self.got[b][k]).abs())
+                    .sum::<f64>()
+            };
+            d(b).total_cmp(&d(a)).then(a.cmp(&b))
+        });
+        for b in order {
+            let (i, j) = (b % bx, b / bx);
+            let near: Vec<usize> = (j.saturating_sub(reach)..(j + reach + 1).min(by))
+                .flat_map(|y| {
+                    (i.saturating_sub(reach)..(i + reach + 1).min(bx)).map(move |x| y * bx + x)
+                })
+                .filter(|&o| o != b)
+                .collect();
+            for k in 0..3 {
+                let miss = self.target[b][k] - self.got[b][k];
+                if self.target[b][k] <= self.floor[k]
+                    || miss.abs() <= BLOCK_TOLERANCE * self.target[b][k]
+                {
+                    continue;
+                }
+                let room: f64 = near.iter().map(|&o| self.target[o][k].max(0.0)).sum();
+                if room <= 0.0 {
+                    continue;
+                }
+                // What the neighbours can take; the block keeps the rest.
+                let moved = miss.clamp(-CARRY_SHARE * room, CARRY_SHARE * room);
+                for &o in &near {
+                    self.target[o][k] += moved * self.target[o][k].max(0.0) / room;
+                }
+                self.target[b][k] -= moved;
+                carried = true;
+            }
+        }
+        carried
+    }
+}
+
+/// The most a block's target power changes by what leaky neighbours carry over (relative).
+pub const CARRY_SHARE: f64 = 0.25;
+
+fn encode_surface(c: &dyn Codec, s: &Surface, floor: [f64; 3]) -> SurfaceOut {
+    let side = c.side();
+    let (blocks, weights) = blocks_of(s, side);
+    let n = blocks.len();
+    let bytes = c.encode(&blocks);
+    let want: Vec<[f64; 3]> = blocks
+        .iter()
+        .zip(&weights)
+        .map(|(t, w)| power(t, w))
+        .collect();
+    let mut r = Repair {
+        c,
+        range: match side {
+            4 => BC6H_MAX,
+            _ => RGB9E5_MAX,
+        },
+        floor,
+        target: want.clone(),
+        bytes,
+        decoded: Vec::new(),
+        got: Vec::new(),
+        best_in: blocks.clone(),
+        trial_in: blocks.clone(),
+        trial_got: Vec::new(),
+        repaired: vec![false; n],
+        blocks,
+        weights,
+    };
+    r.decoded = r.decode_all(&r.bytes);
+    r.got = r
+        .decoded
+        .iter()
+        .zip(&r.weights)
+        .map(|(t, w)| power(t, w))
+        .collect();
+    r.trial_got = r.got.clone();
+    let sum = |v: &[[f64; 3]]| {
+        v.iter().fold([0.0; 3], |mut a, p| {
+            for k in 0..3 {
+                a[k] += p[k];
+            }
+            a
+        })
+    };
+    let unrepaired = sum(&r.got);
+    // Σ (ln(1 + x̂) − ln(1 + x))² over the surface's texels and channels, and their count.
+    let bx = s.w.div_ceil(side);
+    let log_error = |blocks: &[Texels], decoded: &[Texels]| {
+        let (mut sq, mut n) = (0.0, 0usize);
+        for (b, t) in decoded.iter().enumerate() {
+            for (i, p) in t.iter().enumerate() {
+                let (x, y) = ((b % bx) * side + i % side, (b / bx) * side + i / side);
+                if x < s.w && y < s.h {
+                    for k in 0..3 {
+                        let d = (p[k] as f64).ln_1p() - (blocks[b][i][k] as f64).ln_1p();
+                        sq += d * d;
+                        n += 1;
+                    }
+                }
+            }
+        }
+        (sq, n)
+    };
+    let log_sq_unrepaired = log_error(&r.blocks, &r.decoded).0;
+    // Repair each block; what a block cannot hold goes to its neighbours, near first.
+    r.rounds();
+    for reach in [1, 2, 4] {
+        if !r.carry(bx, reach) {
+            break;
+        }
+        r.rounds();
+    }
+    let (log_sq, values) = log_error(&r.blocks, &r.decoded);
+    SurfaceOut {
+        blocks: n,
+        repaired: r.repaired.iter().filter(|&&x| x).count(),
+        source: sum(&want),
+        unrepaired,
+        decoded: sum(&r.got),
+        log_sq,
+        log_sq_unrepaired,
+        values,
+        bytes: r.bytes,
+    }
+}
+
+/// RGB of a pixel of 1–4 channels.
+fn rgb_of(p: &[f32]) -> [f32; 3] {
+    match p.len() {
+        1 | 2 => [p[0]; 3],
+        _ => [p[0], p[1], p[2]],
+    }
+}
+
+/// Encodes a texture's levels (level 0 first; a cube's as its face stacks) in `e` (not
+/// `Float`), keeping the light; `mapping` is the 2D map's mapping (for its texel solid angles;
+/// `None`: equal weights).  `what` names the output in messages and warnings.
+pub fn compress(
+    what: &str,
+    levels: &[Image],
+    cube: bool,
+    e: Encoding,
+    mapping: Option<Mapping>,
+) -> Result<Compressed> {
+    let c = codec(e);
+    let range = e.range().expect("a compressed encoding");
+    let nf = if cube { 6 } else { 1 };
+    let mut surfaces = Vec::with_capacity(levels.len());
+    let mut report = Vec::with_capacity(levels.len());
+    let mut alpha_dropped = false;
+    for (li, level) in levels.iter().enumerate() {
+        let (w, h) = (level.width, level.height / nf);
+        let omega = texel_weights(if cube { None } else { mapping }, cube, w, h);
+        let ch = level.channels;
+        // The faces as RGB, clamped to the range; what the clamp removed.
+        let mut faces = Vec::with_capacity(nf);
+        let mut clamped = 0u64;
+        let (mut before, mut after) = ([0.0f64; 3], [0.0f64; 3]);
+        for f in 0..nf {
+            let px = &level.data[f * w * h * ch..(f + 1) * w * h * ch];
+            let mut rgb = Vec::with_capacity(w * h);
+            for (i, p) in px.chunks_exact(ch).enumerate() {
+                if p.iter().any(|v| !v.is_finite()) {
+                    return Err(Error::param(
+                        what,
+                        format!(
+                            "level {li} holds NaN or Inf (at texel {} of face {f}); {} \
+                             cannot encode them",
+                            i,
+                            e.name()
+                        ),
+                    ));
+                }
+                if (ch == 2 || ch == 4) && p[ch - 1] != 1.0 {
+                    alpha_dropped = true;
+                }
+                let v = rgb_of(p);
+                let cl = v.map(|x| x.clamp(0.0, range));
+                for k in 0..3 {
+                    if cl[k] != v[k] {
+                        clamped += 1;
+                    }
+                    before[k] += v[k] as f64 * omega[i];
+                    after[k] += cl[k] as f64 * omega[i];
+                }
+                rgb.push(cl);
+            }
+            faces.push(Surface {
+                w,
+                h,
+                rgb,
+                omega: omega.clone(),
+            });
+        }
+        let rel = |a: f64, b: f64| if b != 0.0 { a / b - 1.0 } else { 0.0 };
+        let range_loss: [f64; 3] = std::array::from_fn(|k| rel(after[k], before[k]));
+        if clamped > 0 {
+            crate::base::error::warn(&format!(
+                "{what}: level {li}: {clamped} value{} outside {}'s range [0, {range}] \
+                 clamped to it; the level's power changes by {:+.4} % (R), {:+.4} % (G), \
+                 {:+.4} % (B)",
+                if clamped == 1 { "" } else { "s" },
+                e.name(),
+                100.0 * range_loss[0],
+                100.0 * range_loss[1],
+                100.0 * range_loss[2]
+            ));
+        }
+        // Blocks carrying under a millionth of the level's power per block are not repaired.
+        let nblocks = (w.div_ceil(block_side(e)) * h.div_ceil(block_side(e)) * nf) as f64;
+        let floor = after.map(|p| 1e-6 * p / nblocks);
+        let outs: Vec<SurfaceOut> = faces.iter().map(|s| encode_surface(c, s, floor)).collect();
+        let total = |f: fn(&SurfaceOut) -> [f64; 3]| {
+            outs.iter().fold([0.0; 3], |mut a, o| {
+                for k in 0..3 {
+                    a[k] += f(o)[k];
+                }
+                a
+            })
+        };
+        let (src, unrep, dec) = (
+            total(|o| o.source),
+            total(|o| o.unrepaired),
+            total(|o| o.decoded),
+        );
+        let values: usize = outs.iter().map(|o| o.values).sum();
+        report.push(LevelCompression {
+            blocks: outs.iter().map(|o| o.blocks).sum(),
+            repaired: outs.iter().map(|o| o.repaired).sum(),
+            power_error: std::array::from_fn(|k| rel(dec[k], src[k])),
+            power_error_unrepaired: std::array::from_fn(|k| rel(unrep[k], src[k])),
+            rmsle: (outs.iter().map(|o| o.log_sq).sum::<f64>() / values.max(1) as f64).sqrt(),
+            rmsle_unrepaired: (outs.iter().map(|o| o.log_sq_unrepaired).sum::<f64>()
+                / values.max(1) as f64)
+                .sqrt(),
+            clamped,
+            range_loss,
+        });
+        surfaces.push(outs.into_iter().map(|o| o.bytes).collect());
+    }
+    if alpha_dropped {
+        crate::base::error::warn(&format!(
+            "{what}: {} holds no alpha; the alpha channel is dropped",
+            e.name()
+        ));
+    }
+    Ok(Compressed {
+        encoding: e,
+        surfaces,
+        report,
+    })
+}
+
+/// Decodes a `w`×`h` surface of encoding `e` (3 channels, RGB).
+pub fn decode_surface(e: Encoding, bytes: &[u8], w: usize, h: usize) -> Image {
+    let c = codec(e);
+    let side = c.side();
+    let (bx, by) = (w.div_ceil(side), h.div_ceil(side));
+    let mut img = Image::new(w, h, 3);
+    let nb = c.bytes();
+    let rows: Vec<Vec<Texels>> = (0..by)
+        .into_par_iter()
+        .map(|j| {
+            (0..bx)
+                .map(|i| c.decode(&bytes[(j * bx + i) * nb..(j * bx + i + 1) * nb]))
+                .collect()
+        })
+        .collect();
+    for (j, row) in rows.iter().enumerate() {
+        for (i, t) in row.iter().enumerate() {
+            for (k, p) in t.iter().enumerate() {
+                let (x, y) = (i * side + k % side, j * side + k / side);
+                if x < w && y < h {
+                    img.pixel_mut(x, y).copy_from_slice(p);
+                }
+            }
+        }
+    }
+    img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rgb9e5_holds_exact_values_and_rounds_to_nearest() {
+        for v in [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.5, 0.25],
+            [65408.0, 1.0, 0.0],
+            [3.0, 2.0, 1.0],
+        ] {
+            let back = rgb9e5_unpack(rgb9e5_pack(v));
+            for k in 0..3 {
+                assert!((back[k] - v[k]).abs() <= v[0].max(v[1]).max(v[2]) / 512.0);
+            }
+        }
+        assert_eq!(
+            rgb9e5_unpack(rgb9e5_pack([1.0, 0.5, 0.25])),
+            [1.0, 0.5, 0.25]
+        );
+        // The EXT_texture_shared_exponent bit layout: R in bits 0-8, exponent in 27-31.
+        // 1.0 = 256 × 2^(16 - 15 - 9).
+        assert_eq!(rgb9e5_pack([1.0, 0.0, 0.0]), 256 | (16 << 27));
+        assert_eq!(rgb9e5_unpack(rgb9e5_pack([1e9, 0.0, 0.0]))[0], RGB9E5_MAX);
+        // Rounding up past 511 takes the next exponent.
+        assert_eq!(rgb9e5_unpack(rgb9e5_pack([1.999, 0.0, 0.0]))[0], 2.0);
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for e in Encoding::ALL {
+            assert_eq!(Encoding::parse("encode", e.name()).unwrap(), e);
+        }
+        assert!(Encoding::parse("--encode", "bc7")
+            .unwrap_err()
+            .to_string()
+            .contains("float, bc6h, rgb9e5"));
+    }
+}
