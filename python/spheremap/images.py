@@ -100,9 +100,6 @@ def write_image(
         raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
-    _choice(encode, "encode", ENCODINGS)
-    if zstd is not None and (isinstance(zstd, bool) or not isinstance(zstd, int) or not 1 <= zstd <= 22):
-        raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
     clipped, clamped = _ext.write_image(
         path=os.fspath(path),
         array=np.ascontiguousarray(a, dtype=np.float32),

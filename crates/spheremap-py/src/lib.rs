@@ -961,6 +961,7 @@ fn write_image(
         png16,
         half,
         clamp_half,
+        ..Default::default()
     };
     py.detach(|| {
         spheremap::images::codec::write_image_with_note(&path, &img, &opts, note.as_deref())?;
