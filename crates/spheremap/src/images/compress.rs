@@ -26,13 +26,19 @@
 //! 2. Each block is decoded (`bcdec_rs`) and its power per channel, Σ L·Ω over its texels with
 //!    the level's exact texel solid angles Ω (a cube face's, or the 2D map's mapping's from
 //!    its note; equal weights when the mapping is not known), compared with the source's.
-//! 3. A block whose power differs by more than [`BLOCK_TOLERANCE`] in a channel that carries
-//!    light is encoded again from its texels scaled, per channel, by the ratio of the source's
-//!    power to the decoded power (the ratio within [½, 2]); the new block is kept when its
-//!    power is closer.  This repeats up to [`REPAIR_ROUNDS`] times.
+//! 3. A block whose power differs in a channel by more than [`BLOCK_TOLERANCE`] of the
+//!    larger of its own power and the level's mean block power is encoded again, from its
+//!    texels scaled per channel by the ratio of the source's power to the decoded power (the
+//!    ratio within [½, 2]), and from its texels each scaled by source / decoded; a try is kept
+//!    when its power is closer and no channel gets worse.  This repeats up to
+//!    [`REPAIR_ROUNDS`] times.
+//! 4. What a block still cannot hold is carried to its neighbours on the same face (within
+//!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
+//!    and they are encoded again.
 //!
-//! Each block thus holds its own light, so the level's power and its low-order moments (SH9)
-//! hold with it.  [`LevelCompression`] reports, per level, the power error before and after
+//! Each block thus holds its own light, or its neighbours hold it, so the level's power and
+//! its low-order moments (SH9) hold with it.  RGB9E5 texels are each rounded to the nearest
+//! value the format holds: there is nothing to repair.  [`LevelCompression`] reports, per level, the power error before and after
 //! the repair, the blocks repaired and the RMSLE.
 
 use super::Image;
@@ -343,12 +349,13 @@ fn power(rgb: &[[f32; 3]], omega: &[f64]) -> [f64; 3] {
     p
 }
 
-/// The relative error of `got` against `want` in the channels that carry light (more than
-/// `floor`); 0 where none does.
-fn block_error(got: &[f64; 3], want: &[f64; 3], floor: &[f64; 3]) -> f64 {
+/// The error of `got` against `want`, per channel relative to the larger of `want` and the
+/// level's mean block power `mean` (so a block dimmer than the mean may miss by a smaller part
+/// of the level's power, never a larger one); the largest over the channels.
+fn block_error(got: &[f64; 3], want: &[f64; 3], mean: &[f64; 3]) -> f64 {
     (0..3)
-        .filter(|&k| want[k] > floor[k])
-        .map(|k| (got[k] / want[k] - 1.0).abs())
+        .filter(|&k| mean[k] > 0.0)
+        .map(|k| (got[k] - want[k]).abs() / want[k].max(mean[k]))
         .fold(0.0, f64::max)
 }
 
@@ -395,7 +402,8 @@ struct SurfaceOut {
 struct Repair<'a> {
     c: &'a dyn Codec,
     range: f32,
-    floor: [f64; 3],
+    /// The level's mean power per block, per channel.
+    mean: [f64; 3],
     /// Source texels and their weights, per block.
     blocks: Vec<Texels>,
     weights: Vec<Vec<f64>>,
@@ -415,7 +423,22 @@ struct Repair<'a> {
 
 impl Repair<'_> {
     fn error(&self, b: usize, p: &[f64; 3]) -> f64 {
-        block_error(p, &self.target[b], &self.floor)
+        block_error(p, &self.target[b], &self.mean)
+    }
+
+    /// Whether power `p` is closer to block `b`'s target than its best so far: a smaller
+    /// largest error, and no channel worse than before (or than the tolerance).
+    fn better(&self, b: usize, p: &[f64; 3]) -> bool {
+        let (t, old, m) = (&self.target[b], &self.got[b], &self.mean);
+        let err = |q: &[f64; 3], k: usize| {
+            if m[k] > 0.0 {
+                (q[k] - t[k]).abs() / t[k].max(m[k])
+            } else {
+                0.0
+            }
+        };
+        self.error(b, p) < self.error(b, old)
+            && (0..3).all(|k| err(p, k) <= err(old, k).max(BLOCK_TOLERANCE))
     }
 
     fn decode_all(&self, bytes: &[u8]) -> Vec<Texels> {
@@ -450,7 +473,7 @@ impl Repair<'_> {
             for &b in &bad {
                 let gain = |got: &[f64; 3], k: usize| {
                     let want = self.target[b][k];
-                    if want <= self.floor[k] {
+                    if want <= 1e-6 * self.mean[k] {
                         1.0
                     } else if got[k] <= 0.0 {
                         2.0
@@ -476,7 +499,7 @@ impl Repair<'_> {
                 self.trial_in[b] = inputs[2 * i].clone();
                 for j in [2 * i, 2 * i + 1] {
                     let p = power(&dec[j], &self.weights[b]);
-                    if self.error(b, &p) < self.error(b, &self.got[b]) {
+                    if self.better(b, &p) {
                         self.got[b] = p;
                         self.decoded[b] = dec[j].clone();
                         self.best_in[b] = inputs[j].clone();
@@ -517,9 +540,7 @@ impl Repair<'_> {
                 .collect();
             for k in 0..3 {
                 let miss = self.target[b][k] - self.got[b][k];
-                if self.target[b][k] <= self.floor[k]
-                    || miss.abs() <= BLOCK_TOLERANCE * self.target[b][k]
-                {
+                if miss.abs() <= BLOCK_TOLERANCE * self.target[b][k].max(self.mean[k]) {
                     continue;
                 }
                 let room: f64 = near.iter().map(|&o| self.target[o][k].max(0.0)).sum();
@@ -542,7 +563,55 @@ impl Repair<'_> {
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
 pub const CARRY_SHARE: f64 = 0.25;
 
-fn encode_surface(c: &dyn Codec, s: &Surface, floor: [f64; 3]) -> SurfaceOut {
+/// RGB9E5: each texel packed to the nearest representable value (nothing to repair: no texel
+/// can hold its light more closely).
+fn encode_rgb9e5(s: &Surface) -> SurfaceOut {
+    let rows: Vec<(Vec<u8>, [f64; 3], [f64; 3], f64)> = s
+        .rgb
+        .par_chunks(s.w)
+        .zip(s.omega.par_chunks(s.w))
+        .map(|(row, om)| {
+            let mut bytes = Vec::with_capacity(4 * row.len());
+            let (mut src, mut dec, mut sq) = ([0.0; 3], [0.0; 3], 0.0);
+            for (t, w) in row.iter().zip(om) {
+                let p = rgb9e5_pack(*t);
+                bytes.extend(p.to_le_bytes());
+                let d = rgb9e5_unpack(p);
+                for k in 0..3 {
+                    src[k] += t[k] as f64 * w;
+                    dec[k] += d[k] as f64 * w;
+                    let e = (d[k] as f64).ln_1p() - (t[k] as f64).ln_1p();
+                    sq += e * e;
+                }
+            }
+            (bytes, src, dec, sq)
+        })
+        .collect();
+    let mut out = SurfaceOut {
+        bytes: Vec::with_capacity(4 * s.rgb.len()),
+        blocks: s.rgb.len(),
+        repaired: 0,
+        source: [0.0; 3],
+        unrepaired: [0.0; 3],
+        decoded: [0.0; 3],
+        log_sq: 0.0,
+        log_sq_unrepaired: 0.0,
+        values: 3 * s.rgb.len(),
+    };
+    for (bytes, src, dec, sq) in rows {
+        out.bytes.extend(bytes);
+        for k in 0..3 {
+            out.source[k] += src[k];
+            out.decoded[k] += dec[k];
+        }
+        out.log_sq += sq;
+    }
+    out.unrepaired = out.decoded;
+    out.log_sq_unrepaired = out.log_sq;
+    out
+}
+
+fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
     let side = c.side();
     let (blocks, weights) = blocks_of(s, side);
     let n = blocks.len();
@@ -558,7 +627,7 @@ fn encode_surface(c: &dyn Codec, s: &Surface, floor: [f64; 3]) -> SurfaceOut {
             4 => BC6H_MAX,
             _ => RGB9E5_MAX,
         },
-        floor,
+        mean,
         target: want.clone(),
         bytes,
         decoded: Vec::new(),
@@ -710,10 +779,15 @@ pub fn compress(
                 100.0 * range_loss[2]
             ));
         }
-        // Blocks carrying under a millionth of the level's power per block are not repaired.
         let nblocks = (w.div_ceil(block_side(e)) * h.div_ceil(block_side(e)) * nf) as f64;
-        let floor = after.map(|p| 1e-6 * p / nblocks);
-        let outs: Vec<SurfaceOut> = faces.iter().map(|s| encode_surface(c, s, floor)).collect();
+        let mean = after.map(|p| p / nblocks);
+        let outs: Vec<SurfaceOut> = faces
+            .iter()
+            .map(|s| match e {
+                Encoding::Rgb9e5 => encode_rgb9e5(s),
+                _ => encode_surface(c, s, mean),
+            })
+            .collect();
         let total = |f: fn(&SurfaceOut) -> [f64; 3]| {
             outs.iter().fold([0.0; 3], |mut a, o| {
                 for k in 0..3 {
