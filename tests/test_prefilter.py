@@ -570,7 +570,8 @@ def test_write_texture_encodes_and_reports_each_level_s_light(tmp_path):
         face = np.stack([1 + 0.5 * np.sin(x / 3.0), 1 + 0.5 * np.cos(y / 4.0), 1 + 0.1 * x / n], -1)
         levels.append(np.repeat(face[None], 6, 0).astype(np.float32) * np.arange(1, 7, dtype=np.float32)[:, None, None, None])
     levels[0][2, 5, 7] = 400.0  # a small bright source
-    for encode in spheremap.ENCODINGS:
+    assert set(spheremap.ENCODINGS) == {"float", "bc6h", "rgb9e5", "rgbd", "rgbm"}
+    for encode in ("float", "bc6h", "rgb9e5"):
         path = tmp_path / f"t_{encode}.ktx2"
         rep = spheremap.write_texture(path, levels, cube=True, encode=encode, zstd=5, mapping="cube")
         back, cube = spheremap.read_texture(path)
@@ -585,8 +586,80 @@ def test_write_texture_encodes_and_reports_each_level_s_light(tmp_path):
             assert max(abs(e) for e in r["power_error"]) < 0.02, r
     with pytest.raises(ValueError, match="encode"):
         spheremap.write_texture(tmp_path / "x.ktx2", levels, cube=True, encode="bc7")
+    with pytest.raises(ValueError, match="written in PNG"):
+        spheremap.write_texture(tmp_path / "x.ktx2", levels, cube=True, encode="rgbd")
     with pytest.raises(ValueError, match="zstd"):
         spheremap.write_texture(tmp_path / "x.ktx2", levels, cube=True, zstd=0)
     with pytest.raises(ValueError, match="zstd"):
         spheremap.write_texture(tmp_path / "x.dds", levels, cube=True, zstd=3)
     assert not (tmp_path / "x.dds").exists() and not (tmp_path / "x.ktx2").exists()
+
+
+# The last three.js release with RGBMLoader (r180 removed it).
+THREE = "three@0.179.1"
+
+# three.js's own RGBMLoader (examples/jsm/loaders), its parse() on the PNG's bytes (it decodes
+# the PNG with the UPNG bundled with three.js and applies r * a * maxRange), as float32.
+READ_RGBM = """
+import { RGBMLoader } from %s;
+import { FloatType } from %s;
+import { readFileSync, writeFileSync } from "node:fs";
+const [src, out] = process.argv.slice(2);
+const buf = readFileSync(src);
+const loader = new RGBMLoader().setDataType(FloatType);
+const t = loader.parse(buf.buffer.slice(buf.byteOffset, buf.byteOffset + buf.byteLength));
+writeFileSync(out, new Uint8Array(t.data.buffer));
+console.log(JSON.stringify({ width: t.width, height: t.height, maxRange: loader.maxRange }));
+"""
+
+
+def test_an_rgbm_png_reads_in_three_js_rgbm_loader_as_in_spheremap(tmp_path):
+    """An environment written with encode="rgbm" loads in three.js's RGBMLoader (its default
+    range, 7) to the values spheremap.read_image returns, and they keep the map's light."""
+    loader = npm_peer(THREE, os.path.join("three", "examples", "jsm", "loaders", "RGBMLoader.js"))
+    env = (latlong_dirs(32, 64).astype(np.float32) + 1.2) * 2.5  # 0.5 .. 5.5, inside the range
+    path = tmp_path / "env_rgbm.png"
+    lost = spheremap.write_image(path, env, mapping="latlong", encode="rgbm")
+    assert lost["clipped"] == 0
+    script = tmp_path / "read_rgbm.mjs"
+    three = os.path.join(loader.split(os.sep + "examples" + os.sep)[0], "build", "three.module.js")
+    script.write_text(READ_RGBM % (json.dumps("file://" + loader), json.dumps("file://" + three)))
+    out = tmp_path / "rgbm.f32"
+    p = subprocess.run(["node", script, path, out], capture_output=True, text=True, cwd=os.path.dirname(loader))
+    assert p.returncode == 0, p.stderr
+    meta = json.loads(p.stdout)
+    assert (meta["width"], meta["height"], meta["maxRange"]) == (64, 32, 7)
+    theirs = np.frombuffer(out.read_bytes(), np.float32).reshape(32, 64, 4)
+    ours = spheremap.read_image(path)
+    assert ours.shape == (32, 64, 3)
+    # RGBMLoader flips nothing in the data (flipY is for the upload): row 0 is the PNG's top.
+    np.testing.assert_allclose(theirs[..., :3], ours, rtol=1e-6, atol=1e-6)
+    w = spheremap.texel_solid_angles("latlong", 64, 32)[..., None]
+    assert abs((ours * w).sum() / (env * w).sum() - 1) < 5e-3
+
+
+def test_rgbd_is_babylon_js_s_rgbd(tmp_path):
+    """Babylon.js's own definitions (its helperFunctions shader include, from @babylonjs/core)
+    are the ones spheremap packs and unpacks by, and an RGBD PNG reads back to them."""
+    dds = npm_peer(BABYLON, os.path.join("@babylonjs", "core", "Misc", "dds.js"))
+    helpers = os.path.join(os.path.dirname(os.path.dirname(dds)), "Shaders", "ShadersInclude", "helperFunctions.js")
+    src = open(helpers).read()
+    assert "const float LinearEncodePowerApprox=2.2;" in src
+    assert "const float rgbdMaxRange=255.;vec4 toRGBD(vec3 color) {float maxRGB=maxEps(max(color.r,max(color.g,color.b)));float D =max(rgbdMaxRange/maxRGB,1.);D =saturate(floor(D)/255.);vec3 rgb=color.rgb*D;rgb=toGammaSpace(rgb);return vec4(saturate(rgb),D);}" in src
+    assert "vec3 fromRGBD(vec4 rgbd) {rgbd.rgb=toLinearSpace(rgbd.rgb);return rgbd.rgb/rgbd.a;}" in src
+    env = (latlong_dirs(32, 64).astype(np.float32) + 1.1) * 40  # 4 .. 84
+    path = tmp_path / "env_rgbd.png"
+    spheremap.write_image(path, env, mapping="latlong", encode="rgbd")
+    from PIL import Image
+
+    raw = np.asarray(Image.open(path).convert("RGBA"), np.float64) / 255
+    # toRGBD, then fromRGBD, as the two GLSL functions above compute them (GammaEncodePowerApprox
+    # = 1 / 2.2), on the values the PNG stores.
+    m = np.maximum(env.max(-1), 1e-7)
+    d = np.clip(np.floor(np.maximum(255 / m, 1)) / 255, 0, 1)
+    np.testing.assert_allclose(raw[..., 3], d, atol=0.5 / 255)
+    np.testing.assert_allclose(raw[..., :3], np.clip((env * d[..., None]) ** (1 / 2.2), 0, 1), atol=0.5 / 255 + 1e-7)
+    from_rgbd = raw[..., :3] ** 2.2 / raw[..., 3:]
+    np.testing.assert_allclose(spheremap.read_image(path), from_rgbd, rtol=1e-5)
+    with pytest.raises(ValueError, match="encode"):
+        spheremap.write_image(tmp_path / "x.png", env, encode="rgbx")

@@ -230,7 +230,14 @@ def stack_to_layout(stack: Any, layout: str | None) -> Any: ...
 def texel_solid_angles(mapping: str, width: int, height: int, preset: str | None = None) -> Any: ...
 def uv_to_dir(uv: Any, mapping: str, preset: str | None = None) -> Any: ...
 def write_image(
-    path: str, array: Any, linear: bool, png16: bool, half: bool, clamp_half: bool, note: str | None
+    path: str,
+    array: Any,
+    linear: bool,
+    png16: bool,
+    half: bool,
+    clamp_half: bool,
+    note: str | None,
+    encode: str,
 ) -> tuple[int, int]: ...
 def write_texture(
     path: str,

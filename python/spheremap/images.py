@@ -66,6 +66,7 @@ def write_image(
     layout: str | None = None,
     look: npt.ArrayLike | None = None,
     up: npt.ArrayLike | None = None,
+    encode: str = "float",
 ) -> dict[str, int]:
     """Writes an (H, W) or (H, W, C) array (C = 1..4, linear values, row 0 at the top) to
     `path`; the format follows the extension: .exr (float, or `half`), .hdr, .pfm, .png (`bits`
@@ -100,6 +101,7 @@ def write_image(
         raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
+    _choice(encode, "encode", ENCODINGS)
     clipped, clamped = _ext.write_image(
         path=os.fspath(path),
         array=np.ascontiguousarray(a, dtype=np.float32),
@@ -108,6 +110,7 @@ def write_image(
         half=bool(half),
         clamp_half=bool(clamp_half),
         note=note,
+        encode=encode,
     )
     return {"clipped": clipped, "clamped_half": clamped}
 
@@ -115,13 +118,13 @@ def write_image(
 def read_texture(
     path: str | os.PathLike[str], *, max_pixels: int | None = None
 ) -> tuple[list[npt.NDArray[np.float32]], bool]:
-    """Reads a KTX2 or DDS texture (uncompressed float: RGBA/RGB/R, 16- or 32-bit) with all its
-    mip levels -> (levels, cube): level 0 first, each an (H, W, C) float32 array with row 0 at
+    """Reads a KTX2 or DDS texture (float RGBA/RGB/R, 16- or 32-bit; BC6H, decoded; RGB9E5;
+    KTX2 also Zstandard-supercompressed) with all its mip levels -> (levels, cube): level 0 first, each an (H, W, C) float32 array with row 0 at
     the top; for a cube map (cube True) each level is (6, F, F, C): faces +X, -X, +Y, -Y, +Z,
     -Z, each with row 0 at t = 0 of the GL face table, as spheremap.convert returns a cube.
 
-    Raises spheremap.DataError for a file that is not one (block-compressed, supercompressed,
-    3D or array textures are refused with the reason).
+    Raises spheremap.DataError for a file that is not one (other block-compressed formats,
+    BasisLZ or zlib supercompression, 3D or array textures are refused with the reason).
     """
 
     if max_pixels is not None:

@@ -17,10 +17,13 @@ pub struct JobFlags {
     /// 16-bit PNG output.
     #[arg(long)]
     pub png16: bool,
-    /// KTX2/DDS texels: float (RGBA half with --half, else 32-bit), bc6h (BC6H_UF16 blocks)
-    /// or rgb9e5 (shared exponent). bc6h and rgb9e5 keep each level's light: blocks that
-    /// leak are encoded again (the --json summary reports the power per level); values
-    /// outside 0..65504 (rgb9e5: 65408) are clamped with a warning naming the power lost.
+    /// How texels are stored. KTX2/DDS: float (RGBA half with --half, else 32-bit), bc6h
+    /// (BC6H_UF16 blocks) or rgb9e5 (shared exponent); bc6h and rgb9e5 keep each level's
+    /// light: blocks that leak are encoded again (the --json summary reports the power per
+    /// level). PNG: rgbd (Babylon.js's RGBD, 0..255) or rgbm (three.js's RGBM as its
+    /// RGBMLoader reads it, 0..7), 8-bit RGBA with the packing in the note. Values outside
+    /// the range (bc6h 0..65504, rgb9e5 0..65408) are clamped with a warning naming the power
+    /// lost.
     #[arg(long, default_value = "float", value_parser = crate::names::core("encode"))]
     pub encode: String,
     /// KTX2: supercompress each level with Zstandard at this level (1-22).

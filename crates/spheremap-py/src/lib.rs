@@ -941,7 +941,7 @@ fn info<'py>(
 /// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
 /// extension.
 #[pyfunction]
-#[pyo3(signature = (path, array, linear, png16, half, clamp_half, note))]
+#[pyo3(signature = (path, array, linear, png16, half, clamp_half, note, encode))]
 #[allow(clippy::too_many_arguments)]
 fn write_image(
     py: Python<'_>,
@@ -952,15 +952,18 @@ fn write_image(
     half: bool,
     clamp_half: bool,
     note: Option<String>,
+    encode: String,
 ) -> PyResult<(u64, u64)> {
     use spheremap::images::codec::{Losses, WriteOptions};
     use spheremap::images::format::Format;
     let img = image_of(&array, "array")?;
+    let encode = spheremap::images::compress::Encoding::parse("encode", &encode).map_err(to_py)?;
     let opts = WriteOptions {
         linear,
         png16,
         half,
         clamp_half,
+        encode,
         ..Default::default()
     };
     py.detach(|| {

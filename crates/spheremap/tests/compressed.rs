@@ -408,3 +408,78 @@ fn a_2d_map_is_weighed_by_its_mapping_s_solid_angles() {
         "{r:?}"
     );
 }
+
+#[test]
+fn rgbd_and_rgbm_pack_as_babylon_and_three_read_them() {
+    use spheremap::images::compress::{rgbd_pack, rgbd_unpack, rgbm_pack, rgbm_unpack};
+    // Babylon.js's toRGBD: D = floor(max(255 / max, 1)) / 255, rgb = (rgb · D)^(1/2.2).
+    assert_eq!(rgbd_pack([1.0, 0.5, 0.25]), [255, 186, 136, 255]);
+    assert_eq!(rgbd_pack([100.0, 50.0, 0.0]), [228, 167, 0, 2]);
+    assert_eq!(rgbd_pack([0.01, 0.02, 0.03]), [31, 43, 52, 255]);
+    // fromRGBD: rgb^2.2 / D.
+    let back = rgbd_unpack([228, 167, 0, 2]);
+    assert!(
+        (back[0] - 127.5 * (228f32 / 255.0).powf(2.2)).abs() < 1e-3,
+        "{back:?}"
+    );
+    // three.js's RGBM (RGBMLoader reads r · a · maxRange): M = ceil(max / 7 · 255).
+    assert_eq!(rgbm_pack([1.0, 0.5, 0.25], 7.0), [251, 126, 63, 37]);
+    assert_eq!(
+        rgbm_unpack([251, 126, 63, 37], 7.0)[0],
+        251.0 / 255.0 * (37.0 / 255.0) * 7.0
+    );
+    assert_eq!(rgbm_pack([0.0; 3], 7.0), [0; 4]);
+}
+
+#[test]
+fn packed_pngs_round_trip_and_keep_the_light_within_their_range() {
+    use spheremap::images::codec::{read_image, write_image_with_note};
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let src = hdri("city.exr");
+    let env = EnvMap::new(ll, &src, "src").unwrap();
+    let (img, _) = resample(&env, ll, 256, 128, &ResampleOptions::default(), None).unwrap();
+    let dir = std::env::temp_dir().join(format!("spheremap_packed_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let note = "mapping=latlong preset=blender";
+    let w = texel_weights(Some(ll), false, 256, 128);
+    let power = |i: &Image, max: f32| {
+        let mut p = [0.0; 3];
+        for (t, px) in i.data.chunks_exact(i.channels).enumerate() {
+            for k in 0..3 {
+                p[k] += px[k].clamp(0.0, max) as f64 * w[t];
+            }
+        }
+        p
+    };
+    for (e, range) in [(Encoding::Rgbd, 255.0), (Encoding::Rgbm, 7.0)] {
+        // Scaled into the packing's range: what is left is the 8-bit quantisation.
+        let peak = img.data.iter().copied().fold(0f32, f32::max);
+        let mut scaled = img.clone();
+        for v in &mut scaled.data {
+            *v = v.max(0.0) * (0.9 * range / peak);
+        }
+        let path = dir.join(format!("m_{}.png", e.name()));
+        let opts = WriteOptions {
+            encode: e,
+            ..Default::default()
+        };
+        write_image_with_note(&path, &scaled, &opts, Some(note)).unwrap();
+        let back = read_image(&path, &Default::default()).unwrap();
+        assert_eq!((back.width, back.height, back.channels), (256, 128, 3));
+        let (p, q) = (power(&back, f32::MAX), power(&scaled, range));
+        for k in 0..3 {
+            assert!((p[k] / q[k] - 1.0).abs() < 5e-3, "{e:?}: {p:?} vs {q:?}");
+        }
+        let note_back = spheremap::images::note::read_file(&path).unwrap().unwrap();
+        assert!(
+            note_back.contains("mapping=latlong") && note_back.contains(e.name()),
+            "{note_back}"
+        );
+        // Anywhere but PNG, the packing is refused.
+        let err = spheremap::images::codec::write_image(&dir.join("x.exr"), &scaled, &opts)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("written in PNG"), "{err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -73,11 +73,22 @@ impl WriteOptions {
                 ));
             }
         }
-        if self.encode != Encoding::Float && !format.is_container() {
+        if self.encode.is_texture() && !format.is_container() {
             return Err(Error::param(
                 "encode",
                 format!(
                     "{}: {} texels are written in KTX2 or DDS, not {}",
+                    path.display(),
+                    self.encode.name(),
+                    format.name()
+                ),
+            ));
+        }
+        if self.encode.is_packing() && format != Format::Png {
+            return Err(Error::param(
+                "encode",
+                format!(
+                    "{}: {} is an 8-bit RGBA packing written in PNG, not {}",
                     path.display(),
                     self.encode.name(),
                     format.name()
@@ -123,6 +134,18 @@ impl Losses {
                         l.largest = l.largest.max(v.abs());
                     }
                 }
+            }
+            Format::Png if opts.encode.is_packing() => {
+                let max = opts.encode.range().expect("a packing");
+                l.clipped = img
+                    .data
+                    .chunks_exact(c)
+                    .flat_map(|p| match p.len() {
+                        1 | 2 => vec![p[0]; 3],
+                        _ => p[..3].to_vec(),
+                    })
+                    .filter(|v| !(*v >= 0.0 && *v <= max))
+                    .count() as u64;
             }
             Format::Png | Format::Jpeg => {
                 let step = if format == Format::Png && opts.png16 {
@@ -233,6 +256,32 @@ pub fn decode(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
         Format::Ktx2 | Format::Dds => {
             let mut tex = super::container::decode(path, bytes, &opts.limits)?;
             Ok(tex.levels.swap_remove(0))
+        }
+        Format::Png => {
+            // An HDR packing (RGBD, RGBM) the note records is read as its raw bytes, unpacked.
+            let packing =
+                super::note::read(bytes).and_then(|t| super::compress::packing_of_note(&t));
+            match packing {
+                Some((e, range)) => {
+                    let raw = ReadOptions {
+                        linear: true,
+                        ..*opts
+                    };
+                    let rgba = decode_with_image_crate(path, bytes, format, &raw)?;
+                    if rgba.channels != 4 {
+                        return Err(Error::data(
+                            path,
+                            format!(
+                                "the note records {} but the PNG has {} channels, not RGBA",
+                                e.name(),
+                                rgba.channels
+                            ),
+                        ));
+                    }
+                    Ok(super::compress::unpack_image(&rgba, e, range))
+                }
+                None => decode_with_image_crate(path, bytes, format, opts),
+            }
         }
         _ => decode_with_image_crate(path, bytes, format, opts),
     }
@@ -538,6 +587,33 @@ pub fn encode_with_note(
             image::codecs::hdr::HdrEncoder::new(&mut buf)
                 .encode(&px, w as usize, h as usize)
                 .map_err(bad)?;
+        }
+        Format::Png if opts.encode.is_packing() => {
+            let (raw, clamped) = super::compress::pack_image(img, opts.encode);
+            if clamped > 0 {
+                let mapping = note
+                    .and_then(super::note::MapNote::parse)
+                    .filter(|n| n.layout.is_none())
+                    .map(|n| n.mapping);
+                let omega = super::compress::texel_weights(mapping, false, img.width, img.height);
+                let lost = super::compress::range_loss(img, &omega, opts.encode);
+                crate::base::error::warn(&format!(
+                    "{}: {clamped} value{} outside {}'s range [0, {}] clamped to it; the \
+                     image's power changes by {:+.4} % (R), {:+.4} % (G), {:+.4} % (B)",
+                    path.display(),
+                    if clamped == 1 { "" } else { "s" },
+                    opts.encode.name(),
+                    opts.encode.range().expect("a packing"),
+                    100.0 * lost[0],
+                    100.0 * lost[1],
+                    100.0 * lost[2]
+                ));
+            }
+            let e = image::codecs::png::PngEncoder::new(&mut buf);
+            image::ImageEncoder::write_image(e, &raw, w, h, image::ExtendedColorType::Rgba8)
+                .map_err(bad)?;
+            let text = super::compress::packing_note(note, opts.encode);
+            return Ok(crate::images::note::insert(format, buf.into_inner(), &text));
         }
         Format::Png | Format::Jpeg => {
             let srgb = !opts.linear;

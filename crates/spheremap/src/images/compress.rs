@@ -57,10 +57,14 @@ pub enum Encoding {
     Bc6h,
     /// RGB9E5, shared exponent (`R9G9B9E5_SHAREDEXP` / `E5B9G9R9_UFLOAT_PACK32`).
     Rgb9e5,
+    /// RGBD in an 8-bit RGBA PNG, as Babylon.js's `toRGBD` / `fromRGBD` define it.
+    Rgbd,
+    /// RGBM in an 8-bit RGBA PNG, as three.js's `RGBMLoader` reads it (range [`RGBM_RANGE`]).
+    Rgbm,
 }
 
 /// The encodings' names, as `--encode` and Python's `encode=` take them.
-pub const ENCODING_NAMES: [&str; 3] = ["float", "bc6h", "rgb9e5"];
+pub const ENCODING_NAMES: [&str; 5] = ["float", "bc6h", "rgb9e5", "rgbd", "rgbm"];
 
 /// A block whose power differs from its source's by more than this (relative, per channel) is
 /// encoded again.
@@ -73,7 +77,23 @@ pub const BC6H_MAX: f32 = 65504.0;
 pub const RGB9E5_MAX: f32 = 65408.0;
 
 impl Encoding {
-    pub const ALL: [Encoding; 3] = [Encoding::Float, Encoding::Bc6h, Encoding::Rgb9e5];
+    pub const ALL: [Encoding; 5] = [
+        Encoding::Float,
+        Encoding::Bc6h,
+        Encoding::Rgb9e5,
+        Encoding::Rgbd,
+        Encoding::Rgbm,
+    ];
+
+    /// Texels for KTX2 and DDS (BC6H, RGB9E5).
+    pub fn is_texture(self) -> bool {
+        matches!(self, Encoding::Bc6h | Encoding::Rgb9e5)
+    }
+
+    /// An HDR packing into an 8-bit RGBA PNG (RGBD, RGBM).
+    pub fn is_packing(self) -> bool {
+        matches!(self, Encoding::Rgbd | Encoding::Rgbm)
+    }
 
     pub fn name(self) -> &'static str {
         ENCODING_NAMES[Encoding::ALL
@@ -106,6 +126,8 @@ impl Encoding {
             Encoding::Float => None,
             Encoding::Bc6h => Some(BC6H_MAX),
             Encoding::Rgb9e5 => Some(RGB9E5_MAX),
+            Encoding::Rgbd => Some(RGBD_MAX),
+            Encoding::Rgbm => Some(RGBM_RANGE),
         }
     }
 }
@@ -166,7 +188,7 @@ fn block_side(e: Encoding) -> usize {
 /// Bytes a `w`×`h` surface takes in encoding `e` (`None` for float).
 pub fn surface_bytes(e: Encoding, w: usize, h: usize) -> Option<usize> {
     match e {
-        Encoding::Float => None,
+        Encoding::Float | Encoding::Rgbd | Encoding::Rgbm => None,
         Encoding::Bc6h => Some(w.div_ceil(4) * h.div_ceil(4) * 16),
         Encoding::Rgb9e5 => Some(w * h * 4),
     }
@@ -223,6 +245,140 @@ pub fn rgb9e5_unpack(p: u32) -> [f32; 3] {
     let e = (p >> 27) as i32;
     let s = (2f64).powi(e - 15 - 9);
     [p & 511, (p >> 9) & 511, (p >> 18) & 511].map(|m| (m as f64 * s) as f32)
+}
+
+// ---------------------------------------------------------------------------------------------
+// RGBD and RGBM: HDR packed into 8-bit RGBA.
+
+/// The largest value RGBD holds (D = 1/255).
+pub const RGBD_MAX: f32 = 255.0;
+/// The range of RGBM: three.js's `RGBMLoader` default (`maxRange = 7`), recorded in the note.
+pub const RGBM_RANGE: f32 = 7.0;
+
+/// Packs linear RGB as Babylon.js's `toRGBD` (its `helperFunctions` shader include): D =
+/// clamp(floor(max(255 / max(r, g, b), 1)) / 255, 0, 1), rgb = (rgb · D)^(1/2.2), each stored
+/// as the nearest of 256 levels.
+pub fn rgbd_pack(rgb: [f32; 3]) -> [u8; 4] {
+    let m = rgb[0].max(rgb[1]).max(rgb[2]).max(1e-7) as f64;
+    let d = ((255.0 / m).max(1.0).floor() / 255.0).clamp(0.0, 1.0);
+    let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as u8;
+    let c = rgb.map(|v| q((v.max(0.0) as f64 * d).powf(1.0 / 2.2)));
+    [c[0], c[1], c[2], q(d)]
+}
+
+/// Babylon.js's `fromRGBD`: rgb^2.2 / D.
+pub fn rgbd_unpack(p: [u8; 4]) -> [f32; 3] {
+    let d = p[3] as f64 / 255.0;
+    if d <= 0.0 {
+        return [0.0; 3];
+    }
+    [0, 1, 2].map(|k| ((p[k] as f64 / 255.0).powf(2.2) / d) as f32)
+}
+
+/// Packs linear RGB as three.js's RGBM (the inverse of `RGBMLoader`'s r · a · maxRange): M =
+/// ceil(clamp(max(r, g, b) / range, 0, 1) · 255) / 255, rgb / (M · range) to the nearest of 256
+/// levels.
+pub fn rgbm_pack(rgb: [f32; 3], range: f32) -> [u8; 4] {
+    let m = rgb[0].max(rgb[1]).max(rgb[2]).max(0.0) as f64;
+    let a = ((m / range as f64).clamp(0.0, 1.0) * 255.0).ceil();
+    if a <= 0.0 {
+        return [0; 4];
+    }
+    let scale = a / 255.0 * range as f64;
+    let c = rgb.map(|v| ((v.max(0.0) as f64 / scale).clamp(0.0, 1.0) * 255.0 + 0.5).floor() as u8);
+    [c[0], c[1], c[2], a as u8]
+}
+
+/// `RGBMLoader`'s decoding: r · a · range.
+pub fn rgbm_unpack(p: [u8; 4], range: f32) -> [f32; 3] {
+    let a = p[3] as f64 / 255.0;
+    [0, 1, 2].map(|k| (p[k] as f64 / 255.0 * a * range as f64) as f32)
+}
+
+/// Packs an image (RGB, grey or with alpha; alpha is dropped) into 8-bit RGBA with `e` (RGBD
+/// or RGBM), clamping each texel to the packing's range; returns the bytes and how many
+/// values were clamped (negative, or above the range).
+pub fn pack_image(img: &Image, e: Encoding) -> (Vec<u8>, u64) {
+    let mut clamped = 0;
+    let mut out = Vec::with_capacity(img.width * img.height * 4);
+    let max = e.range().expect("a packing");
+    for p in img.data.chunks_exact(img.channels) {
+        let v = rgb_of(p);
+        clamped += v.iter().filter(|x| !(**x >= 0.0 && **x <= max)).count() as u64;
+        out.extend(match e {
+            Encoding::Rgbd => rgbd_pack(v),
+            _ => rgbm_pack(v, RGBM_RANGE),
+        });
+    }
+    (out, clamped)
+}
+
+/// The note of a packed PNG: `note` (the map's, if any) with the packing, as `encode=rgbd`
+/// or `encode=rgbm rgbm_range=7`.
+pub fn packing_note(note: Option<&str>, e: Encoding) -> String {
+    let mut t = note.map(|n| format!("{n} ")).unwrap_or_default();
+    t += &format!("encode={}", e.name());
+    if e == Encoding::Rgbm {
+        t += &format!(" rgbm_range={RGBM_RANGE}");
+    }
+    t
+}
+
+/// The packing a PNG's note records, with RGBM's range (its default when not recorded).
+pub fn packing_of_note(text: &str) -> Option<(Encoding, f32)> {
+    let mut e = None;
+    let mut range = RGBM_RANGE;
+    for kv in text.split_whitespace() {
+        match kv.split_once('=') {
+            Some(("encode", v)) => e = Encoding::parse("encode", v).ok().filter(|e| e.is_packing()),
+            Some(("rgbm_range", v)) => {
+                range = v.parse().ok().filter(|r: &f32| r.is_finite() && *r > 0.0)?
+            }
+            _ => {}
+        }
+    }
+    e.map(|e| (e, range))
+}
+
+/// The power per channel that clamping `img` to `e`'s range changes, relative to the image's
+/// (Σ L·Ω with the texel weights `omega`).
+pub fn range_loss(img: &Image, omega: &[f64], e: Encoding) -> [f64; 3] {
+    let max = e.range().unwrap_or(f32::MAX);
+    let (mut before, mut after) = ([0.0f64; 3], [0.0f64; 3]);
+    for (p, w) in img.data.chunks_exact(img.channels).zip(omega) {
+        let v = rgb_of(p);
+        for k in 0..3 {
+            if v[k].is_finite() {
+                before[k] += v[k] as f64 * w;
+                after[k] += v[k].clamp(0.0, max) as f64 * w;
+            }
+        }
+    }
+    std::array::from_fn(|k| {
+        if before[k] != 0.0 {
+            after[k] / before[k] - 1.0
+        } else {
+            0.0
+        }
+    })
+}
+
+/// Unpacks 8-bit RGBA (`rgba`'s values 0..1 as read, alpha last) packed with `e` into RGB.
+pub fn unpack_image(rgba: &Image, e: Encoding, rgbm_range: f32) -> Image {
+    let mut out = Image::new(rgba.width, rgba.height, 3);
+    for (o, p) in out
+        .data
+        .chunks_exact_mut(3)
+        .zip(rgba.data.chunks_exact(rgba.channels))
+    {
+        let q = |v: f32| (v * 255.0).round().clamp(0.0, 255.0) as u8;
+        let b = [q(p[0]), q(p[1]), q(p[2]), q(p[3])];
+        o.copy_from_slice(&match e {
+            Encoding::Rgbd => rgbd_unpack(b),
+            _ => rgbm_unpack(b, rgbm_range),
+        });
+    }
+    out
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -323,7 +479,7 @@ fn codec(e: Encoding) -> &'static dyn Codec {
     match e {
         Encoding::Bc6h => &Bc6h,
         Encoding::Rgb9e5 => &Rgb9e5,
-        Encoding::Float => unreachable!("float texels are not block-encoded"),
+        _ => unreachable!("only BC6H and RGB9E5 are block-encoded"),
     }
 }
 

@@ -109,7 +109,7 @@ impl Stored {
             Stored::Float { .. } => 109,
             Stored::Encoded(Encoding::Bc6h) => 143,
             Stored::Encoded(Encoding::Rgb9e5) => 123,
-            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+            Stored::Encoded(_) => unreachable!("float and the PNG packings are not stored here"),
         }
     }
 
@@ -119,7 +119,7 @@ impl Stored {
             Stored::Float { .. } => 2,
             Stored::Encoded(Encoding::Bc6h) => 95,
             Stored::Encoded(Encoding::Rgb9e5) => 67,
-            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+            Stored::Encoded(_) => unreachable!("float and the PNG packings are not stored here"),
         }
     }
 
@@ -180,7 +180,7 @@ impl Stored {
                     .flat_map(|ch| [(9 * ch as u16, 8, ch, 0, 8448), (27, 4, ch | 0x20, 15, 31)])
                     .collect(),
             ),
-            Stored::Encoded(Encoding::Float) => unreachable!("float is not encoded"),
+            Stored::Encoded(_) => unreachable!("float and the PNG packings are not stored here"),
         };
         let block_size = 24 + 16 * samples.len();
         let mut dfd = Vec::with_capacity(4 + block_size);

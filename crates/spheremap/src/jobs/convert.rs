@@ -187,7 +187,7 @@ pub struct ConvertReport {
     /// The KTX2/DDS texel encoding.
     pub encode: Encoding,
     /// With an encoding other than float: the light of the file as written, read back and
-    /// decoded, against the source's.
+    /// decoded, against the source's (for one output file holding the map as converted).
     pub encoded_light: Option<LightCheck>,
     pub seconds: f64,
     /// Values the output format clipped, and values beyond the half range (clamped with
@@ -440,13 +440,20 @@ impl ConvertJob {
         // Encoded texels: the light of the file as written, decoded.
         let encoded_light = match (wopts.encode, written.as_slice()) {
             (Encoding::Float, _) => None,
-            (_, [one]) => {
-                let tex = crate::images::codec::read_texture(Path::new(one), &ropts)?;
-                let level0 = &tex.levels[0];
-                Some(LightCheck::compare(
-                    &source,
-                    &Moments::of(&EnvMap::new(r.dst, level0, one)?, &r.rotation),
-                ))
+            (e, [one]) => {
+                let back = if e.is_packing() {
+                    crate::images::codec::read_image(Path::new(one), &ropts)?
+                } else {
+                    crate::images::codec::read_texture(Path::new(one), &ropts)?
+                        .levels
+                        .swap_remove(0)
+                };
+                (back.width == out.width && back.height == out.height)
+                    .then(|| {
+                        EnvMap::new(r.dst, &back, one)
+                            .map(|m| LightCheck::compare(&source, &Moments::of(&m, &r.rotation)))
+                    })
+                    .transpose()?
             }
             _ => None,
         };
