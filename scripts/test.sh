@@ -13,6 +13,9 @@ need=()
 ldconfig -p 2>/dev/null | grep -q libOSMesa || need+=(libosmesa6)
 command -v glslangValidator >/dev/null || need+=(glslang-tools)
 [ -x "${SPHEREMAP_CHROMIUM:-/usr/bin/chromium}" ] || need+=(chromium)
+# libclang (Debian: libclang-dev), which Basis Universal's bindings are generated with: the
+# UASTC HDR / ASTC HDR encoder (feature `basisu`) is built and tested where it is present.
+ls /usr/lib/llvm-*/lib/libclang.so* >/dev/null 2>&1 || need+=(libclang-dev)
 if [ ${#need[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
     echo "== installing ${need[*]}"
@@ -38,17 +41,28 @@ if [ -z "${SPHEREMAP_BPY_PYTHON:-}" ] && python3 -c 'import sys; sys.exit(sys.ve
   export SPHEREMAP_BPY_PYTHON="$bpy_venv/bin/python"
 fi
 
+features=()
+if ls /usr/lib/llvm-*/lib/libclang.so* >/dev/null 2>&1 || [ -n "${LIBCLANG_PATH:-}" ]; then
+  features=(--features spheremap/basisu)
+  export MATURIN_PEP517_ARGS="--features basisu"
+elif [ "${SPHEREMAP_REQUIRE_BASISU:-}" = 1 ]; then
+  echo "libclang is required (SPHEREMAP_REQUIRE_BASISU=1) for the Basis Universal encoder" >&2
+  exit 1
+else
+  echo "!! no libclang: the UASTC HDR / ASTC HDR encoder is not built; its tests are skipped" >&2
+fi
+
 echo "== cargo test"
-cargo test --workspace --exclude spheremap-py -q
+cargo test --workspace --exclude spheremap-py -q "${features[@]}"
 echo "== the core without its optional parts (the ray tracer, the photo routes)"
 cargo check -q -p spheremap --lib --no-default-features
 echo "== the conversion, cosine-integral and GGX-sum tests again on the portable code (as CPUs without AVX2 run it)"
-SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --test resample
-SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q --lib -- lighting::cosine lighting::envtree
+SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q "${features[@]}" --test resample
+SPHEREMAP_PORTABLE=1 cargo test -p spheremap -q "${features[@]}" --lib -- lighting::cosine lighting::envtree
 if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
   echo "== and on the AVX2 code (as CPUs without AVX-512 run it)"
-  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --test resample
-  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q --lib -- lighting::cosine lighting::envtree
+  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q "${features[@]}" --test resample
+  SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q "${features[@]}" --lib -- lighting::cosine lighting::envtree
 fi
 
 echo "== building the Python wheel (abi3, CPython >= 3.11) and installing it"

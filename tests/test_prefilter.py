@@ -663,3 +663,36 @@ def test_rgbd_is_babylon_js_s_rgbd(tmp_path):
     np.testing.assert_allclose(spheremap.read_image(path), from_rgbd, rtol=1e-5)
     with pytest.raises(ValueError, match="encode"):
         spheremap.write_image(tmp_path / "x.png", env, encode="rgbx")
+
+
+@pytest.mark.parametrize("encode,model,vk", [("uastc-hdr-4x4", 167, 1000066000), ("astc-hdr-6x6", 162, 1000066004)])
+def test_a_basis_universal_hdr_cube_read_by_ktx_parse(tmp_path, encode, model, vk):
+    """A prefiltered cube written with Basis Universal's encoder (UASTC HDR 4x4 or ASTC HDR 6x6,
+    Zstandard): ktx-parse (three.js's KTX2Loader's parser) reads the format three.js transcodes,
+    and spheremap reads every level back."""
+    env = latlong_dirs(64, 128).astype(np.float32) + 2
+    src = tmp_path / "dirs.exr"
+    spheremap.write_image(str(src), env)
+    out = tmp_path / "hdr.ktx2"
+    p = cli("prefilter", src, "-o", out, "--size", 16, "--levels", "3", "--samples", "1", "--json",
+            "--encode", encode, "--zstd", 9)
+    if p.returncode != 0 and "no Basis Universal encoder" in p.stderr:
+        if os.environ.get("SPHEREMAP_REQUIRE_BASISU") == "1":
+            pytest.fail("the Basis Universal encoder is required (SPHEREMAP_REQUIRE_BASISU=1): " + p.stderr)
+        pytest.skip("this build has no Basis Universal encoder (feature basisu)")
+    assert p.returncode == 0, p.stderr
+    report = json.loads(p.stdout)
+    assert report["encode"] == encode and len(report["compression"]) == 3
+    ktx_parse = npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
+    script = tmp_path / "read.mjs"
+    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
+    q = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
+    assert q.returncode == 0, q.stderr
+    meta = json.loads(q.stdout)
+    assert (meta["vkFormat"], meta["colorModel"], meta["supercompression"]) == (vk, model, 2)
+    assert (meta["faces"], meta["levels"], meta["typeSize"]) == (6, 3, 1)
+    levels, cube = spheremap.read_texture(out)
+    assert cube and [lv.shape for lv in levels] == [(6, 16, 16, 3), (6, 8, 8, 3), (6, 4, 4, 3)]
+    assert all(np.isfinite(lv).all() and (lv >= 0).all() for lv in levels)
+    err = np.linalg.norm(levels[0] - 2 - gl_face_dirs(16), axis=-1)
+    assert err.mean() < 0.15, err.mean()

@@ -72,6 +72,15 @@ fn cube_power(img: &Image) -> [f64; 3] {
     p
 }
 
+/// An image clamped to [0, max].
+fn clamp_image(img: &Image, max: f32) -> Image {
+    let mut i = img.clone();
+    for v in &mut i.data {
+        *v = v.clamp(0.0, max);
+    }
+    i
+}
+
 /// The texture clamped to [0, max] (what an unsigned encoding is given).
 fn clamped(tex: &Texture, max: f32) -> Texture {
     let mut t = tex.clone();
@@ -482,4 +491,158 @@ fn packed_pngs_round_trip_and_keep_the_light_within_their_range() {
         assert!(err.contains("written in PNG"), "{err}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A UASTC HDR 4x4 cube (faces of 16², 2 levels, Zstandard) written by spheremap with Basis
+/// Universal 2.50's encoder: read without the encoder.
+const UASTC_CUBE: &str = "uastc_hdr_cube.ktx2";
+
+#[test]
+fn uastc_hdr_files_are_read_without_the_encoder() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../testdata")
+        .join(UASTC_CUBE);
+    let tex = spheremap::images::codec::read_texture(&p, &Default::default()).unwrap();
+    assert!(tex.cube);
+    assert_eq!(tex.levels.len(), 2);
+    assert_eq!(
+        (
+            tex.levels[0].width,
+            tex.levels[0].height,
+            tex.levels[0].channels
+        ),
+        (16, 96, 3)
+    );
+    assert!(tex
+        .levels
+        .iter()
+        .all(|l| l.data.iter().all(|v| v.is_finite() && *v >= 0.0)));
+    // What the file holds: the studio HDRI's cube (to UASTC HDR's precision: its encoder
+    // alone misses the power of these small levels by up to 11 %).
+    let want = cube_chain(&hdri("studio.exr"), 16, 2);
+    for (l, w) in tex.levels.iter().zip(&want.levels) {
+        let w = clamp_image(w, 65216.0);
+        let (p, q) = (cube_power(l), cube_power(&w));
+        for k in 0..3 {
+            assert!((p[k] / q[k] - 1.0).abs() < 0.15, "{p:?} vs {q:?}");
+        }
+        let n = l.data.len() as f64;
+        let rmsle = (l
+            .data
+            .iter()
+            .zip(&w.data)
+            .map(|(a, b)| ((*a as f64).ln_1p() - (*b as f64).ln_1p()).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
+        assert!(rmsle < 0.05, "{rmsle}");
+    }
+}
+
+#[cfg(not(feature = "basisu"))]
+#[test]
+fn without_the_basisu_feature_the_encoder_is_refused_by_name() {
+    let tex = cube_chain(&hdri("studio.exr"), 8, 1);
+    let opts = WriteOptions {
+        encode: Encoding::UastcHdr4x4,
+        ..Default::default()
+    };
+    let err = encode_texture(
+        Path::new("u.ktx2"),
+        &tex,
+        Format::Ktx2,
+        &opts,
+        Some(CUBE_NOTE),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("basisu") && err.contains("libclang"), "{err}");
+}
+
+#[cfg(feature = "basisu")]
+#[test]
+fn uastc_and_astc_hdr_round_trip_and_basis_universal_s_own_transcoder_agrees() {
+    use basisu_c_sys::extra::{
+        basisu_transcoder_init, BasisuTranscoder, ChannelType, SupportedTextureCompression,
+    };
+    basisu_transcoder_init();
+    if std::env::var("SPHEREMAP_UPDATE_TESTDATA").is_ok() {
+        let small = cube_chain(&hdri("studio.exr"), 16, 2);
+        let (k, _) = encode(
+            &small,
+            Format::Ktx2,
+            Encoding::UastcHdr4x4,
+            Some(19),
+            CUBE_NOTE,
+        );
+        let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../testdata")
+            .join(UASTC_CUBE);
+        std::fs::write(p, k).unwrap();
+    }
+    let tex = cube_chain(&hdri("studio.exr"), 32, 6);
+    for e in [Encoding::UastcHdr4x4, Encoding::AstcHdr6x6] {
+        for zstd in [None, Some(9)] {
+            let (k, rep) = encode(&tex, Format::Ktx2, e, zstd, CUBE_NOTE);
+            let rep = rep.unwrap();
+            let ours = decode(Path::new("u.ktx2"), &k, &Default::default()).unwrap();
+            assert!(ours.cube && ours.levels.len() == 6);
+            // The ktx2 crate's parser.
+            let r = ktx2::Reader::new(&k[..]).unwrap();
+            let fmt = match e {
+                Encoding::UastcHdr4x4 => ktx2::Format::ASTC_4x4_SFLOAT_BLOCK,
+                _ => ktx2::Format::ASTC_6x6_SFLOAT_BLOCK,
+            };
+            assert_eq!(r.header().format, Some(fmt));
+            assert_eq!(r.header().level_count, 6);
+            // Basis Universal's C++ transcoder reads the whole chain to the same half floats
+            // as the pure-Rust one spheremap reads with.
+            let t =
+                BasisuTranscoder::new(&k, SupportedTextureCompression::empty(), ChannelType::Auto)
+                    .unwrap();
+            let info = t.get_info();
+            assert_eq!((info.levels, info.faces, info.width), (6, 6, 32));
+            let img = t
+                .transcode(
+                    Some(basisu_c_sys::TranscodeTargetFormat::RgbaHalf),
+                    Some(false),
+                )
+                .unwrap();
+            let mut at = 0;
+            for l in &ours.levels {
+                for px in l.data.chunks_exact(3) {
+                    for c in 0..3 {
+                        let h = exr::prelude::f16::from_le_bytes([
+                            img.data[at + 2 * c],
+                            img.data[at + 2 * c + 1],
+                        ]);
+                        assert_eq!(h.to_f32(), px[c]);
+                    }
+                    at += 8;
+                }
+            }
+            assert_eq!(at, img.data.len());
+            for (i, (r, (l, w))) in rep
+                .iter()
+                .zip(ours.levels.iter().zip(&tex.levels))
+                .enumerate()
+            {
+                let (p, q) = (cube_power(l), cube_power(&clamp_image(w, 65216.0)));
+                for c in 0..3 {
+                    assert!(
+                        ((p[c] / q[c] - 1.0) - r.power_error[c]).abs() < 1e-6,
+                        "the report is the file's"
+                    );
+                }
+                println!(
+                    "{e:?} zstd {zstd:?} level {i}: {:?} (alone {:?}) rmsle {:.4}",
+                    r.power_error, r.power_error_unrepaired, r.rmsle
+                );
+                assert!(
+                    worst(&r.power_error) <= worst(&r.power_error_unrepaired) + 1e-9,
+                    "{r:?}"
+                );
+            }
+        }
+    }
 }

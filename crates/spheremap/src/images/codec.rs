@@ -84,6 +84,17 @@ impl WriteOptions {
                 ),
             ));
         }
+        if self.encode.is_basis() && format != Format::Ktx2 {
+            return Err(Error::param(
+                "encode",
+                format!(
+                    "{}: {} is written in KTX2 only, not {}",
+                    path.display(),
+                    self.encode.name(),
+                    format.name()
+                ),
+            ));
+        }
         if self.encode.is_packing() && format != Format::Png {
             return Err(Error::param(
                 "encode",

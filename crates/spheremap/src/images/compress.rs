@@ -8,6 +8,10 @@
 //! | `float` | RGBA half or float per texel | 97 / 109 | 10 / 2 | ±65,504 (half) / f32 |
 //! | `bc6h` | 4×4 blocks of 16 bytes, unsigned half RGB | 143 `BC6H_UFLOAT_BLOCK` | 95 `BC6H_UF16` | 0 … 65,504 |
 //! | `rgb9e5` | 32 bits per texel, shared exponent | 123 `E5B9G9R9_UFLOAT_PACK32` | 67 `R9G9B9E5_SHAREDEXP` | 0 … 65,408 |
+//! | `uastc-hdr-4x4` | 4×4 blocks of 16 bytes (Basis Universal) | 1000066000 `ASTC_4x4_SFLOAT_BLOCK`, DFD model 167 | – | 0 … 65,216 |
+//! | `astc-hdr-6x6` | 6×6 blocks of 16 bytes (Basis Universal) | 1000066004 `ASTC_6x6_SFLOAT_BLOCK`, DFD model 162 | – | 0 … 65,216 |
+//!
+//! and two HDR packings into 8-bit RGBA PNGs, `rgbd` (Babylon.js) and `rgbm` (three.js).
 //!
 //! Both hold RGB (no alpha: a grey map is written to R, G and B, an alpha channel is dropped
 //! with a warning unless it is 1 everywhere) and no negative values.  A texel beyond the range
@@ -61,10 +65,22 @@ pub enum Encoding {
     Rgbd,
     /// RGBM in an 8-bit RGBA PNG, as three.js's `RGBMLoader` reads it (range [`RGBM_RANGE`]).
     Rgbm,
+    /// UASTC HDR 4x4 (Basis Universal; KTX2 `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK`, DFD model 167).
+    UastcHdr4x4,
+    /// ASTC HDR 6x6 (Basis Universal's encoder; KTX2 `VK_FORMAT_ASTC_6x6_SFLOAT_BLOCK`).
+    AstcHdr6x6,
 }
 
 /// The encodings' names, as `--encode` and Python's `encode=` take them.
-pub const ENCODING_NAMES: [&str; 5] = ["float", "bc6h", "rgb9e5", "rgbd", "rgbm"];
+pub const ENCODING_NAMES: [&str; 7] = [
+    "float",
+    "bc6h",
+    "rgb9e5",
+    "rgbd",
+    "rgbm",
+    "uastc-hdr-4x4",
+    "astc-hdr-6x6",
+];
 
 /// A block whose power differs from its source's by more than this (relative, per channel) is
 /// encoded again.
@@ -75,19 +91,31 @@ pub const REPAIR_ROUNDS: usize = 6;
 pub const BC6H_MAX: f32 = 65504.0;
 /// The largest value RGB9E5 holds: (2⁹ − 1)/2⁹ × 2¹⁶.
 pub const RGB9E5_MAX: f32 = 65408.0;
+/// The largest value ASTC HDR (and so UASTC HDR) holds.
+pub const ASTC_HDR_MAX: f32 = 65216.0;
 
 impl Encoding {
-    pub const ALL: [Encoding; 5] = [
+    pub const ALL: [Encoding; 7] = [
         Encoding::Float,
         Encoding::Bc6h,
         Encoding::Rgb9e5,
         Encoding::Rgbd,
         Encoding::Rgbm,
+        Encoding::UastcHdr4x4,
+        Encoding::AstcHdr6x6,
     ];
 
-    /// Texels for KTX2 and DDS (BC6H, RGB9E5).
+    /// Texels for KTX2 and DDS (BC6H, RGB9E5) or KTX2 alone (UASTC HDR, ASTC HDR).
     pub fn is_texture(self) -> bool {
-        matches!(self, Encoding::Bc6h | Encoding::Rgb9e5)
+        matches!(
+            self,
+            Encoding::Bc6h | Encoding::Rgb9e5 | Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6
+        )
+    }
+
+    /// Basis Universal's HDR formats (KTX2 only).
+    pub fn is_basis(self) -> bool {
+        matches!(self, Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6)
     }
 
     /// An HDR packing into an 8-bit RGBA PNG (RGBD, RGBM).
@@ -128,6 +156,7 @@ impl Encoding {
             Encoding::Rgb9e5 => Some(RGB9E5_MAX),
             Encoding::Rgbd => Some(RGBD_MAX),
             Encoding::Rgbm => Some(RGBM_RANGE),
+            Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6 => Some(ASTC_HDR_MAX),
         }
     }
 }
@@ -191,6 +220,8 @@ pub fn surface_bytes(e: Encoding, w: usize, h: usize) -> Option<usize> {
         Encoding::Float | Encoding::Rgbd | Encoding::Rgbm => None,
         Encoding::Bc6h => Some(w.div_ceil(4) * h.div_ceil(4) * 16),
         Encoding::Rgb9e5 => Some(w * h * 4),
+        Encoding::UastcHdr4x4 => Some(w.div_ceil(4) * h.div_ceil(4) * 16),
+        Encoding::AstcHdr6x6 => Some(w.div_ceil(6) * h.div_ceil(6) * 16),
     }
 }
 
@@ -477,9 +508,9 @@ impl Codec for Rgb9e5 {
 
 fn codec(e: Encoding) -> &'static dyn Codec {
     match e {
-        Encoding::Bc6h => &Bc6h,
         Encoding::Rgb9e5 => &Rgb9e5,
-        _ => unreachable!("only BC6H and RGB9E5 are block-encoded"),
+        // Basis Universal's formats are encoded and decoded whole (`basis`); BC6H otherwise.
+        _ => &Bc6h,
     }
 }
 
@@ -874,6 +905,7 @@ pub fn compress(
     let c = codec(e);
     let range = e.range().expect("a compressed encoding");
     let nf = if cube { 6 } else { 1 };
+    let tex_cube = cube;
     let mut surfaces = Vec::with_capacity(levels.len());
     let mut report = Vec::with_capacity(levels.len());
     let mut alpha_dropped = false;
@@ -937,13 +969,17 @@ pub fn compress(
         }
         let nblocks = (w.div_ceil(block_side(e)) * h.div_ceil(block_side(e)) * nf) as f64;
         let mean = after.map(|p| p / nblocks);
-        let outs: Vec<SurfaceOut> = faces
-            .iter()
-            .map(|s| match e {
-                Encoding::Rgb9e5 => encode_rgb9e5(s),
-                _ => encode_surface(c, s, mean),
-            })
-            .collect();
+        let outs: Vec<SurfaceOut> = if e.is_basis() {
+            basis::encode_level(what, e, &faces, tex_cube)?
+        } else {
+            faces
+                .iter()
+                .map(|s| match e {
+                    Encoding::Rgb9e5 => encode_rgb9e5(s),
+                    _ => encode_surface(c, s, mean),
+                })
+                .collect()
+        };
         let total = |f: fn(&SurfaceOut) -> [f64; 3]| {
             outs.iter().fold([0.0; 3], |mut a, o| {
                 for k in 0..3 {
@@ -1011,6 +1047,257 @@ pub fn decode_surface(e: Encoding, bytes: &[u8], w: usize, h: usize) -> Image {
         }
     }
     img
+}
+
+/// UASTC HDR 4x4 and ASTC HDR 6x6: encoded by Basis Universal's encoder (feature `basisu`),
+/// read by the pure-Rust Basis Universal transcoder.
+pub mod basis {
+    use super::{Encoding, Surface, SurfaceOut};
+    use crate::base::error::{Error, Result};
+    use crate::images::Image;
+
+    /// KTX2's `vkFormat` of each: `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK`, `..._6x6_...`.
+    pub fn vk_format(e: Encoding) -> u32 {
+        match e {
+            Encoding::UastcHdr4x4 => 1_000_066_000,
+            _ => 1_000_066_004,
+        }
+    }
+
+    /// The data format descriptor Basis Universal writes for each (its total size first):
+    /// UASTC HDR 4x4 (model 167, one unsigned float sample) and ASTC 6x6 (model 162, one
+    /// signed float sample), BT.709, linear, 16 bytes per block.
+    pub fn dfd(e: Encoding) -> Vec<u8> {
+        let (model, dim, channel, lower) = match e {
+            Encoding::UastcHdr4x4 => (167u8, 3u8, 0x80u8, 0u32),
+            _ => (162, 5, 0xC0, 0xBF80_0000),
+        };
+        let mut d = Vec::with_capacity(44);
+        d.extend(44u32.to_le_bytes());
+        d.extend(0u32.to_le_bytes());
+        d.extend(2u16.to_le_bytes());
+        d.extend(40u16.to_le_bytes());
+        d.extend([model, 1, 1, 0, dim, dim, 0, 0, 16, 0, 0, 0, 0, 0, 0, 0]);
+        d.extend(0u16.to_le_bytes());
+        d.extend([127, channel, 0, 0, 0, 0]);
+        d.extend(lower.to_le_bytes());
+        d.extend(0x3F80_0000u32.to_le_bytes());
+        d
+    }
+
+    /// Decodes every level of a UASTC HDR / ASTC HDR KTX2 file (its faces stacked) to RGB.
+    pub fn decode_ktx2(path: &std::path::Path, bytes: &[u8]) -> Result<Vec<Image>> {
+        let bad = |m: String| Error::data(path, format!("cannot decode KTX2: {m}"));
+        let t = basisu::Transcoder::new(bytes).map_err(|e| bad(format!("{e:?}")))?;
+        let faces = t.face_count().max(1);
+        let (w0, h0) = t.base_dimensions();
+        let mut levels = Vec::new();
+        for level in 0..t.level_count() {
+            let (w, h) = (
+                ((w0 >> level).max(1)) as usize,
+                ((h0 >> level).max(1)) as usize,
+            );
+            let mut img = Image::new(w, h * faces as usize, 3);
+            for f in 0..faces {
+                let px = t
+                    .transcode_image(
+                        level,
+                        0,
+                        f,
+                        basisu::TargetFormat::RgbaHalf,
+                        basisu::DecodeFlags::NONE,
+                    )
+                    .map_err(|e| bad(format!("level {level} face {f}: {e:?}")))?;
+                if px.len() != w * h * 8 {
+                    return Err(bad(format!(
+                        "level {level} transcodes to {} bytes",
+                        px.len()
+                    )));
+                }
+                let out = &mut img.data[f as usize * w * h * 3..(f as usize + 1) * w * h * 3];
+                for (o, p) in out.chunks_exact_mut(3).zip(px.chunks_exact(8)) {
+                    for k in 0..3 {
+                        o[k] = exr::prelude::f16::from_le_bytes([p[2 * k], p[2 * k + 1]]).to_f32();
+                    }
+                }
+            }
+            levels.push(img);
+        }
+        Ok(levels)
+    }
+
+    /// Encodes one level's faces (each RGB, already within the range) and measures what the
+    /// decoded blocks hold; a level whose power misses by more than the block tolerance is
+    /// encoded again from its texels scaled by the power ratio, per channel, twice at most.
+    #[cfg(feature = "basisu")]
+    pub(super) fn encode_level(
+        _what: &str,
+        e: Encoding,
+        faces: &[Surface],
+        cube: bool,
+    ) -> Result<Vec<SurfaceOut>> {
+        use basisu_c_sys::extra::{
+            basisu_encoder_init, types, BasisuEncoder, BasisuEncoderParams, SourceImage,
+            SourceImageFormat,
+        };
+        basisu_encoder_init();
+        let (w, h) = (faces[0].w, faces[0].h);
+        let source: Vec<[f64; 3]> = faces
+            .iter()
+            .map(|s| super::power(&s.rgb, &s.omega))
+            .collect();
+        let want = source.iter().fold([0.0; 3], |mut a, p| {
+            for k in 0..3 {
+                a[k] += p[k];
+            }
+            a
+        });
+        let encode = |gain: [f64; 3]| -> Result<(Vec<u8>, Vec<Image>)> {
+            let mut data = Vec::with_capacity(faces.len() * w * h * 16);
+            for s in faces {
+                for t in &s.rgb {
+                    for k in 0..3 {
+                        let v = ((t[k] as f64 * gain[k]) as f32).min(super::ASTC_HDR_MAX);
+                        data.extend(v.to_le_bytes());
+                    }
+                    data.extend(1f32.to_le_bytes());
+                }
+            }
+            let mut enc = BasisuEncoder::new();
+            enc.set_image(SourceImage {
+                data: &data,
+                format: SourceImageFormat::Rgba32Float,
+                size: types::Extent3d {
+                    width: w as u32,
+                    height: h as u32,
+                    depth_or_array_layers: faces.len() as u32,
+                },
+            })
+            .map_err(|x| Error::param("encode", format!("Basis Universal: {x}")))?;
+            let format = match e {
+                Encoding::UastcHdr4x4 => basisu_c_sys::BasisTextureFormat::UastcHdr4x4,
+                _ => basisu_c_sys::BasisTextureFormat::AstcHdr6x6,
+            };
+            let mut params = BasisuEncoderParams::new_with_linear_defaults(format);
+            if e == Encoding::UastcHdr4x4 {
+                // UASTC HDR 4x4 has no quality parameter (no RDO): the codec's own settings.
+                params.quality_level = -1;
+            }
+            let params = params
+                .with_tex_type(if cube {
+                    types::TextureViewDimension::Cube
+                } else {
+                    types::TextureViewDimension::D2
+                })
+                .with_removed_flags(basisu_c_sys::common::BU_COMP_FLAGS_KTX2_UASTC_ZSTD);
+            let ktx2 = enc
+                .compress(params)
+                .map_err(|x| Error::param("encode", format!("Basis Universal: {x}")))?;
+            let q =
+                |at: usize| u64::from_le_bytes(ktx2[at..at + 8].try_into().expect("8")) as usize;
+            let level = ktx2[q(80)..q(80) + q(88)].to_vec();
+            let decoded = decode_ktx2(std::path::Path::new("basisu"), &ktx2)?;
+            Ok((level, decoded))
+        };
+        let measure = |img: &Image| -> [f64; 3] {
+            let mut p = [0.0; 3];
+            for (f, s) in faces.iter().enumerate() {
+                let px = &img.data[f * w * h * 3..(f + 1) * w * h * 3];
+                for (t, o) in px.chunks_exact(3).zip(&s.omega) {
+                    for k in 0..3 {
+                        p[k] += t[k] as f64 * o;
+                    }
+                }
+            }
+            p
+        };
+        let err = |p: &[f64; 3]| {
+            (0..3)
+                .filter(|&k| want[k] > 0.0)
+                .map(|k| (p[k] / want[k] - 1.0).abs())
+                .fold(0.0, f64::max)
+        };
+        let (mut bytes, decoded) = encode([1.0; 3])?;
+        let mut img = decoded.into_iter().next().expect("one level");
+        let unrepaired = measure(&img);
+        let mut got = unrepaired;
+        let mut gain = [1.0; 3];
+        let mut tries = 0;
+        let log_error = |img: &Image| {
+            let mut sq = 0.0;
+            for (f, s) in faces.iter().enumerate() {
+                let px = &img.data[f * w * h * 3..(f + 1) * w * h * 3];
+                for (d, t) in px.chunks_exact(3).zip(&s.rgb) {
+                    for k in 0..3 {
+                        let x = (d[k] as f64).ln_1p() - (t[k] as f64).ln_1p();
+                        sq += x * x;
+                    }
+                }
+            }
+            sq
+        };
+        let log_sq_unrepaired = log_error(&img);
+        while err(&got) > super::BLOCK_TOLERANCE && tries < 2 {
+            tries += 1;
+            let g: [f64; 3] = std::array::from_fn(|k| {
+                if got[k] > 0.0 && want[k] > 0.0 {
+                    gain[k] * (want[k] / got[k]).clamp(0.5, 2.0)
+                } else {
+                    gain[k]
+                }
+            });
+            let (b, d) = encode(g)?;
+            let i = d.into_iter().next().expect("one level");
+            let p = measure(&i);
+            if err(&p) < err(&got) {
+                (bytes, img, got, gain) = (b, i, p, g);
+            }
+        }
+        // One entry per face; the level's sums are carried by the first.
+        let per_face = bytes.len() / faces.len();
+        let n = super::surface_bytes(e, w, h).expect("a block format");
+        if per_face != n {
+            return Err(Error::param(
+                "encode",
+                format!("Basis Universal wrote {per_face} bytes per face; {n} expected"),
+            ));
+        }
+        let log_sq = log_error(&img);
+        Ok(faces
+            .iter()
+            .enumerate()
+            .map(|(f, _)| SurfaceOut {
+                bytes: bytes[f * n..(f + 1) * n].to_vec(),
+                blocks: n / 16,
+                repaired: if f == 0 && tries > 0 && gain != [1.0; 3] {
+                    n / 16 * faces.len()
+                } else {
+                    0
+                },
+                source: if f == 0 { want } else { [0.0; 3] },
+                unrepaired: if f == 0 { unrepaired } else { [0.0; 3] },
+                decoded: if f == 0 { got } else { [0.0; 3] },
+                log_sq: if f == 0 { log_sq } else { 0.0 },
+                log_sq_unrepaired: if f == 0 { log_sq_unrepaired } else { 0.0 },
+                values: 3 * w * h,
+            })
+            .collect())
+    }
+
+    /// Without the `basisu` feature: an error naming what is missing.
+    #[cfg(not(feature = "basisu"))]
+    pub(super) fn encode_level(
+        what: &str,
+        e: Encoding,
+        _faces: &[Surface],
+        _cube: bool,
+    ) -> Result<Vec<SurfaceOut>> {
+        Err(Error::unsupported(
+            &format!("{what}: --encode {}", e.name()),
+            "this build has no Basis Universal encoder: build spheremap with the `basisu` \
+             feature (cargo build --features basisu; it needs libclang, Debian's libclang-dev)",
+        ))
+    }
 }
 
 #[cfg(test)]

@@ -99,6 +99,7 @@ impl Stored {
         match self {
             Stored::Float { bytes, channels } => (bytes * channels).max(4).next_multiple_of(4),
             Stored::Encoded(Encoding::Bc6h) => 16,
+            Stored::Encoded(e) if e.is_basis() => 16,
             Stored::Encoded(_) => 4,
         }
     }
@@ -109,6 +110,7 @@ impl Stored {
             Stored::Float { .. } => 109,
             Stored::Encoded(Encoding::Bc6h) => 143,
             Stored::Encoded(Encoding::Rgb9e5) => 123,
+            Stored::Encoded(e) if e.is_basis() => compress::basis::vk_format(e),
             Stored::Encoded(_) => unreachable!("float and the PNG packings are not stored here"),
         }
     }
@@ -127,6 +129,7 @@ impl Stored {
         match self {
             Stored::Float { bytes, .. } => bytes as u32,
             Stored::Encoded(Encoding::Bc6h) => 1,
+            Stored::Encoded(e) if e.is_basis() => 1,
             Stored::Encoded(_) => 4,
         }
     }
@@ -141,6 +144,11 @@ impl Stored {
 
     /// The KTX2 data format descriptor (its total size first).
     fn dfd(self) -> Vec<u8> {
+        if let Stored::Encoded(e) = self {
+            if e.is_basis() {
+                return compress::basis::dfd(e);
+            }
+        }
         // (bit offset, bit length, channel with qualifiers, lower, upper)
         type Sample = (u16, u8, u8, u32, u32);
         let (model, block, plane, samples): (u8, [u8; 4], u8, Vec<Sample>) = match self {
@@ -574,6 +582,14 @@ pub fn decode_ktx2(path: &Path, bytes: &[u8], limits: &Limits) -> Result<(Textur
         109 => float(4, 4),
         143 => Stored::Encoded(Encoding::Bc6h),
         123 => Stored::Encoded(Encoding::Rgb9e5),
+        1_000_066_000 | 1_000_066_004 => {
+            // UASTC HDR 4x4 / ASTC HDR 6x6: Basis Universal's transcoder reads the whole file.
+            let cube = faces == 6;
+            check_size(path, w as usize, (h as usize).max(1), cube, limits)?;
+            let levels = compress::basis::decode_ktx2(path, bytes)?;
+            let kv = Vec::new();
+            return Ok((Texture { cube, levels }, kv));
+        }
         0 => {
             return Err(r.bad(
                 "the format is VK_FORMAT_UNDEFINED (Basis Universal or another \
