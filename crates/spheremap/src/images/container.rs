@@ -1,6 +1,7 @@
 //! KTX2 and DDS: the GPU texture containers engines load, holding every mip level and, for a
-//! cube map, the six faces.  Texels are floats, BC6H blocks or RGB9E5
-//! ([`crate::images::compress`]); KTX2 levels may be Zstandard-supercompressed.
+//! cube map, the six faces.  Texels are floats, BC6H blocks, RGB9E5, or (KTX2) UASTC HDR 4x4
+//! and ASTC HDR 6x6 blocks ([`crate::images::compress`]); KTX2 levels may be
+//! Zstandard-supercompressed.
 //!
 //! ## What is written
 //!
@@ -31,8 +32,10 @@
 //! (143; typeSize 1, a BC6H data format descriptor: model 133, 4×4 texel blocks, one 128-bit
 //! unsigned float sample) and DDS `DXGI_FORMAT_BC6H_UF16` (95, with a linear size instead of
 //! a pitch); RGB9E5 as KTX2 `VK_FORMAT_E5B9G9R9_UFLOAT_PACK32` (123, the six-sample
-//! descriptor of Khronos's `dfdutils`) and DDS `DXGI_FORMAT_R9G9B9E5_SHAREDEXP` (67).  A level
-//! smaller than a block takes one block.  With Zstandard supercompression (KTX2 only, scheme
+//! descriptor of Khronos's `dfdutils`) and DDS `DXGI_FORMAT_R9G9B9E5_SHAREDEXP` (67); UASTC
+//! HDR 4x4 and ASTC HDR 6x6 as KTX2 `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK` (1000066000) and
+//! `VK_FORMAT_ASTC_6x6_SFLOAT_BLOCK` (1000066004) with the descriptors Basis Universal writes
+//! (models 167 and 162).  A level smaller than a block takes one block.  With Zstandard supercompression (KTX2 only, scheme
 //! 2), each level is compressed on its own, without padding between levels, and its index
 //! records both lengths.
 //!
@@ -43,7 +46,9 @@
 //! (rows or columns running the other way are turned to row 0 at the top; not for BC6H,
 //! whose blocks are stored as written); DDS with a DX10 header of the same DXGI formats, or a
 //! legacy header with the D3D float codes (111 R16F, 113 A16B16G16R16F, 114 R32F, 116
-//! A32B32G32R32F).  BC6H decodes through `bcdec_rs` to 3 channels, RGB9E5 to 3 channels.
+//! A32B32G32R32F).  BC6H decodes through `bcdec_rs` to 3 channels, RGB9E5 to 3 channels,
+//! UASTC HDR 4x4 and ASTC HDR 6x6 through the pure-Rust Basis Universal transcoder (`basisu`)
+//! to 3 channels of half floats.
 //! Other block-compressed, integer, BasisLZ/zlib-supercompressed, 3D and array textures are
 //! refused with the reason.  Sizes are checked against [`Limits`] before anything is
 //! allocated, and every offset against the file's length.
