@@ -570,7 +570,7 @@ def test_write_texture_encodes_and_reports_each_level_s_light(tmp_path):
         face = np.stack([1 + 0.5 * np.sin(x / 3.0), 1 + 0.5 * np.cos(y / 4.0), 1 + 0.1 * x / n], -1)
         levels.append(np.repeat(face[None], 6, 0).astype(np.float32) * np.arange(1, 7, dtype=np.float32)[:, None, None, None])
     levels[0][2, 5, 7] = 400.0  # a small bright source
-    assert set(spheremap.ENCODINGS) == {"float", "bc6h", "rgb9e5", "rgbd", "rgbm"}
+    assert set(spheremap.ENCODINGS) == {"float", "bc6h", "rgb9e5", "rgbd", "rgbm", "uastc-hdr-4x4", "astc-hdr-6x6"}
     for encode in ("float", "bc6h", "rgb9e5"):
         path = tmp_path / f"t_{encode}.ktx2"
         rep = spheremap.write_texture(path, levels, cube=True, encode=encode, zstd=5, mapping="cube")
