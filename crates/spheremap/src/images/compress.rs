@@ -1,5 +1,6 @@
 //! Encoded texels that keep the light: BC6H blocks and RGB9E5 packed texels for KTX2 and DDS,
-//! with spheremap's own lighting check and repair on top of the encoder.
+//! UASTC HDR 4x4 and ASTC HDR 6x6 for KTX2, RGBD and RGBM for PNG, with spheremap's own
+//! lighting check and repair on top of the encoders.
 //!
 //! ## Encodings
 //!
@@ -13,7 +14,7 @@
 //!
 //! and two HDR packings into 8-bit RGBA PNGs, `rgbd` (Babylon.js) and `rgbm` (three.js).
 //!
-//! Both hold RGB (no alpha: a grey map is written to R, G and B, an alpha channel is dropped
+//! All hold RGB (no alpha: a grey map is written to R, G and B, an alpha channel is dropped
 //! with a warning unless it is 1 everywhere) and no negative values.  A texel beyond the range
 //! is clamped to it and a negative one to 0, with a warning that states the power each
 //! channel loses; NaN and Inf are refused.
@@ -40,10 +41,14 @@
 //!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
 //!    and they are encoded again.
 //!
-//! Each block thus holds its own light, or its neighbours hold it, so the level's power and
-//! its low-order moments (SH9) hold with it.  RGB9E5 texels are each rounded to the nearest
-//! value the format holds: there is nothing to repair.  [`LevelCompression`] reports, per level, the power error before and after
-//! the repair, the blocks repaired and the RMSLE.
+//! Where every block holds its light, or its neighbours hold it, the level's power and its
+//! low-order moments (SH9) hold with it.  A block whose light sits in one texel far brighter
+//! than the rest cannot always: BC6H's endpoints move in steps of about 4 %, and what its
+//! neighbours may take is bounded (docs/lighting.md gives the measured misses).  RGB9E5
+//! texels are each rounded to the nearest value the format holds: there is nothing to
+//! repair.  UASTC HDR and ASTC HDR levels are encoded whole by Basis Universal and corrected
+//! by a per-channel level gain ([`basis`]).  [`LevelCompression`] reports, per level, the
+//! power error before and after the repair, the blocks repaired and the RMSLE.
 
 use super::Image;
 use crate::base::error::{Error, Result};
