@@ -309,10 +309,16 @@ def npm_peer(spec, module):
     return path
 
 
-@pytest.fixture(scope="module")
-def ktx_parse():
-    """The path of ktx-parse's ES module."""
-    return npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
+def ktx_parse_read(tmp_path, path):
+    """What ktx-parse reads in the KTX2 file `path` (READ_KTX2's JSON; each level's data
+    written to tmp_path/level{i}.bin). ktx-parse is installed again if a later npm install
+    into target/peers pruned it."""
+    module = npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
+    script = tmp_path / "read.mjs"
+    script.write_text(READ_KTX2 % json.dumps("file://" + module))
+    p = subprocess.run(["node", script, path, tmp_path], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
 
 
 @pytest.fixture(scope="module")
@@ -389,14 +395,10 @@ def assert_faces_hold_their_directions(level0):
 
 
 @pytest.mark.parametrize("half", [False, True])
-def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_path, ktx_parse, half):
+def test_a_cube_ktx2_read_by_ktx_parse_has_its_faces_where_the_format_says(tmp_path, half):
     f = 16
     out = prefiltered_dirs(tmp_path, "dirs.ktx2", half, f)
-    script = tmp_path / "read.mjs"
-    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
-    p = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
-    assert p.returncode == 0, p.stderr
-    meta = json.loads(p.stdout)
+    meta = ktx_parse_read(tmp_path, out)
     assert meta["vkFormat"] == (97 if half else 109)  # R16G16B16A16_SFLOAT / R32G32B32A32_SFLOAT
     assert meta["typeSize"] == (2 if half else 4)
     assert (meta["width"], meta["height"], meta["depth"], meta["layers"]) == (f, f, 0, 0)
@@ -527,13 +529,7 @@ def test_an_encoded_cube_ktx2_read_by_ktx_parse(tmp_path, encode, zstd):
     for lv in report["compression"]:
         assert max(abs(e) for e in lv["power_error"]) < 5e-3, lv
         assert lv["clamped"] == 0 and lv["rmsle"] < 0.05, lv
-    # (Installed again if a later npm install into target/peers pruned it.)
-    ktx_parse = npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
-    script = tmp_path / "read.mjs"
-    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
-    p = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
-    assert p.returncode == 0, p.stderr
-    meta = json.loads(p.stdout)
+    meta = ktx_parse_read(tmp_path, out)
     bc6h = encode == "bc6h"
     # VK_FORMAT_BC6H_UFLOAT_BLOCK / VK_FORMAT_E5B9G9R9_UFLOAT_PACK32; KHR_DF_MODEL_BC6H / RGBSDA.
     assert meta["vkFormat"] == (143 if bc6h else 123)
@@ -683,12 +679,7 @@ def test_a_basis_universal_hdr_cube_read_by_ktx_parse(tmp_path, encode, model, v
     assert p.returncode == 0, p.stderr
     report = json.loads(p.stdout)
     assert report["encode"] == encode and len(report["compression"]) == 3
-    ktx_parse = npm_peer(KTX_PARSE, os.path.join("ktx-parse", "dist", "index.mjs"))
-    script = tmp_path / "read.mjs"
-    script.write_text(READ_KTX2 % json.dumps("file://" + ktx_parse))
-    q = subprocess.run(["node", script, out, tmp_path], capture_output=True, text=True)
-    assert q.returncode == 0, q.stderr
-    meta = json.loads(q.stdout)
+    meta = ktx_parse_read(tmp_path, out)
     assert (meta["vkFormat"], meta["colorModel"], meta["supercompression"]) == (vk, model, 2)
     assert (meta["faces"], meta["levels"], meta["typeSize"]) == (6, 3, 1)
     levels, cube = spheremap.read_texture(out)

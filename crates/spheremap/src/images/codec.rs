@@ -48,6 +48,16 @@ pub struct WriteOptions {
     pub zstd: Option<i32>,
 }
 
+/// The file formats that hold an encoding (`None`: any; float texels go everywhere).
+pub fn encoding_formats(e: Encoding) -> Option<&'static [Format]> {
+    match e {
+        Encoding::Float => None,
+        Encoding::Bc6h | Encoding::Rgb9e5 => Some(&[Format::Ktx2, Format::Dds]),
+        Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6 => Some(&[Format::Ktx2]),
+        Encoding::Rgbd | Encoding::Rgbm => Some(&[Format::Png]),
+    }
+}
+
 /// Zstandard's levels, as `--zstd` takes them.
 pub const ZSTD_LEVELS: std::ops::RangeInclusive<i32> = 1..=22;
 
@@ -73,35 +83,15 @@ impl WriteOptions {
                 ));
             }
         }
-        if self.encode.is_texture() && !format.is_container() {
+        if let Some(allowed) = encoding_formats(self.encode).filter(|a| !a.contains(&format)) {
+            let names: Vec<&str> = allowed.iter().map(|f| f.name()).collect();
             return Err(Error::param(
                 "encode",
                 format!(
-                    "{}: {} texels are written in KTX2 or DDS, not {}",
+                    "{}: {} is written in {}, not {}",
                     path.display(),
                     self.encode.name(),
-                    format.name()
-                ),
-            ));
-        }
-        if self.encode.is_basis() && format != Format::Ktx2 {
-            return Err(Error::param(
-                "encode",
-                format!(
-                    "{}: {} is written in KTX2 only, not {}",
-                    path.display(),
-                    self.encode.name(),
-                    format.name()
-                ),
-            ));
-        }
-        if self.encode.is_packing() && format != Format::Png {
-            return Err(Error::param(
-                "encode",
-                format!(
-                    "{}: {} is an 8-bit RGBA packing written in PNG, not {}",
-                    path.display(),
-                    self.encode.name(),
+                    names.join(" or "),
                     format.name()
                 ),
             ));

@@ -110,14 +110,6 @@ impl Encoding {
         Encoding::AstcHdr6x6,
     ];
 
-    /// Texels for KTX2 and DDS (BC6H, RGB9E5) or KTX2 alone (UASTC HDR, ASTC HDR).
-    pub fn is_texture(self) -> bool {
-        matches!(
-            self,
-            Encoding::Bc6h | Encoding::Rgb9e5 | Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6
-        )
-    }
-
     /// Basis Universal's HDR formats (KTX2 only).
     pub fn is_basis(self) -> bool {
         matches!(self, Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6)
@@ -541,6 +533,16 @@ fn power(rgb: &[[f32; 3]], omega: &[f64]) -> [f64; 3] {
     p
 }
 
+/// Per-channel sums.
+fn sum3(v: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
+    v.fold([0.0; 3], |mut a, p| {
+        for k in 0..3 {
+            a[k] += p[k];
+        }
+        a
+    })
+}
+
 /// The error of `got` against `want`, per channel relative to the larger of `want` and the
 /// level's mean block power `mean` (so a block dimmer than the mean may miss by a smaller part
 /// of the level's power, never a larger one); the largest over the channels.
@@ -839,15 +841,7 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
         .map(|(t, w)| power(t, w))
         .collect();
     r.trial_got = r.got.clone();
-    let sum = |v: &[[f64; 3]]| {
-        v.iter().fold([0.0; 3], |mut a, p| {
-            for k in 0..3 {
-                a[k] += p[k];
-            }
-            a
-        })
-    };
-    let unrepaired = sum(&r.got);
+    let unrepaired = sum3(r.got.iter().copied());
     // Σ (ln(1 + x̂) − ln(1 + x))² over the surface's texels and channels, and their count.
     let bx = s.w.div_ceil(side);
     let log_error = |blocks: &[Texels], decoded: &[Texels]| {
@@ -879,9 +873,9 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
     SurfaceOut {
         blocks: n,
         repaired: r.repaired.iter().filter(|&&x| x).count(),
-        source: sum(&want),
+        source: sum3(want.iter().copied()),
         unrepaired,
-        decoded: sum(&r.got),
+        decoded: sum3(r.got.iter().copied()),
         log_sq,
         log_sq_unrepaired,
         values,
@@ -985,14 +979,7 @@ pub fn compress(
                 })
                 .collect()
         };
-        let total = |f: fn(&SurfaceOut) -> [f64; 3]| {
-            outs.iter().fold([0.0; 3], |mut a, o| {
-                for k in 0..3 {
-                    a[k] += f(o)[k];
-                }
-                a
-            })
-        };
+        let total = |f: fn(&SurfaceOut) -> [f64; 3]| sum3(outs.iter().map(f));
         let (src, unrep, dec) = (
             total(|o| o.source),
             total(|o| o.unrepaired),
@@ -1151,12 +1138,7 @@ pub mod basis {
             .iter()
             .map(|s| super::power(&s.rgb, &s.omega))
             .collect();
-        let want = source.iter().fold([0.0; 3], |mut a, p| {
-            for k in 0..3 {
-                a[k] += p[k];
-            }
-            a
-        });
+        let want = super::sum3(source.iter().copied());
         let encode = |gain: [f64; 3]| -> Result<(Vec<u8>, Vec<Image>)> {
             let mut data = Vec::with_capacity(faces.len() * w * h * 16);
             for s in faces {

@@ -35,8 +35,9 @@
 //! descriptor of Khronos's `dfdutils`) and DDS `DXGI_FORMAT_R9G9B9E5_SHAREDEXP` (67); UASTC
 //! HDR 4x4 and ASTC HDR 6x6 as KTX2 `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK` (1000066000) and
 //! `VK_FORMAT_ASTC_6x6_SFLOAT_BLOCK` (1000066004) with the descriptors Basis Universal writes
-//! (models 167 and 162).  A level smaller than a block takes one block.  With Zstandard supercompression (KTX2 only, scheme
-//! 2), each level is compressed on its own, without padding between levels, and its index
+//! (models 167 and 162).  A level smaller than a block takes one block.  With Zstandard
+//! supercompression (KTX2 only, scheme 2), each level is compressed on its own, without
+//! padding between levels, and its index
 //! records both lengths.
 //!
 //! ## What is read

@@ -11,9 +11,9 @@ pub enum Format {
     Png,
     Jpeg,
     Webp,
-    /// Khronos KTX 2.0 (uncompressed float textures, [`crate::images::container`]).
+    /// Khronos KTX 2.0 (float or encoded textures, [`crate::images::container`]).
     Ktx2,
-    /// DirectDraw Surface (uncompressed float textures, [`crate::images::container`]).
+    /// DirectDraw Surface (float, BC6H or RGB9E5 textures, [`crate::images::container`]).
     Dds,
 }
 
