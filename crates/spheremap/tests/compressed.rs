@@ -270,41 +270,54 @@ fn worst(e: &[f64; 3]) -> f64 {
 }
 
 #[test]
-fn bc6h_repair_keeps_more_light_than_the_encoder_alone() {
-    // Each level's power against the uncompressed level's: the repair brings the levels with
-    // faces of 16² and more within 0.5 % (the encoder alone is off by up to 13 % at the small
-    // levels of this chain), and leaves no level worse than the encoder alone.  Faces of one
-    // or a few blocks cannot always be brought within 0.5 %: see docs/conversions.md.
-    let tex = cube_chain(&hdri("studio.exr"), 64, 7);
-    let (k, rep) = encode(&tex, Format::Ktx2, Encoding::Bc6h, None, CUBE_NOTE);
-    let rep = rep.unwrap();
-    let back = decode(Path::new("t.ktx2"), &k, &Default::default()).unwrap();
-    let want = clamped(&tex, spheremap::images::compress::BC6H_MAX);
-    let mut worst_alone = 0f64;
-    for (i, ((l, w), r)) in back.levels.iter().zip(&want.levels).zip(&rep).enumerate() {
-        let (p, q) = (cube_power(l), cube_power(w));
-        for k in 0..3 {
-            let err = p[k] / q[k] - 1.0;
-            assert!(
-                (err - r.power_error[k]).abs() < 1e-9,
-                "the report is the file's"
-            );
+fn bc6h_repair_keeps_every_level_s_power_and_sh9() {
+    // Each level's power against the uncompressed level's, down to faces of one texel: within
+    // 0.5 % per channel, and its SH9 irradiance within 1 % for faces of 8² and more, where the
+    // encoder alone is off by up to 13 %; on a studio and on a sky with a 1° sun holding half
+    // the power.
+    let ll = Mapping::parse("latlong", None).unwrap();
+    let cube = Mapping::parse("cube", None).unwrap();
+    for (name, sun) in [("studio.exr", None), ("sky.exr", Some((1.0, 0.5)))] {
+        let mut src = hdri(name);
+        if let Some((deg, f)) = sun {
+            add_sun(&mut src, ll, [0.35, 0.6, -0.72], deg, f).unwrap();
         }
-        if l.width >= 16 {
-            assert!(worst(&r.power_error) < 5e-3, "level {i}: {r:?}");
+        let tex = cube_chain(&src, 64, 7);
+        let (k, rep) = encode(&tex, Format::Ktx2, Encoding::Bc6h, None, CUBE_NOTE);
+        let rep = rep.unwrap();
+        let back = decode(Path::new("t.ktx2"), &k, &Default::default()).unwrap();
+        let want = clamped(&tex, spheremap::images::compress::BC6H_MAX);
+        let mut worst_alone = 0f64;
+        for (i, ((l, w), r)) in back.levels.iter().zip(&want.levels).zip(&rep).enumerate() {
+            let (p, q) = (cube_power(l), cube_power(w));
+            for k in 0..3 {
+                let err = p[k] / q[k] - 1.0;
+                assert!(
+                    (err - r.power_error[k]).abs() < 1e-9,
+                    "the report is the file's"
+                );
+            }
+            assert!(worst(&r.power_error) < 5e-3, "{name} level {i}: {r:?}");
+            let check = LightCheck::compare(
+                &Moments::of(&EnvMap::new(cube, w, "u").unwrap(), &IDENTITY),
+                &Moments::of(&EnvMap::new(cube, l, "c").unwrap(), &IDENTITY),
+            );
+            // A face of one block (4² and 2²) holds the block's power, not where in the block
+            // it sits: its SH9 misses by up to 3 % (measured: 1.1–2.7 %).
+            let sh_bound = if l.width >= 8 { 0.01 } else { 0.03 };
+            assert!(
+                check.irradiance_error.unwrap() < sh_bound,
+                "{name} level {i}: {check:?}"
+            );
+            worst_alone = worst_alone.max(worst(&r.power_error_unrepaired));
+            assert!(r.rmsle < 0.1, "{name} level {i}: {r:?}");
+            assert!(l.data.iter().all(|v| v.is_finite() && *v >= 0.0));
         }
         assert!(
-            worst(&r.power_error) <= worst(&r.power_error_unrepaired) + 1e-3,
-            "level {i}: {r:?}"
+            worst_alone > 5e-3,
+            "{name}: the encoder alone leaks here ({worst_alone})"
         );
-        worst_alone = worst_alone.max(worst(&r.power_error_unrepaired));
-        assert!(r.rmsle < 0.05, "level {i}: {r:?}");
-        assert!(l.data.iter().all(|v| v.is_finite() && *v >= 0.0));
     }
-    assert!(
-        worst_alone > 5e-3,
-        "the encoder alone leaks here ({worst_alone})"
-    );
 }
 
 #[test]

@@ -37,20 +37,28 @@
 //!    ratio within [½, 2]), and from its texels each scaled by source / decoded; a try is kept
 //!    when its power is closer and no channel gets worse.  This repeats up to
 //!    [`REPAIR_ROUNDS`] times.
-//! 4. What a block still cannot hold is carried to its neighbours on the same face (within
+//! 4. Where a face still misses its power by more than [`SURFACE_TOLERANCE`], its blocks that
+//!    miss are encoded by BC6H's one-region modes written here ([`bc6h`]), largest misses
+//!    first: endpoints and indices searched for the texels nearest the source in log space
+//!    among those that hold the block's power.  That costs texel accuracy where a block
+//!    holds two clusters of values (ISPC's two-region modes fit them better), so a block is
+//!    taken this way only while the face's squared log error grows by at most
+//!    [`OWN_LOG_SHARE`] of ISPC's, unless its miss alone breaks the face's tolerance.
+//! 5. What a block still cannot hold is carried to its neighbours on the same face (within
 //!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
-//!    and they are encoded again.
+//!    and they are encoded again (steps 3 and 4), while the face misses.
 //!
 //! Where every block holds its light, or its neighbours hold it, the level's power and its
 //! low-order moments (SH9) hold with it.  A block whose light sits in one texel far brighter
-//! than the rest cannot always: BC6H's endpoints move in steps of about 4 %, and what its
-//! neighbours may take is bounded (docs/lighting.md gives the measured misses).  RGB9E5
+//! than the rest holds it to a part of a percent: BC6H's ten-bit endpoints move in steps of
+//! about 3 %, and the block's other texels, whose index the bright one shares in every
+//! channel, make up the rest (docs/lighting.md gives the measured misses).  RGB9E5
 //! texels are each rounded to the nearest value the format holds: there is nothing to
 //! repair.  UASTC HDR and ASTC HDR levels are encoded whole by Basis Universal and corrected
 //! by a per-channel level gain ([`basis`]).  [`LevelCompression`] reports, per level, the
 //! power error before and after the repair, the blocks repaired and the RMSLE.
 
-use super::Image;
+use super::{bc6h, Image};
 use crate::base::error::{Error, Result};
 use crate::mappings::mapping::Mapping;
 use rayon::prelude::*;
@@ -422,6 +430,15 @@ trait Codec: Sync {
     fn bytes(&self) -> usize;
     fn encode(&self, blocks: &[Texels]) -> Vec<u8>;
     fn decode(&self, block: &[u8]) -> Texels;
+    /// A block encoded to hold `aim`'s power, where the codec has such an encoder.
+    fn holding_power(
+        &self,
+        _texels: &Texels,
+        _weights: &[f64],
+        _aim: &bc6h::Aim,
+    ) -> Option<Vec<u8>> {
+        None
+    }
 }
 
 struct Bc6h;
@@ -438,6 +455,10 @@ impl Codec for Bc6h {
     }
     fn decode(&self, block: &[u8]) -> Texels {
         bc6h_decode_block(block)
+    }
+    fn holding_power(&self, texels: &Texels, weights: &[f64], aim: &bc6h::Aim) -> Option<Vec<u8>> {
+        let (block, _) = bc6h::encode_holding_power(texels, weights, aim);
+        block.to_bytes().map(|b| b.to_vec())
     }
 }
 
@@ -601,6 +622,8 @@ struct Repair<'a> {
     /// Source texels and their weights, per block.
     blocks: Vec<Texels>,
     weights: Vec<Vec<f64>>,
+    /// The surface's power, per channel.
+    source: [f64; 3],
     /// The power each block should hold (its source's, plus what leaky neighbours carried
     /// over).
     target: Vec<[f64; 3]>,
@@ -706,6 +729,122 @@ impl Repair<'_> {
         }
     }
 
+    /// Per channel, the surface's power missed (decoded − target) relative to the larger of
+    /// its target and its share of the level's (`mean` per block).
+    fn surface_miss(&self) -> f64 {
+        let n = self.blocks.len() as f64;
+        (0..3)
+            .filter(|&k| self.mean[k] > 0.0)
+            .map(|k| {
+                let (got, want): (f64, f64) = (self.got.iter().map(|p| p[k]).sum(), self.source[k]);
+                (got - want).abs() / want.max(self.mean[k] * n)
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Σ (ln(1 + decoded) − ln(1 + source))² over block `b`'s texels inside the surface.
+    fn log_sq(&self, b: usize, decoded: &Texels) -> f64 {
+        decoded
+            .iter()
+            .zip(&self.blocks[b])
+            .zip(&self.weights[b])
+            .filter(|(_, &w)| w > 0.0)
+            .map(|((d, s), _)| {
+                (0..3)
+                    .map(|k| ((d[k] as f64).ln_1p() - (s[k] as f64).ln_1p()).powi(2))
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// Blocks that still miss after their rounds encoded by the codec's own encoder that aims
+    /// at the power (where it has one: BC6H's one-region modes, which hold a block's power
+    /// more closely than a general encoder, its texels often less so), the largest misses
+    /// first, until the surface holds its power within [`SURFACE_TOLERANCE`]; a block whose
+    /// log error grows is taken only while `budget` (of Σ squared log error) lasts.
+    fn own(&mut self, budget: &mut f64) {
+        let nb = self.c.bytes();
+        let mut bad: Vec<usize> = (0..self.blocks.len())
+            .filter(|&b| self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
+            .collect();
+        let miss = |s: &Self, b: usize| -> f64 {
+            (0..3)
+                .filter(|&k| s.mean[k] > 0.0)
+                .map(|k| (s.got[b][k] - s.target[b][k]).abs() / s.mean[k])
+                .fold(0.0, f64::max)
+        };
+        bad.sort_by(|&a, &b| miss(self, b).total_cmp(&miss(self, a)).then(a.cmp(&b)));
+        let n = self.blocks.len() as f64;
+        let mut at = 0;
+        let mut chunk = 16;
+        while at < bad.len() && self.surface_miss() > SURFACE_TOLERANCE {
+            let these = &bad[at..(at + chunk).min(bad.len())];
+            let mut tries: Vec<(usize, Vec<u8>, Texels, [f64; 3], f64, f64)> = these
+                .par_iter()
+                .filter_map(|&b| {
+                    let scale = std::array::from_fn(|k| {
+                        if self.mean[k] > 0.0 {
+                            self.target[b][k].max(self.mean[k])
+                        } else {
+                            0.0
+                        }
+                    });
+                    let aim = bc6h::Aim {
+                        target: self.target[b],
+                        scale,
+                        tolerance: BLOCK_TOLERANCE,
+                    };
+                    let bytes = self
+                        .c
+                        .holding_power(&self.blocks[b], &self.weights[b], &aim)?;
+                    let dec = self.c.decode(&bytes);
+                    let p = power(&dec, &self.weights[b]);
+                    // Kept when its largest channel error is smaller (the one-region block may trade
+                    // a channel's hundredth of a percent for another's percents).
+                    if self.error(b, &p) >= self.error(b, &self.got[b]) {
+                        return None;
+                    }
+                    let cost = self.log_sq(b, &dec) - self.log_sq(b, &self.decoded[b]);
+                    let gained = miss(self, b)
+                        - (0..3)
+                            .filter(|&k| self.mean[k] > 0.0)
+                            .map(|k| (p[k] - self.target[b][k]).abs() / self.mean[k])
+                            .fold(0.0, f64::max);
+                    Some((b, bytes, dec, p, cost, gained))
+                })
+                .collect();
+            // The most power held per log error added first.
+            let rate = |t: &(usize, Vec<u8>, Texels, [f64; 3], f64, f64)| t.5 / t.4.max(1e-12);
+            tries.sort_by(|x, y| rate(y).total_cmp(&rate(x)).then(x.0.cmp(&y.0)));
+            let mut taken = 0;
+            for (b, bytes, dec, p, cost, _) in tries {
+                // A block whose miss alone breaks the surface's tolerance is taken whatever
+                // its log error; the others while the budget lasts.
+                let alone = (0..3).any(|k| {
+                    (self.got[b][k] - self.target[b][k]).abs()
+                        > SURFACE_TOLERANCE * self.source[k].max(self.mean[k] * n)
+                });
+                if cost > 0.0 && !alone {
+                    if cost > *budget {
+                        continue;
+                    }
+                    *budget -= cost;
+                }
+                taken += 1;
+                self.got[b] = p;
+                self.decoded[b] = dec;
+                self.bytes[b * nb..(b + 1) * nb].copy_from_slice(&bytes);
+                self.repaired[b] = true;
+            }
+            at += these.len();
+            chunk *= 2;
+            // Once nothing more is taken, the rest (smaller misses) are not tried.
+            if taken == 0 {
+                break;
+            }
+        }
+    }
+
     /// What blocks still miss after their rounds is carried to their neighbours (within
     /// `reach` blocks), shared in proportion to the neighbours' power in that channel and at
     /// most [`CARRY_SHARE`] of it; returns whether anything was carried.
@@ -753,6 +892,15 @@ impl Repair<'_> {
         carried
     }
 }
+
+/// How closely a surface (a face of a level) holds its power, per channel, relative to the
+/// larger of its own and its share of the level's, before blocks are given up to BC6H's
+/// one-region encoder or their misses are carried to their neighbours.
+pub const SURFACE_TOLERANCE: f64 = 2.5e-3;
+
+/// The share of the encoder's own squared log error (over a surface) that blocks given to
+/// BC6H's one-region encoder may add to it: 0.1, i.e. the RMSLE within 5 % of the encoder's.
+pub const OWN_LOG_SHARE: f64 = 0.1;
 
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
 pub const CARRY_SHARE: f64 = 0.25;
@@ -822,6 +970,7 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
             _ => RGB9E5_MAX,
         },
         mean,
+        source: sum3(want.iter().copied()),
         target: want.clone(),
         bytes,
         decoded: Vec::new(),
@@ -863,11 +1012,15 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
     let log_sq_unrepaired = log_error(&r.blocks, &r.decoded).0;
     // Repair each block; what a block cannot hold goes to its neighbours, near first.
     r.rounds();
+    // What the one-region blocks may add to the surface's squared log error.
+    let mut budget = OWN_LOG_SHARE * log_sq_unrepaired;
+    r.own(&mut budget);
     for reach in [1, 2, 4] {
-        if !r.carry(bx, reach) {
+        if r.surface_miss() <= SURFACE_TOLERANCE || !r.carry(bx, reach) {
             break;
         }
         r.rounds();
+        r.own(&mut budget);
     }
     let (log_sq, values) = log_error(&r.blocks, &r.decoded);
     SurfaceOut {

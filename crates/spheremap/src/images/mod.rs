@@ -3,6 +3,7 @@
 //!
 //! This module holds the type every image layer shares; it imports nothing from its children.
 
+pub mod bc6h;
 pub mod codec;
 pub mod compress;
 pub mod container;
