@@ -37,13 +37,15 @@
 //!    ratio within [½, 2]), and from its texels each scaled by source / decoded; a try is kept
 //!    when its power is closer and no channel gets worse.  This repeats up to
 //!    [`REPAIR_ROUNDS`] times.
-//! 4. Where a face still misses its power by more than [`SURFACE_TOLERANCE`], its blocks that
-//!    miss are encoded by BC6H's one-region modes written here ([`bc6h`]), largest misses
-//!    first: endpoints and indices searched for the texels nearest the source in log space
-//!    among those that hold the block's power.  That costs texel accuracy where a block
-//!    holds two clusters of values (ISPC's two-region modes fit them better), so a block is
-//!    taken this way only while the face's squared log error grows by at most
-//!    [`OWN_LOG_SHARE`] of ISPC's, unless its miss alone breaks the face's tolerance.
+//! 4. Where the level then still misses its power by more than [`SURFACE_TOLERANCE`], or a
+//!    face of it by more than [`FACE_TOLERANCE`], each face missing by more than
+//!    [`SURFACE_TOLERANCE`] has its blocks that miss encoded by BC6H's one-region modes
+//!    written here ([`bc6h`]), largest misses first: endpoints and indices searched for the
+//!    texels nearest the source in log space among those that hold the block's power.  That
+//!    costs texel accuracy where a block holds two clusters of values (ISPC's two-region
+//!    modes fit them better), so a block is taken this way only while the face's squared log
+//!    error grows by at most [`OWN_LOG_SHARE`] of ISPC's, unless its miss alone breaks the
+//!    face's tolerance.
 //! 5. What a block still cannot hold is carried to its neighbours on the same face (within
 //!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
 //!    and they are encoded again (steps 3 and 4), while the face misses.
@@ -613,6 +615,17 @@ struct SurfaceOut {
     values: usize,
 }
 
+/// A block encoded by the codec's own encoder: its bytes, texels and power, the squared log
+/// error it adds and the miss it removes.
+struct OwnTry {
+    b: usize,
+    bytes: Vec<u8>,
+    dec: Texels,
+    p: [f64; 3],
+    cost: f64,
+    gained: f64,
+}
+
 /// The blocks of one surface while they are repaired.
 struct Repair<'a> {
     c: &'a dyn Codec,
@@ -779,7 +792,7 @@ impl Repair<'_> {
         let mut chunk = 16;
         while at < bad.len() && self.surface_miss() > SURFACE_TOLERANCE {
             let these = &bad[at..(at + chunk).min(bad.len())];
-            let mut tries: Vec<(usize, Vec<u8>, Texels, [f64; 3], f64, f64)> = these
+            let mut tries: Vec<OwnTry> = these
                 .par_iter()
                 .filter_map(|&b| {
                     let scale = std::array::from_fn(|k| {
@@ -810,14 +823,29 @@ impl Repair<'_> {
                             .filter(|&k| self.mean[k] > 0.0)
                             .map(|k| (p[k] - self.target[b][k]).abs() / self.mean[k])
                             .fold(0.0, f64::max);
-                    Some((b, bytes, dec, p, cost, gained))
+                    Some(OwnTry {
+                        b,
+                        bytes,
+                        dec,
+                        p,
+                        cost,
+                        gained,
+                    })
                 })
                 .collect();
             // The most power held per log error added first.
-            let rate = |t: &(usize, Vec<u8>, Texels, [f64; 3], f64, f64)| t.5 / t.4.max(1e-12);
-            tries.sort_by(|x, y| rate(y).total_cmp(&rate(x)).then(x.0.cmp(&y.0)));
+            let rate = |t: &OwnTry| t.gained / t.cost.max(1e-12);
+            tries.sort_by(|x, y| rate(y).total_cmp(&rate(x)).then(x.b.cmp(&y.b)));
             let mut taken = 0;
-            for (b, bytes, dec, p, cost, _) in tries {
+            for OwnTry {
+                b,
+                bytes,
+                dec,
+                p,
+                cost,
+                ..
+            } in tries
+            {
                 // A block whose miss alone breaks the surface's tolerance is taken whatever
                 // its log error; the others while the budget lasts.
                 let alone = (0..3).any(|k| {
@@ -898,6 +926,10 @@ impl Repair<'_> {
 /// one-region encoder or their misses are carried to their neighbours.
 pub const SURFACE_TOLERANCE: f64 = 2.5e-3;
 
+/// A level whose power holds within [`SURFACE_TOLERANCE`] after the encoder's rounds is left
+/// so where no face of it misses by more than this (relative as for [`SURFACE_TOLERANCE`]).
+pub const FACE_TOLERANCE: f64 = 2e-2;
+
 /// The share of the encoder's own squared log error (over a surface) that blocks given to
 /// BC6H's one-region encoder may add to it: 0.1, i.e. the RMSLE within 5 % of the encoder's.
 pub const OWN_LOG_SHARE: f64 = 0.1;
@@ -953,7 +985,38 @@ fn encode_rgb9e5(s: &Surface) -> SurfaceOut {
     out
 }
 
-fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
+/// Σ (ln(1 + x̂) − ln(1 + x))² over a `w`×`h` surface's texels and channels (its blocks of
+/// `side`, `bx` to a row), and their count.
+fn log_error(
+    (w, h, side, bx): (usize, usize, usize, usize),
+    blocks: &[Texels],
+    decoded: &[Texels],
+) -> (f64, usize) {
+    let (mut sq, mut n) = (0.0, 0usize);
+    for (b, t) in decoded.iter().enumerate() {
+        for (i, p) in t.iter().enumerate() {
+            let (x, y) = ((b % bx) * side + i % side, (b / bx) * side + i / side);
+            if x < w && y < h {
+                for k in 0..3 {
+                    let d = (p[k] as f64).ln_1p() - (blocks[b][i][k] as f64).ln_1p();
+                    sq += d * d;
+                    n += 1;
+                }
+            }
+        }
+    }
+    (sq, n)
+}
+
+/// A surface encoded, its blocks repaired by the encoder's rounds.
+struct Started<'a> {
+    r: Repair<'a>,
+    shape: (usize, usize, usize, usize),
+    unrepaired: [f64; 3],
+    log_sq_unrepaired: f64,
+}
+
+fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Started<'a> {
     let side = c.side();
     let (blocks, weights) = blocks_of(s, side);
     let n = blocks.len();
@@ -971,7 +1034,7 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
         },
         mean,
         source: sum3(want.iter().copied()),
-        target: want.clone(),
+        target: want,
         bytes,
         decoded: Vec::new(),
         got: Vec::new(),
@@ -991,42 +1054,44 @@ fn encode_surface(c: &dyn Codec, s: &Surface, mean: [f64; 3]) -> SurfaceOut {
         .collect();
     r.trial_got = r.got.clone();
     let unrepaired = sum3(r.got.iter().copied());
-    // Σ (ln(1 + x̂) − ln(1 + x))² over the surface's texels and channels, and their count.
-    let bx = s.w.div_ceil(side);
-    let log_error = |blocks: &[Texels], decoded: &[Texels]| {
-        let (mut sq, mut n) = (0.0, 0usize);
-        for (b, t) in decoded.iter().enumerate() {
-            for (i, p) in t.iter().enumerate() {
-                let (x, y) = ((b % bx) * side + i % side, (b / bx) * side + i / side);
-                if x < s.w && y < s.h {
-                    for k in 0..3 {
-                        let d = (p[k] as f64).ln_1p() - (blocks[b][i][k] as f64).ln_1p();
-                        sq += d * d;
-                        n += 1;
-                    }
-                }
-            }
-        }
-        (sq, n)
-    };
-    let log_sq_unrepaired = log_error(&r.blocks, &r.decoded).0;
-    // Repair each block; what a block cannot hold goes to its neighbours, near first.
+    let shape = (s.w, s.h, side, s.w.div_ceil(side));
+    let log_sq_unrepaired = log_error(shape, &r.blocks, &r.decoded).0;
+    // Repair each block by the encoder.
     r.rounds();
-    // What the one-region blocks may add to the surface's squared log error.
-    let mut budget = OWN_LOG_SHARE * log_sq_unrepaired;
-    r.own(&mut budget);
-    for reach in [1, 2, 4] {
-        if r.surface_miss() <= SURFACE_TOLERANCE || !r.carry(bx, reach) {
-            break;
-        }
-        r.rounds();
-        r.own(&mut budget);
+    Started {
+        r,
+        shape,
+        unrepaired,
+        log_sq_unrepaired,
     }
-    let (log_sq, values) = log_error(&r.blocks, &r.decoded);
+}
+
+/// The rest of a surface's repair where `more` (its level misses): blocks given to the
+/// one-region encoder, misses carried to neighbours, near first, while the surface misses.
+fn finish_surface(st: Started, more: bool) -> SurfaceOut {
+    let Started {
+        mut r,
+        shape,
+        unrepaired,
+        log_sq_unrepaired,
+    } = st;
+    if more {
+        // What the one-region blocks may add to the surface's squared log error.
+        let mut budget = OWN_LOG_SHARE * log_sq_unrepaired;
+        r.own(&mut budget);
+        for reach in [1, 2, 4] {
+            if r.surface_miss() <= SURFACE_TOLERANCE || !r.carry(shape.3, reach) {
+                break;
+            }
+            r.rounds();
+            r.own(&mut budget);
+        }
+    }
+    let (log_sq, values) = log_error(shape, &r.blocks, &r.decoded);
     SurfaceOut {
-        blocks: n,
+        blocks: r.blocks.len(),
         repaired: r.repaired.iter().filter(|&&x| x).count(),
-        source: sum3(want.iter().copied()),
+        source: r.source,
         unrepaired,
         decoded: sum3(r.got.iter().copied()),
         log_sq,
@@ -1123,13 +1188,31 @@ pub fn compress(
         let mean = after.map(|p| p / nblocks);
         let outs: Vec<SurfaceOut> = if e.is_basis() {
             basis::encode_level(what, e, &faces, tex_cube)?
+        } else if e == Encoding::Rgb9e5 {
+            faces.iter().map(encode_rgb9e5).collect()
         } else {
-            faces
-                .iter()
-                .map(|s| match e {
-                    Encoding::Rgb9e5 => encode_rgb9e5(s),
-                    _ => encode_surface(c, s, mean),
+            // Every face encoded and its blocks repaired by the encoder; where the level then
+            // holds its power within SURFACE_TOLERANCE and no face misses by more than
+            // FACE_TOLERANCE, it stays so (the encoder's texels are closer); otherwise every
+            // face goes on to the one-region encoder and the carry.
+            let started: Vec<Started> = faces.iter().map(|s| start_surface(c, s, mean)).collect();
+            let level_miss = (0..3)
+                .filter(|&k| after[k] > 0.0)
+                .map(|k| {
+                    let got: f64 = started
+                        .iter()
+                        .flat_map(|st| st.r.got.iter().map(|p| p[k]))
+                        .sum();
+                    (got / after[k] - 1.0).abs()
                 })
+                .fold(0.0, f64::max);
+            let more = level_miss > SURFACE_TOLERANCE
+                || started
+                    .iter()
+                    .any(|st| st.r.surface_miss() > FACE_TOLERANCE);
+            started
+                .into_iter()
+                .map(|st| finish_surface(st, more))
                 .collect()
         };
         let total = |f: fn(&SurfaceOut) -> [f64; 3]| sum3(outs.iter().map(f));
