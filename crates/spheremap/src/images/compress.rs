@@ -216,7 +216,8 @@ pub struct Compressed {
 /// Texels per block side.
 fn block_side(e: Encoding) -> usize {
     match e {
-        Encoding::Bc6h => 4,
+        Encoding::Bc6h | Encoding::UastcHdr4x4 => 4,
+        Encoding::AstcHdr6x6 => 6,
         _ => 1,
     }
 }
@@ -425,21 +426,40 @@ pub fn unpack_image(rgba: &Image, e: Encoding, rgbm_range: f32) -> Image {
 /// A block's texels (row by row) as RGB.
 type Texels = Vec<[f32; 3]>;
 
+/// A block to encode holding a power: its source texels and their weights, the power it should
+/// hold, its best encoding so far, the error (in `aim`'s units) beyond which it must hold its
+/// power whatever its texels cost, and how many blocks its surface has.
+#[cfg_attr(not(feature = "basisu"), allow(dead_code))]
+struct Ask<'a> {
+    texels: &'a Texels,
+    weights: &'a [f64],
+    aim: bc6h::Aim,
+    current: &'a [u8],
+    must: f64,
+    blocks: usize,
+}
+
 /// Encodes blocks of `side`×`side` texels (each `side²` RGB values, rows first) into `bytes`
-/// per block, and decodes one.
+/// per block and gives what each decodes to, as the format's readers decode it.
 trait Codec: Sync {
     fn side(&self) -> usize;
     fn bytes(&self) -> usize;
-    fn encode(&self, blocks: &[Texels]) -> Vec<u8>;
-    fn decode(&self, block: &[u8]) -> Texels;
-    /// A block encoded to hold `aim`'s power, where the codec has such an encoder.
-    fn holding_power(
-        &self,
-        _texels: &Texels,
-        _weights: &[f64],
-        _aim: &bc6h::Aim,
-    ) -> Option<Vec<u8>> {
-        None
+    /// The largest value the format holds.
+    fn range(&self) -> f32;
+    fn encode(&self, blocks: &[Texels]) -> Result<(Vec<u8>, Vec<Texels>)>;
+    /// Blocks encoded to hold their asks' power, and their texels decoded, where the codec
+    /// has such an encoder.
+    fn holding_power(&self, asks: &[Ask]) -> Vec<Option<(Vec<u8>, Texels)>> {
+        vec![None; asks.len()]
+    }
+    /// How many times the encoder's repair rounds run (each re-encodes the blocks that miss).
+    fn rounds(&self) -> usize {
+        REPAIR_ROUNDS
+    }
+    /// The share of the encoder's squared log error over a surface that blocks from
+    /// [`Codec::holding_power`] may add to it.
+    fn log_share(&self) -> f64 {
+        OWN_LOG_SHARE
     }
 }
 
@@ -452,15 +472,22 @@ impl Codec for Bc6h {
     fn bytes(&self) -> usize {
         16
     }
-    fn encode(&self, blocks: &[Texels]) -> Vec<u8> {
-        bc6h_encode(blocks, &intel_tex_2::bc6h::basic_settings())
+    fn range(&self) -> f32 {
+        BC6H_MAX
     }
-    fn decode(&self, block: &[u8]) -> Texels {
-        bc6h_decode_block(block)
+    fn encode(&self, blocks: &[Texels]) -> Result<(Vec<u8>, Vec<Texels>)> {
+        let bytes = bc6h_encode(blocks, &intel_tex_2::bc6h::basic_settings());
+        let decoded = bytes.par_chunks(16).map(bc6h_decode_block).collect();
+        Ok((bytes, decoded))
     }
-    fn holding_power(&self, texels: &Texels, weights: &[f64], aim: &bc6h::Aim) -> Option<Vec<u8>> {
-        let (block, _) = bc6h::encode_holding_power(texels, weights, aim);
-        block.to_bytes().map(|b| b.to_vec())
+    fn holding_power(&self, asks: &[Ask]) -> Vec<Option<(Vec<u8>, Texels)>> {
+        asks.par_iter()
+            .map(|a| {
+                let (block, _) = bc6h::encode_holding_power(a.texels, a.weights, &a.aim);
+                let bytes = block.to_bytes()?;
+                Some((bytes.to_vec(), bc6h_decode_block(&bytes)))
+            })
+            .collect()
     }
 }
 
@@ -504,33 +531,13 @@ pub fn bc6h_decode_block(block: &[u8]) -> Vec<[f32; 3]> {
         .collect()
 }
 
-struct Rgb9e5;
-
-impl Codec for Rgb9e5 {
-    fn side(&self) -> usize {
-        1
-    }
-    fn bytes(&self) -> usize {
-        4
-    }
-    fn encode(&self, blocks: &[Texels]) -> Vec<u8> {
-        blocks
-            .iter()
-            .flat_map(|t| rgb9e5_pack(t[0]).to_le_bytes())
-            .collect()
-    }
-    fn decode(&self, block: &[u8]) -> Texels {
-        vec![rgb9e5_unpack(u32::from_le_bytes(
-            block[..4].try_into().expect("4 bytes"),
-        ))]
-    }
-}
-
-fn codec(e: Encoding) -> &'static dyn Codec {
-    match e {
-        Encoding::Rgb9e5 => &Rgb9e5,
-        // Basis Universal's formats are encoded and decoded whole (`basis`); BC6H otherwise.
-        _ => &Bc6h,
+/// The codec of a block encoding (BC6H, or Basis Universal's UASTC HDR 4x4 and ASTC HDR 6x6
+/// where the build has its encoder).
+fn codec(what: &str, e: Encoding) -> Result<Box<dyn Codec>> {
+    if e.is_basis() {
+        basis::codec(what, e)
+    } else {
+        Ok(Box::new(Bc6h))
     }
 }
 
@@ -671,13 +678,6 @@ impl Repair<'_> {
             && (0..3).all(|k| err(p, k) <= err(old, k).max(BLOCK_TOLERANCE))
     }
 
-    fn decode_all(&self, bytes: &[u8]) -> Vec<Texels> {
-        bytes
-            .par_chunks(self.c.bytes())
-            .map(|b| self.c.decode(b))
-            .collect()
-    }
-
     fn scaled(&self, t: &Texels, f: &dyn Fn(usize, usize) -> f64) -> Texels {
         t.iter()
             .enumerate()
@@ -686,9 +686,9 @@ impl Repair<'_> {
     }
 
     /// Encodes the blocks that miss their target again, up to [`REPAIR_ROUNDS`] times.
-    fn rounds(&mut self) {
+    fn rounds(&mut self) -> Result<()> {
         let nb = self.c.bytes();
-        for _ in 0..REPAIR_ROUNDS {
+        for _ in 0..self.c.rounds() {
             let bad: Vec<usize> = (0..self.blocks.len())
                 .filter(|&b| self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
                 .collect();
@@ -722,8 +722,7 @@ impl Repair<'_> {
                     t * gain(&self.got[b], k)
                 }));
             }
-            let enc = self.c.encode(&inputs);
-            let dec = self.decode_all(&enc);
+            let (enc, dec) = self.c.encode(&inputs)?;
             for (i, &b) in bad.iter().enumerate() {
                 self.trial_got[b] = power(&dec[2 * i], &self.weights[b]);
                 self.trial_in[b] = inputs[2 * i].clone();
@@ -740,6 +739,7 @@ impl Repair<'_> {
                 }
             }
         }
+        Ok(())
     }
 
     /// Per channel, the surface's power missed (decoded − target) relative to the larger of
@@ -792,9 +792,9 @@ impl Repair<'_> {
         let mut chunk = 16;
         while at < bad.len() && self.surface_miss() > SURFACE_TOLERANCE {
             let these = &bad[at..(at + chunk).min(bad.len())];
-            let mut tries: Vec<OwnTry> = these
-                .par_iter()
-                .filter_map(|&b| {
+            let asks: Vec<Ask> = these
+                .iter()
+                .map(|&b| {
                     let scale = std::array::from_fn(|k| {
                         if self.mean[k] > 0.0 {
                             self.target[b][k].max(self.mean[k])
@@ -802,15 +802,34 @@ impl Repair<'_> {
                             0.0
                         }
                     });
-                    let aim = bc6h::Aim {
-                        target: self.target[b],
-                        scale,
-                        tolerance: BLOCK_TOLERANCE,
-                    };
-                    let bytes = self
-                        .c
-                        .holding_power(&self.blocks[b], &self.weights[b], &aim)?;
-                    let dec = self.c.decode(&bytes);
+                    // The miss (relative to `scale`) at which the block alone breaks the
+                    // surface's tolerance.
+                    let must = (0..3)
+                        .filter(|&k| scale[k] > 0.0)
+                        .map(|k| {
+                            SURFACE_TOLERANCE * self.source[k].max(self.mean[k] * n) / scale[k]
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    Ask {
+                        texels: &self.blocks[b],
+                        weights: &self.weights[b],
+                        aim: bc6h::Aim {
+                            target: self.target[b],
+                            scale,
+                            tolerance: BLOCK_TOLERANCE,
+                        },
+                        current: &self.bytes[b * nb..(b + 1) * nb],
+                        must,
+                        blocks: self.blocks.len(),
+                    }
+                })
+                .collect();
+            let held = self.c.holding_power(&asks);
+            let mut tries: Vec<OwnTry> = these
+                .par_iter()
+                .zip(held)
+                .filter_map(|(&b, held)| {
+                    let (bytes, dec) = held?;
                     let p = power(&dec, &self.weights[b]);
                     // Kept when its largest channel error is smaller (the one-region block may trade
                     // a channel's hundredth of a percent for another's percents).
@@ -934,13 +953,21 @@ pub const FACE_TOLERANCE: f64 = 2e-2;
 /// BC6H's one-region encoder may add to it: 0.1, i.e. the RMSLE within 5 % of the encoder's.
 pub const OWN_LOG_SHARE: f64 = 0.1;
 
+/// As [`OWN_LOG_SHARE`] for UASTC HDR 4x4 and ASTC HDR 6x6, whose blocks hold their power by
+/// nudging the encoder's own: 1, i.e. the RMSLE within 1.41× the encoder's (the share that
+/// holds every level of the bundled HDRIs' 256² chains within 0.5 %; 0.1 leaves four of them
+/// up to 0.95 % off).
+pub const ASTC_LOG_SHARE: f64 = 1.0;
+
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
 pub const CARRY_SHARE: f64 = 0.25;
 
 /// RGB9E5: each texel packed to the nearest representable value (nothing to repair: no texel
 /// can hold its light more closely).
 fn encode_rgb9e5(s: &Surface) -> SurfaceOut {
-    let rows: Vec<(Vec<u8>, [f64; 3], [f64; 3], f64)> = s
+    // Per row: the bytes, the source's and the decoded power, the squared log error.
+    type Row = (Vec<u8>, [f64; 3], [f64; 3], f64);
+    let rows: Vec<Row> = s
         .rgb
         .par_chunks(s.w)
         .zip(s.omega.par_chunks(s.w))
@@ -1016,11 +1043,11 @@ struct Started<'a> {
     log_sq_unrepaired: f64,
 }
 
-fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Started<'a> {
+fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Result<Started<'a>> {
     let side = c.side();
     let (blocks, weights) = blocks_of(s, side);
     let n = blocks.len();
-    let bytes = c.encode(&blocks);
+    let (bytes, decoded) = c.encode(&blocks)?;
     let want: Vec<[f64; 3]> = blocks
         .iter()
         .zip(&weights)
@@ -1028,15 +1055,12 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Started<'
         .collect();
     let mut r = Repair {
         c,
-        range: match side {
-            4 => BC6H_MAX,
-            _ => RGB9E5_MAX,
-        },
+        range: c.range(),
         mean,
         source: sum3(want.iter().copied()),
         target: want,
         bytes,
-        decoded: Vec::new(),
+        decoded,
         got: Vec::new(),
         best_in: blocks.clone(),
         trial_in: blocks.clone(),
@@ -1045,7 +1069,6 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Started<'
         blocks,
         weights,
     };
-    r.decoded = r.decode_all(&r.bytes);
     r.got = r
         .decoded
         .iter()
@@ -1057,18 +1080,18 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Started<'
     let shape = (s.w, s.h, side, s.w.div_ceil(side));
     let log_sq_unrepaired = log_error(shape, &r.blocks, &r.decoded).0;
     // Repair each block by the encoder.
-    r.rounds();
-    Started {
+    r.rounds()?;
+    Ok(Started {
         r,
         shape,
         unrepaired,
         log_sq_unrepaired,
-    }
+    })
 }
 
 /// The rest of a surface's repair where `more` (its level misses): blocks given to the
 /// one-region encoder, misses carried to neighbours, near first, while the surface misses.
-fn finish_surface(st: Started, more: bool) -> SurfaceOut {
+fn finish_surface(st: Started, more: bool) -> Result<SurfaceOut> {
     let Started {
         mut r,
         shape,
@@ -1077,18 +1100,18 @@ fn finish_surface(st: Started, more: bool) -> SurfaceOut {
     } = st;
     if more {
         // What the one-region blocks may add to the surface's squared log error.
-        let mut budget = OWN_LOG_SHARE * log_sq_unrepaired;
+        let mut budget = r.c.log_share() * log_sq_unrepaired;
         r.own(&mut budget);
         for reach in [1, 2, 4] {
             if r.surface_miss() <= SURFACE_TOLERANCE || !r.carry(shape.3, reach) {
                 break;
             }
-            r.rounds();
+            r.rounds()?;
             r.own(&mut budget);
         }
     }
     let (log_sq, values) = log_error(shape, &r.blocks, &r.decoded);
-    SurfaceOut {
+    Ok(SurfaceOut {
         blocks: r.blocks.len(),
         repaired: r.repaired.iter().filter(|&&x| x).count(),
         source: r.source,
@@ -1098,7 +1121,7 @@ fn finish_surface(st: Started, more: bool) -> SurfaceOut {
         log_sq_unrepaired,
         values,
         bytes: r.bytes,
-    }
+    })
 }
 
 /// RGB of a pixel of 1–4 channels.
@@ -1119,10 +1142,12 @@ pub fn compress(
     e: Encoding,
     mapping: Option<Mapping>,
 ) -> Result<Compressed> {
-    let c = codec(e);
     let range = e.range().expect("a compressed encoding");
+    let c = match e {
+        Encoding::Rgb9e5 => None,
+        _ => Some(codec(what, e)?),
+    };
     let nf = if cube { 6 } else { 1 };
-    let tex_cube = cube;
     let mut surfaces = Vec::with_capacity(levels.len());
     let mut report = Vec::with_capacity(levels.len());
     let mut alpha_dropped = false;
@@ -1186,16 +1211,15 @@ pub fn compress(
         }
         let nblocks = (w.div_ceil(block_side(e)) * h.div_ceil(block_side(e)) * nf) as f64;
         let mean = after.map(|p| p / nblocks);
-        let outs: Vec<SurfaceOut> = if e.is_basis() {
-            basis::encode_level(what, e, &faces, tex_cube)?
-        } else if e == Encoding::Rgb9e5 {
-            faces.iter().map(encode_rgb9e5).collect()
-        } else {
+        let outs: Vec<SurfaceOut> = if let Some(c) = &c {
             // Every face encoded and its blocks repaired by the encoder; where the level then
             // holds its power within SURFACE_TOLERANCE and no face misses by more than
             // FACE_TOLERANCE, it stays so (the encoder's texels are closer); otherwise every
             // face goes on to the one-region encoder and the carry.
-            let started: Vec<Started> = faces.iter().map(|s| start_surface(c, s, mean)).collect();
+            let started = faces
+                .iter()
+                .map(|s| start_surface(c.as_ref(), s, mean))
+                .collect::<Result<Vec<Started>>>()?;
             let level_miss = (0..3)
                 .filter(|&k| after[k] > 0.0)
                 .map(|k| {
@@ -1213,7 +1237,9 @@ pub fn compress(
             started
                 .into_iter()
                 .map(|st| finish_surface(st, more))
-                .collect()
+                .collect::<Result<_>>()?
+        } else {
+            faces.iter().map(encode_rgb9e5).collect()
         };
         let total = |f: fn(&SurfaceOut) -> [f64; 3]| sum3(outs.iter().map(f));
         let (src, unrep, dec) = (
@@ -1249,18 +1275,27 @@ pub fn compress(
     })
 }
 
-/// Decodes a `w`×`h` surface of encoding `e` (3 channels, RGB).
+/// Decodes a `w`×`h` surface of BC6H or RGB9E5 (3 channels, RGB).
 pub fn decode_surface(e: Encoding, bytes: &[u8], w: usize, h: usize) -> Image {
-    let c = codec(e);
-    let side = c.side();
+    let (side, nb) = match e {
+        Encoding::Rgb9e5 => (1, 4),
+        _ => (4, 16),
+    };
+    let decode = |b: &[u8]| -> Texels {
+        match e {
+            Encoding::Rgb9e5 => vec![rgb9e5_unpack(u32::from_le_bytes(
+                b[..4].try_into().expect("4 bytes"),
+            ))],
+            _ => bc6h_decode_block(b),
+        }
+    };
     let (bx, by) = (w.div_ceil(side), h.div_ceil(side));
     let mut img = Image::new(w, h, 3);
-    let nb = c.bytes();
     let rows: Vec<Vec<Texels>> = (0..by)
         .into_par_iter()
         .map(|j| {
             (0..bx)
-                .map(|i| c.decode(&bytes[(j * bx + i) * nb..(j * bx + i + 1) * nb]))
+                .map(|i| decode(&bytes[(j * bx + i) * nb..(j * bx + i + 1) * nb]))
                 .collect()
         })
         .collect();
@@ -1280,7 +1315,9 @@ pub fn decode_surface(e: Encoding, bytes: &[u8], w: usize, h: usize) -> Image {
 /// UASTC HDR 4x4 and ASTC HDR 6x6: encoded by Basis Universal's encoder (feature `basisu`),
 /// read by the pure-Rust Basis Universal transcoder.
 pub mod basis {
-    use super::{Encoding, Surface, SurfaceOut};
+    use super::Encoding;
+    #[cfg(feature = "basisu")]
+    use super::Texels;
     use crate::base::error::{Error, Result};
     use crate::images::Image;
 
@@ -1354,38 +1391,39 @@ pub mod basis {
         Ok(levels)
     }
 
-    /// Encodes one level's faces (each RGB, already within the range) and measures what the
-    /// decoded blocks hold; a level whose power misses by more than the block tolerance is
-    /// encoded again from its texels scaled by the power ratio, per channel, twice at most.
+    /// Basis Universal's encoder for UASTC HDR 4x4 or ASTC HDR 6x6, its blocks decoded by
+    /// the pure-Rust transcoder (what `read_texture` and `info` read).
     #[cfg(feature = "basisu")]
-    pub(super) fn encode_level(
-        _what: &str,
-        e: Encoding,
-        faces: &[Surface],
-        cube: bool,
-    ) -> Result<Vec<SurfaceOut>> {
-        use basisu_c_sys::extra::{
-            basisu_encoder_init, types, BasisuEncoder, BasisuEncoderParams, SourceImage,
-            SourceImageFormat,
-        };
-        basisu_encoder_init();
-        let (w, h) = (faces[0].w, faces[0].h);
-        let source: Vec<[f64; 3]> = faces
-            .iter()
-            .map(|s| super::power(&s.rgb, &s.omega))
-            .collect();
-        let want = super::sum3(source.iter().copied());
-        let encode = |gain: [f64; 3]| -> Result<(Vec<u8>, Vec<Image>)> {
-            let mut data = Vec::with_capacity(faces.len() * w * h * 16);
-            for s in faces {
-                for t in &s.rgb {
-                    for k in 0..3 {
-                        let v = ((t[k] as f64 * gain[k]) as f32).min(super::ASTC_HDR_MAX);
-                        data.extend(v.to_le_bytes());
+    struct Basis(Encoding);
+
+    /// Blocks encoded in one call of Basis Universal's encoder, side by side in rows of
+    /// [`ROW`] (the encoder codes each block of these formats on its own).
+    #[cfg(feature = "basisu")]
+    const CHUNK: usize = 256;
+    #[cfg(feature = "basisu")]
+    const ROW: usize = 16;
+
+    #[cfg(feature = "basisu")]
+    impl Basis {
+        fn encode_chunk(&self, blocks: &[Texels]) -> Result<(Vec<u8>, Vec<Texels>)> {
+            use basisu_c_sys::extra::{
+                types, BasisuEncoder, BasisuEncoderParams, SourceImage, SourceImageFormat,
+            };
+            let side = super::block_side(self.0);
+            let (cols, rows) = (blocks.len().min(ROW), blocks.len().div_ceil(ROW));
+            let (w, h) = (cols * side, rows * side);
+            let mut data = vec![0u8; w * h * 16];
+            for (b, t) in blocks.iter().enumerate() {
+                let (bx, by) = (b % ROW, b / ROW);
+                for (i, p) in t.iter().enumerate() {
+                    let (x, y) = (bx * side + i % side, by * side + i / side);
+                    let at = (y * w + x) * 16;
+                    for (k, v) in [p[0], p[1], p[2], 1.0].into_iter().enumerate() {
+                        data[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
                     }
-                    data.extend(1f32.to_le_bytes());
                 }
             }
+            let fail = |x: String| Error::param("encode", format!("Basis Universal: {x}"));
             let mut enc = BasisuEncoder::new();
             enc.set_image(SourceImage {
                 data: &data,
@@ -1393,130 +1431,427 @@ pub mod basis {
                 size: types::Extent3d {
                     width: w as u32,
                     height: h as u32,
-                    depth_or_array_layers: faces.len() as u32,
+                    depth_or_array_layers: 1,
                 },
             })
-            .map_err(|x| Error::param("encode", format!("Basis Universal: {x}")))?;
-            let format = match e {
+            .map_err(|x| fail(x.to_string()))?;
+            let format = match self.0 {
                 Encoding::UastcHdr4x4 => basisu_c_sys::BasisTextureFormat::UastcHdr4x4,
                 _ => basisu_c_sys::BasisTextureFormat::AstcHdr6x6,
             };
             let mut params = BasisuEncoderParams::new_with_linear_defaults(format);
-            if e == Encoding::UastcHdr4x4 {
+            if self.0 == Encoding::UastcHdr4x4 {
                 // UASTC HDR 4x4 has no quality parameter (no RDO): the codec's own settings.
+                // (Effort 2 is Basis Universal's default level, 1 of 0–4.)
                 params.quality_level = -1;
             }
+            // One thread per call: the chunks run in parallel.
             let params = params
-                .with_tex_type(if cube {
-                    types::TextureViewDimension::Cube
-                } else {
-                    types::TextureViewDimension::D2
+                .with_tex_type(types::TextureViewDimension::D2)
+                .with_removed_flags(
+                    basisu_c_sys::common::BU_COMP_FLAGS_KTX2_UASTC_ZSTD
+                        | basisu_c_sys::common::BU_COMP_FLAGS_THREADED,
+                );
+            let ktx2 = enc.compress(params).map_err(|x| fail(x.to_string()))?;
+            let q = |at: usize| {
+                ktx2.get(at..at + 8)
+                    .map(|b| u64::from_le_bytes(b.try_into().expect("8")) as usize)
+                    .ok_or_else(|| fail("a KTX2 shorter than its header".into()))
+            };
+            let (at, len) = (q(80)?, q(88)?);
+            let n = cols * rows;
+            if len != n * 16 || ktx2.len() < at + len {
+                return Err(fail(format!("{len} bytes for {n} blocks")));
+            }
+            let level = &ktx2[at..at + len];
+            let img = decode_ktx2(std::path::Path::new("basisu"), &ktx2)?
+                .into_iter()
+                .next()
+                .ok_or_else(|| fail("no level".into()))?;
+            let mut bytes = Vec::with_capacity(16 * blocks.len());
+            let mut decoded = Vec::with_capacity(blocks.len());
+            for b in 0..blocks.len() {
+                let (bx, by) = (b % ROW, b / ROW);
+                bytes.extend_from_slice(&level[16 * (by * cols + bx)..16 * (by * cols + bx + 1)]);
+                decoded.push(
+                    (0..side * side)
+                        .map(|i| {
+                            let (x, y) = (bx * side + i % side, by * side + i / side);
+                            let p = img.pixel(x, y);
+                            [p[0], p[1], p[2]]
+                        })
+                        .collect(),
+                );
+            }
+            Ok((bytes, decoded))
+        }
+    }
+
+    #[cfg(feature = "basisu")]
+    impl super::Codec for Basis {
+        fn side(&self) -> usize {
+            super::block_side(self.0)
+        }
+        fn bytes(&self) -> usize {
+            16
+        }
+        fn range(&self) -> f32 {
+            super::ASTC_HDR_MAX
+        }
+        /// Each block nudged from the encoder's; those that then miss by more than their
+        /// `must` encoded again (all in one batch) at gains around their power ratio and each
+        /// of those nudged; those that miss still, the constant block of their mean colour
+        /// where it holds more closely.
+        fn holding_power(&self, asks: &[super::Ask]) -> Vec<Option<(Vec<u8>, Texels)>> {
+            use rayon::prelude::*;
+            let side = super::block_side(self.0) as u32;
+            let short = |t: &Option<AstcTry>, a: &super::Ask| {
+                t.as_ref().is_none_or(|t| t.2 > a.aim.tolerance.max(a.must))
+            };
+            let mut best: Vec<Option<AstcTry>> = asks
+                .par_iter()
+                .map(|a| {
+                    let start: &[u8; 16] = a.current.try_into().ok()?;
+                    // A constant block stays one, at the colour that holds the power.
+                    let log = basisu::astc::unpack::unpack_block(start, side, side)?;
+                    if log.solid_color_flag_hdr || log.solid_color_flag_ldr {
+                        return astc_solid(a.texels, a.weights, &a.aim, side);
+                    }
+                    astc_nudge(a.texels, a.weights, &a.aim, start, side)
                 })
-                .with_removed_flags(basisu_c_sys::common::BU_COMP_FLAGS_KTX2_UASTC_ZSTD);
-            let ktx2 = enc
-                .compress(params)
-                .map_err(|x| Error::param("encode", format!("Basis Universal: {x}")))?;
-            let q =
-                |at: usize| u64::from_le_bytes(ktx2[at..at + 8].try_into().expect("8")) as usize;
-            let level = ktx2[q(80)..q(80) + q(88)].to_vec();
-            let decoded = decode_ktx2(std::path::Path::new("basisu"), &ktx2)?;
-            Ok((level, decoded))
-        };
-        let measure = |img: &Image| -> [f64; 3] {
-            let mut p = [0.0; 3];
-            for (f, s) in faces.iter().enumerate() {
-                let px = &img.data[f * w * h * 3..(f + 1) * w * h * 3];
-                for (t, o) in px.chunks_exact(3).zip(&s.omega) {
-                    for k in 0..3 {
-                        p[k] += t[k] as f64 * o;
+                .collect();
+            let again: Vec<usize> = (0..asks.len())
+                .filter(|&i| short(&best[i], &asks[i]))
+                .collect();
+            let inputs: Vec<Texels> = again
+                .iter()
+                .flat_map(|&i| {
+                    let a = &asks[i];
+                    let src = super::power(a.texels, a.weights);
+                    let ratio: [f64; 3] = std::array::from_fn(|k| {
+                        if src[k] > 0.0 {
+                            a.aim.target[k] / src[k]
+                        } else {
+                            1.0
+                        }
+                    });
+                    REENCODE_GAINS.iter().map(move |g| {
+                        a.texels
+                            .iter()
+                            .map(|p| {
+                                std::array::from_fn(|k| {
+                                    ((p[k] as f64 * ratio[k] * g) as f32).min(super::ASTC_HDR_MAX)
+                                })
+                            })
+                            .collect()
+                    })
+                })
+                .collect();
+            if let Ok((bytes, _)) = super::Codec::encode(self, &inputs) {
+                let per = 16 * REENCODE_GAINS.len();
+                let found: Vec<Option<AstcTry>> = again
+                    .par_iter()
+                    .zip(bytes.par_chunks(per))
+                    .map(|(&i, chunk)| {
+                        let a = &asks[i];
+                        let mut b: Option<AstcTry> = None;
+                        for blk in chunk.chunks_exact(16) {
+                            let t =
+                                astc_nudge(a.texels, a.weights, &a.aim, blk.try_into().ok()?, side);
+                            if let Some(t) = t {
+                                if b.as_ref().is_none_or(|b| (t.2, t.3) < (b.2, b.3)) {
+                                    b = Some(t);
+                                }
+                            }
+                        }
+                        b
+                    })
+                    .collect();
+                for (&i, t) in again.iter().zip(found) {
+                    if let Some(t) = t {
+                        if best[i].as_ref().is_none_or(|b| (t.2, t.3) < (b.2, b.3)) {
+                            best[i] = Some(t);
+                        }
                     }
                 }
             }
-            p
-        };
-        let err = |p: &[f64; 3]| {
-            (0..3)
-                .filter(|&k| want[k] > 0.0)
-                .map(|k| (p[k] / want[k] - 1.0).abs())
-                .fold(0.0, f64::max)
-        };
-        let (mut bytes, decoded) = encode([1.0; 3])?;
-        let mut img = decoded.into_iter().next().expect("one level");
-        let unrepaired = measure(&img);
-        let mut got = unrepaired;
-        let mut gain = [1.0; 3];
-        let mut tries = 0;
-        let log_error = |img: &Image| {
-            let mut sq = 0.0;
-            for (f, s) in faces.iter().enumerate() {
-                let px = &img.data[f * w * h * 3..(f + 1) * w * h * 3];
-                for (d, t) in px.chunks_exact(3).zip(&s.rgb) {
-                    for k in 0..3 {
-                        let x = (d[k] as f64).ln_1p() - (t[k] as f64).ln_1p();
-                        sq += x * x;
+            best.into_iter()
+                .zip(asks)
+                .map(|(mut b, a)| {
+                    // A constant block moves a small bright source across the block: only
+                    // where the block is a small part of its surface.
+                    if short(&b, a) && (a.blocks >= SOLID_MIN_BLOCKS || b.is_none()) {
+                        if let Some(t) = astc_solid(a.texels, a.weights, &a.aim, side) {
+                            if b.as_ref().is_none_or(|b| t.2 < b.2) {
+                                b = Some(t);
+                            }
+                        }
                     }
-                }
-            }
-            sq
-        };
-        let log_sq_unrepaired = log_error(&img);
-        while err(&got) > super::BLOCK_TOLERANCE && tries < 2 {
-            tries += 1;
-            let g: [f64; 3] = std::array::from_fn(|k| {
-                if got[k] > 0.0 && want[k] > 0.0 {
-                    gain[k] * (want[k] / got[k]).clamp(0.5, 2.0)
-                } else {
-                    gain[k]
-                }
-            });
-            let (b, d) = encode(g)?;
-            let i = d.into_iter().next().expect("one level");
-            let p = measure(&i);
-            if err(&p) < err(&got) {
-                (bytes, img, got, gain) = (b, i, p, g);
-            }
+                    b.map(|(bytes, dec, _, _)| (bytes, dec))
+                })
+                .collect()
         }
-        // One entry per face; the level's sums are carried by the first.
-        let per_face = bytes.len() / faces.len();
-        let n = super::surface_bytes(e, w, h).expect("a block format");
-        if per_face != n {
-            return Err(Error::param(
-                "encode",
-                format!("Basis Universal wrote {per_face} bytes per face; {n} expected"),
-            ));
+        /// None: a call of the encoder costs more than the nudges that replace its rounds.
+        fn rounds(&self) -> usize {
+            0
         }
-        let log_sq = log_error(&img);
-        Ok(faces
+        fn log_share(&self) -> f64 {
+            super::ASTC_LOG_SHARE
+        }
+        fn encode(&self, blocks: &[Texels]) -> Result<(Vec<u8>, Vec<Texels>)> {
+            use rayon::prelude::*;
+            let parts = blocks
+                .par_chunks(CHUNK)
+                .map(|c| self.encode_chunk(c))
+                .collect::<Result<Vec<_>>>()?;
+            let mut out = (Vec::new(), Vec::new());
+            for (b, d) in parts {
+                out.0.extend(b);
+                out.1.extend(d);
+            }
+            Ok(out)
+        }
+    }
+
+    /// The most texels an ASTC block of these formats holds (6×6).
+    #[cfg(feature = "basisu")]
+    const MAX_TEXELS: usize = 36;
+
+    /// An ASTC block's texels as half floats (RGB), by the pure-Rust transcoder's decoder;
+    /// `None` for a block it rejects.
+    #[cfg(feature = "basisu")]
+    fn astc_halves(
+        log: &basisu::astc::unpack::LogAstcBlock,
+        side: u32,
+    ) -> Option<[[u16; 4]; MAX_TEXELS]> {
+        let mut out = [[0u16; 4]; MAX_TEXELS];
+        basisu::astc::decode::decode_block_hdr16(log, side, side, &mut out)?;
+        Some(out)
+    }
+
+    /// Each half float's value and ln(1 + value) (0 for negative, infinite and NaN ones,
+    /// which these blocks do not decode to), indexed by its bits.
+    #[cfg(feature = "basisu")]
+    fn half_table() -> &'static [(f64, f64)] {
+        static TABLE: std::sync::OnceLock<Vec<(f64, f64)>> = std::sync::OnceLock::new();
+        TABLE.get_or_init(|| {
+            (0..=u16::MAX)
+                .map(|b| {
+                    let v = exr::prelude::f16::from_bits(b).to_f32() as f64;
+                    let v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+                    (v, v.ln_1p())
+                })
+                .collect()
+        })
+    }
+
+    /// A block's texels as RGB.
+    #[cfg(feature = "basisu")]
+    fn astc_rgb(h: &[[u16; 4]; MAX_TEXELS], n: usize) -> Texels {
+        h[..n]
             .iter()
-            .enumerate()
-            .map(|(f, _)| SurfaceOut {
-                bytes: bytes[f * n..(f + 1) * n].to_vec(),
-                blocks: n / 16,
-                repaired: if f == 0 && tries > 0 && gain != [1.0; 3] {
-                    n / 16 * faces.len()
+            .map(|p| [0, 1, 2].map(|k| exr::prelude::f16::from_bits(p[k]).to_f32()))
+            .collect()
+    }
+
+    /// What a block is measured against: the source texels' ln(1 + x), their weights, the aim.
+    #[cfg(feature = "basisu")]
+    struct AstcGoal<'a> {
+        ln_src: Vec<[f64; 3]>,
+        weights: &'a [f64],
+        aim: &'a super::bc6h::Aim,
+    }
+
+    #[cfg(feature = "basisu")]
+    impl<'a> AstcGoal<'a> {
+        fn new(texels: &Texels, weights: &'a [f64], aim: &'a super::bc6h::Aim) -> Self {
+            AstcGoal {
+                ln_src: texels
+                    .iter()
+                    .map(|p| p.map(|v| (v as f64).ln_1p()))
+                    .collect(),
+                weights,
+                aim,
+            }
+        }
+
+        /// The block's power error against the aim (the largest channel's, in the aim's
+        /// units) and its squared log error against the source.
+        fn errors(&self, h: &[[u16; 4]; MAX_TEXELS]) -> (f64, f64) {
+            let t = half_table();
+            let (mut p, mut l) = ([0.0f64; 3], 0.0);
+            for ((d, s), &w) in h.iter().zip(&self.ln_src).zip(self.weights) {
+                if w > 0.0 {
+                    for k in 0..3 {
+                        let (v, ln) = t[d[k] as usize];
+                        p[k] += v * w;
+                        l += (ln - s[k]) * (ln - s[k]);
+                    }
+                }
+            }
+            let aim = self.aim;
+            let e = (0..3)
+                .filter(|&k| aim.scale[k] > 0.0)
+                .map(|k| (p[k] - aim.target[k]).abs() / aim.scale[k])
+                .fold(0.0, f64::max);
+            (e, l)
+        }
+    }
+
+    /// An ASTC block, its texels, power error and squared log error.
+    #[cfg(feature = "basisu")]
+    type AstcTry = (Vec<u8>, Texels, f64, f64);
+
+    /// The block `start` moved one quantisation step at a time (an endpoint or weight symbol
+    /// to its neighbour in value), each step the one that removes the most power error per
+    /// log error added, then, once within `aim`'s tolerance, the one that removes the most
+    /// log error; the block keeps the configuration the encoder chose (UASTC HDR 4x4's subset
+    /// of ASTC).  `None` for a constant (void-extent) block.
+    #[cfg(feature = "basisu")]
+    fn astc_nudge(
+        texels: &Texels,
+        weights: &[f64],
+        aim: &super::bc6h::Aim,
+        start: &[u8; 16],
+        side: u32,
+    ) -> Option<AstcTry> {
+        use basisu::astc::{dequant, pack, unpack};
+        let mut log = unpack::unpack_block(start, side, side)?;
+        if log.solid_color_flag_hdr || log.solid_color_flag_ldr {
+            return None;
+        }
+        // Each range's symbols in the order of their values.
+        let order = |levels: u32, value: &dyn Fn(u32) -> u32| -> Vec<u8> {
+            let mut v: Vec<u8> = (0..levels.min(256)).map(|x| x as u8).collect();
+            v.sort_by_key(|&x| (value(x as u32), x));
+            v
+        };
+        let (er, wr) = (log.endpoint_ise_range, log.weight_ise_range);
+        let e_order = order(unpack::ise_levels(er), &|x| {
+            dequant::dequant_bise_endpoint(x, er)
+        });
+        let w_order = order(unpack::ise_levels(wr), &|x| {
+            dequant::dequant_bise_weight(x, wr)
+        });
+        let n_end: usize = log.color_endpoint_modes[..log.num_partitions as usize]
+            .iter()
+            .map(|&c| ((c as usize >> 2) + 1) * 2)
+            .sum();
+        let n_w = (log.grid_width * log.grid_height) as usize * if log.dual_plane { 2 } else { 1 };
+        let goal = AstcGoal::new(texels, weights, aim);
+        let mut dec = astc_halves(&log, side)?;
+        let (mut e, mut l) = goal.errors(&dec);
+        for _ in 0..NUDGES {
+            let mut step: Option<(unpack::LogAstcBlock, [[u16; 4]; MAX_TEXELS], f64, f64)> = None;
+            let slots = (0..n_end)
+                .map(|i| (true, i))
+                .chain((0..n_w).map(|i| (false, i)));
+            for (is_end, i) in slots {
+                let (ord, sym) = if is_end {
+                    (&e_order, log.endpoints[i])
                 } else {
-                    0
-                },
-                source: if f == 0 { want } else { [0.0; 3] },
-                unrepaired: if f == 0 { unrepaired } else { [0.0; 3] },
-                decoded: if f == 0 { got } else { [0.0; 3] },
-                log_sq: if f == 0 { log_sq } else { 0.0 },
-                log_sq_unrepaired: if f == 0 { log_sq_unrepaired } else { 0.0 },
-                values: 3 * w * h,
-            })
-            .collect())
+                    (&w_order, log.weights[i])
+                };
+                let at = ord.iter().position(|&x| x == sym)?;
+                for to in [at.wrapping_sub(1), at + 1] {
+                    let Some(&v) = ord.get(to) else { continue };
+                    let mut t = log;
+                    if is_end {
+                        t.endpoints[i] = v;
+                    } else {
+                        t.weights[i] = v;
+                    }
+                    let Some(d) = astc_halves(&t, side) else {
+                        continue;
+                    };
+                    let (te, tl) = goal.errors(&d);
+                    let rate = |te: f64, tl: f64| (e - te) / (tl - l).max(1e-9);
+                    let outside = e > aim.tolerance;
+                    let gain = if outside {
+                        te < e
+                    } else {
+                        te <= aim.tolerance && tl < l
+                    };
+                    let first = match &step {
+                        None => true,
+                        Some((_, _, se, sl)) if outside => rate(te, tl) > rate(*se, *sl),
+                        Some((_, _, _, sl)) => tl < *sl,
+                    };
+                    if gain && first {
+                        step = Some((t, d, te, tl));
+                    }
+                }
+            }
+            match step {
+                Some((t, d, te, tl)) => (log, dec, e, l) = (t, d, te, tl),
+                None => break,
+            }
+        }
+        let bytes = pack::pack_astc_block(&log)?;
+        // The packed block must decode as searched.
+        let back = unpack::unpack_block(&bytes, side, side)?;
+        let n = (side * side) as usize;
+        (astc_halves(&back, side)?[..n] == dec[..n])
+            .then(|| (bytes.to_vec(), astc_rgb(&dec, n), e, l))
+    }
+
+    /// The constant (void-extent) block of the block's mean colour, its half floats moved a
+    /// step where that holds `aim`'s power more closely: it holds the power to half-float
+    /// precision whatever the texels.
+    #[cfg(feature = "basisu")]
+    fn astc_solid(
+        texels: &Texels,
+        weights: &[f64],
+        aim: &super::bc6h::Aim,
+        side: u32,
+    ) -> Option<AstcTry> {
+        use basisu::astc::{pack, unpack};
+        let area: f64 = weights.iter().sum();
+        if area <= 0.0 {
+            return None;
+        }
+        let f16 = |v: f64| exr::prelude::f16::from_f32(v as f32).to_bits();
+        let mut h: [u16; 3] = std::array::from_fn(|k| f16(aim.target[k].max(0.0) / area));
+        for k in 0..3 {
+            let val = |b: u16| exr::prelude::f16::from_bits(b).to_f32() as f64 * area;
+            for c in [h[k].wrapping_sub(1), h[k] + 1] {
+                if c < 0x7C00 && (val(c) - aim.target[k]).abs() < (val(h[k]) - aim.target[k]).abs()
+                {
+                    h[k] = c;
+                }
+            }
+        }
+        let solid = pack::pack_void_extent_hdr(h[0], h[1], h[2], 0x3C00);
+        let dec = astc_halves(&unpack::unpack_block(&solid, side, side)?, side)?;
+        let (e, l) = AstcGoal::new(texels, weights, aim).errors(&dec);
+        Some((solid.to_vec(), astc_rgb(&dec, (side * side) as usize), e, l))
+    }
+
+    /// The most steps [`astc_nudge`] takes.
+    #[cfg(feature = "basisu")]
+    const NUDGES: usize = 48;
+
+    /// The fewest blocks a surface has where a block that nothing else holds becomes a
+    /// constant block: below, the block stays as nudged and the level may miss.
+    #[cfg(feature = "basisu")]
+    const SOLID_MIN_BLOCKS: usize = 16;
+
+    /// Gains (on the power ratio) a block that nudging cannot hold is encoded again with.
+    #[cfg(feature = "basisu")]
+    const REENCODE_GAINS: [f64; 8] = [0.8, 0.9, 0.95, 1.0, 1.05, 1.1, 1.2, 1.4];
+
+    /// The codec of `e`, a Basis Universal format.
+    #[cfg(feature = "basisu")]
+    pub(super) fn codec(_what: &str, e: Encoding) -> Result<Box<dyn super::Codec>> {
+        basisu_c_sys::extra::basisu_encoder_init();
+        Ok(Box::new(Basis(e)))
     }
 
     /// Without the `basisu` feature: an error naming what is missing.
     #[cfg(not(feature = "basisu"))]
-    pub(super) fn encode_level(
-        what: &str,
-        e: Encoding,
-        _faces: &[Surface],
-        _cube: bool,
-    ) -> Result<Vec<SurfaceOut>> {
+    pub(super) fn codec(what: &str, e: Encoding) -> Result<Box<dyn super::Codec>> {
         Err(Error::unsupported(
-            &format!("{what}: --encode {}", e.name()),
+            format!("{what}: --encode {}", e.name()),
             "this build has no Basis Universal encoder: build spheremap with the `basisu` \
              feature (cargo build --features basisu; it needs libclang, Debian's libclang-dev)",
         ))
