@@ -18,13 +18,14 @@ pub struct JobFlags {
     #[arg(long)]
     pub png16: bool,
     /// How texels are stored. KTX2/DDS: float (RGBA half with --half, else 32-bit), bc6h
-    /// (BC6H_UF16 blocks) or rgb9e5 (shared exponent); bc6h and rgb9e5 keep each level's
-    /// light: blocks that leak are encoded again (the --json summary reports the power per
-    /// level). KTX2 only: uastc-hdr-4x4 and astc-hdr-6x6 (Basis Universal; what three.js's
-    /// KTX2Loader reads; writing them needs a build with the basisu feature). PNG: rgbd (Babylon.js's RGBD, 0..255) or rgbm (three.js's RGBM as its
-    /// RGBMLoader reads it, 0..7), 8-bit RGBA with the packing in the note. Values outside
-    /// the range (bc6h 0..65504, rgb9e5 0..65408) are clamped with a warning naming the power
-    /// lost.
+    /// (BC6H_UF16 blocks) or rgb9e5 (shared exponent). KTX2 only: uastc-hdr-4x4 and
+    /// astc-hdr-6x6 (Basis Universal; what three.js's KTX2Loader reads; writing them needs a
+    /// build with the basisu feature). Each of these keeps each level's light: blocks that
+    /// leak are encoded again (the --json summary reports the power per level). PNG: rgbd
+    /// (Babylon.js's RGBD, 0..255) or rgbm (three.js's RGBM as its RGBMLoader reads it,
+    /// 0..7), 8-bit RGBA with the packing in the note. Values outside the range (bc6h
+    /// 0..65504, rgb9e5 0..65408, uastc-hdr-4x4 and astc-hdr-6x6 0..65216) are clamped with a
+    /// warning naming the power lost.
     #[arg(long, default_value = "float", value_parser = crate::names::core("encode"))]
     pub encode: String,
     /// KTX2: supercompress each level with Zstandard at this level (1-22).

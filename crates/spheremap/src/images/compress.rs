@@ -27,11 +27,14 @@
 //!
 //! 1. Every face of every level is cut into blocks (edge texels repeated to fill the blocks
 //!    at the right and bottom edges) and encoded (BC6H: Intel's ISPC encoder, `basic`
-//!    preset, through the `intel_tex_2` crate).
-//! 2. Each block is decoded (`bcdec_rs`) and its power per channel, Σ L·Ω over its texels with
+//!    preset, through the `intel_tex_2` crate; UASTC HDR 4x4 and ASTC HDR 6x6: Basis
+//!    Universal's encoder at its default level, the blocks side by side in images of 256,
+//!    each block coded on its own).
+//! 2. Each block is decoded (`bcdec_rs`; the pure-Rust `basisu` crate's ASTC decoder, which
+//!    `read_texture` reads with) and its power per channel, Σ L·Ω over its texels with
 //!    the level's exact texel solid angles Ω (a cube face's, or the 2D map's mapping's from
 //!    its note; equal weights when the mapping is not known), compared with the source's.
-//! 3. A block whose power differs in a channel by more than [`BLOCK_TOLERANCE`] of the
+//! 3. (BC6H) A block whose power differs in a channel by more than [`BLOCK_TOLERANCE`] of the
 //!    larger of its own power and the level's mean block power is encoded again, from its
 //!    texels scaled per channel by the ratio of the source's power to the decoded power (the
 //!    ratio within [½, 2]), and from its texels each scaled by source / decoded; a try is kept
@@ -39,13 +42,19 @@
 //!    [`REPAIR_ROUNDS`] times.
 //! 4. Where the level then still misses its power by more than [`SURFACE_TOLERANCE`], or a
 //!    face of it by more than [`FACE_TOLERANCE`], each face missing by more than
-//!    [`SURFACE_TOLERANCE`] has its blocks that miss encoded by BC6H's one-region modes
-//!    written here ([`bc6h`]), largest misses first: endpoints and indices searched for the
-//!    texels nearest the source in log space among those that hold the block's power.  That
-//!    costs texel accuracy where a block holds two clusters of values (ISPC's two-region
-//!    modes fit them better), so a block is taken this way only while the face's squared log
-//!    error grows by at most [`OWN_LOG_SHARE`] of ISPC's, unless its miss alone breaks the
-//!    face's tolerance.
+//!    [`SURFACE_TOLERANCE`] has its blocks that miss encoded again to hold their power,
+//!    largest misses first.  BC6H: by its one-region modes written here ([`bc6h`]),
+//!    endpoints and indices searched for the texels nearest the source in log space among
+//!    those that hold the block's power.  UASTC HDR and ASTC HDR: the encoder's block moved
+//!    one quantisation step at a time (an endpoint or weight to its neighbouring value, in
+//!    the block's own configuration, through the `basisu` crate's ASTC unpacker and packer),
+//!    each step the one that removes the most power error per log error added; where that
+//!    cannot hold the block, it is encoded again at gains around its power ratio and each
+//!    result moved so; where that cannot either and the face holds
+//!    16 blocks or more, a constant (void-extent) block of its mean colour.  That costs texel
+//!    accuracy, so a block is taken only while the face's squared log error grows by at most
+//!    a share of the encoder's ([`OWN_LOG_SHARE`], [`ASTC_LOG_SHARE`]), unless its miss alone
+//!    breaks the face's tolerance.
 //! 5. What a block still cannot hold is carried to its neighbours on the same face (within
 //!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
 //!    and they are encoded again (steps 3 and 4), while the face misses.
@@ -54,10 +63,10 @@
 //! low-order moments (SH9) hold with it.  A block whose light sits in one texel far brighter
 //! than the rest holds it to a part of a percent: BC6H's ten-bit endpoints move in steps of
 //! about 3 %, and the block's other texels, whose index the bright one shares in every
-//! channel, make up the rest (docs/lighting.md gives the measured misses).  RGB9E5
-//! texels are each rounded to the nearest value the format holds: there is nothing to
-//! repair.  UASTC HDR and ASTC HDR levels are encoded whole by Basis Universal and corrected
-//! by a per-channel level gain ([`basis`]).  [`LevelCompression`] reports, per level, the
+//! channel, make up the rest (docs/lighting.md gives the measured misses); ASTC HDR's
+//! endpoints, at the precision Basis Universal's configurations give a block of high
+//! contrast, move in steps of 3–6 %.  RGB9E5 texels are each rounded to the nearest value the
+//! format holds: there is nothing to repair.  [`LevelCompression`] reports, per level, the
 //! power error before and after the repair, the blocks repaired and the RMSLE.
 
 use super::{bc6h, Image};
@@ -1419,6 +1428,14 @@ pub mod basis {
                     let (x, y) = (bx * side + i % side, by * side + i / side);
                     let at = (y * w + x) * 16;
                     for (k, v) in [p[0], p[1], p[2], 1.0].into_iter().enumerate() {
+                        // Rounded to half floats, the encoder's own precision (its ASTC HDR
+                        // 6x6 path asserts that its fast float-to-half conversion agrees with
+                        // the exact one, which fails on some floats between two halves).
+                        let v = if v > 0.0 {
+                            exr::prelude::f16::from_f32(v).to_f32()
+                        } else {
+                            0.0
+                        };
                         data[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
                     }
                 }
@@ -1832,7 +1849,8 @@ pub mod basis {
     const NUDGES: usize = 48;
 
     /// The fewest blocks a surface has where a block that nothing else holds becomes a
-    /// constant block: below, the block stays as nudged and the level may miss.
+    /// constant block: below, the block stays as nudged and the level may miss (a constant
+    /// block over a large part of a face would move a small bright source across it).
     #[cfg(feature = "basisu")]
     const SOLID_MIN_BLOCKS: usize = 16;
 
