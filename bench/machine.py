@@ -4,11 +4,22 @@ import platform
 
 
 def cpu_model():
+    """The CPU's model name, with its family and model numbers (a virtual machine may report
+    only "AMD EPYC", which names no generation)."""
+    name, family, model = None, None, None
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                key, _, value = line.partition(":")
+                key, value = key.strip(), value.strip()
+                if key == "model name" and name is None:
+                    name = value
+                elif key == "cpu family" and family is None:
+                    family = value
+                elif key == "model" and model is None:
+                    model = value
     except OSError:
         pass
-    return platform.processor() or platform.machine() or "unknown CPU"
+    if name is None:
+        return platform.processor() or platform.machine() or "unknown CPU"
+    return f"{name} (family {family}, model {model})" if family and model else name

@@ -28,8 +28,7 @@
 //! 1. Every face of every level is cut into blocks (edge texels repeated to fill the blocks
 //!    at the right and bottom edges) and encoded (BC6H: Intel's ISPC encoder, `basic`
 //!    preset, through the `intel_tex_2` crate; UASTC HDR 4x4 and ASTC HDR 6x6: Basis
-//!    Universal's encoder at its default level, the blocks side by side in images of 256,
-//!    each block coded on its own).
+//!    Universal's encoder at its default level, the blocks side by side in images of 256).
 //! 2. Each block is decoded (`bcdec_rs`; the pure-Rust `basisu` crate's ASTC decoder, which
 //!    `read_texture` reads with) and its power per channel, Σ L·Ω over its texels with
 //!    the level's exact texel solid angles Ω (a cube face's, or the 2D map's mapping's from
@@ -1406,7 +1405,7 @@ pub mod basis {
     struct Basis(Encoding);
 
     /// Blocks encoded in one call of Basis Universal's encoder, side by side in rows of
-    /// [`ROW`] (the encoder codes each block of these formats on its own).
+    /// [`ROW`] (an ASTC block decodes on its own, so its bytes hold wherever it is placed).
     #[cfg(feature = "basisu")]
     const CHUNK: usize = 256;
     #[cfg(feature = "basisu")]
