@@ -119,8 +119,9 @@ def read_texture(
     path: str | os.PathLike[str], *, max_pixels: int | None = None
 ) -> tuple[list[npt.NDArray[np.float32]], bool]:
     """Reads a KTX2 or DDS texture (float RGBA/RGB/R, 16- or 32-bit; BC6H, decoded; RGB9E5;
-    KTX2 also Zstandard-supercompressed) with all its mip levels -> (levels, cube): level 0 first, each an (H, W, C) float32 array with row 0 at
-    the top; for a cube map (cube True) each level is (6, F, F, C): faces +X, -X, +Y, -Y, +Z,
+    KTX2 also UASTC HDR 4x4 and ASTC HDR 6x6, transcoded, and Zstandard-supercompressed) with
+    all its mip levels -> (levels, cube): level 0 first, each an (H, W, C) float32 array with
+    row 0 at the top; for a cube map (cube True) each level is (6, F, F, C): faces +X, -X, +Y, -Y, +Z,
     -Z, each with row 0 at t = 0 of the GL face table, as spheremap.convert returns a cube.
 
     Raises spheremap.DataError for a file that is not one (other block-compressed formats,
@@ -155,8 +156,10 @@ def write_texture(
     and the file holds a cube map. mapping, preset, look, up: recorded in a KTX2 file as write_image records them.
 
     encode: "float" (RGBA float32 or `half`), "bc6h" (BC6H_UF16 blocks) or "rgb9e5" (shared
-    exponent), both RGB in 0..65504 (rgb9e5: 65408; values outside are clamped with a warning
-    naming the power lost) and kept to each level's light: blocks that leak are encoded again.
+    exponent), both RGB in 0..65504 (rgb9e5: 65408), or, KTX2 only, "uastc-hdr-4x4" and
+    "astc-hdr-6x6" (Basis Universal's; RGB in 0..65216; writing them needs a build with the
+    basisu feature). Values outside the range are clamped with a warning naming the power
+    lost; every level is kept to its light: blocks that leak are encoded again.
     Their weights are the texel solid angles of the cube's faces or of `mapping`. Returns, for
     an encoding other than float, one dict per level: blocks, repaired, power_error and
     power_error_unrepaired (per channel, decoded / written - 1), rmsle, rmsle_unrepaired,
