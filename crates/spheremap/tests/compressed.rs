@@ -92,6 +92,27 @@ fn clamped(tex: &Texture, max: f32) -> Texture {
     t
 }
 
+/// A bundled HDRI, with a sun of `sun` = (diameter in degrees, share of the power) added.
+fn with_sun(name: &str, sun: Option<(f64, f64)>) -> Image {
+    let mut src = hdri(name);
+    if let Some((deg, f)) = sun {
+        let ll = Mapping::parse("latlong", None).unwrap();
+        add_sun(&mut src, ll, [0.35, 0.6, -0.72], deg, f).unwrap();
+    }
+    src
+}
+
+/// The SH9 irradiance error of cube level `got` against `want`.
+fn sh9_error(want: &Image, got: &Image) -> f64 {
+    let cube = Mapping::parse("cube", None).unwrap();
+    LightCheck::compare(
+        &Moments::of(&EnvMap::new(cube, want, "u").unwrap(), &IDENTITY),
+        &Moments::of(&EnvMap::new(cube, got, "c").unwrap(), &IDENTITY),
+    )
+    .irradiance_error
+    .unwrap()
+}
+
 #[test]
 fn encoded_cubes_round_trip_through_ktx2_zstd_and_dds() {
     let tex = cube_chain(&hdri("studio.exr"), 32, 6);
@@ -228,13 +249,8 @@ fn independent_readers_agree_with_spheremap() {
 #[test]
 fn rgb9e5_keeps_every_level_s_power_and_sh9() {
     // Maps with a small sun holding half the power, and without.
-    let ll = Mapping::parse("latlong", None).unwrap();
-    let cube = Mapping::parse("cube", None).unwrap();
     for (name, sun) in [("studio.exr", None), ("sky.exr", Some((1.0, 0.5)))] {
-        let mut src = hdri(name);
-        if let Some((deg, f)) = sun {
-            add_sun(&mut src, ll, [0.35, 0.6, -0.72], deg, f).unwrap();
-        }
+        let src = with_sun(name, sun);
         let tex = cube_chain(&src, 64, 7);
         let (k, rep) = encode(&tex, Format::Ktx2, Encoding::Rgb9e5, None, CUBE_NOTE);
         let back = decode(Path::new("t.ktx2"), &k, &Default::default()).unwrap();
@@ -252,14 +268,8 @@ fn rgb9e5_keeps_every_level_s_power_and_sh9() {
                     "the report is the file's"
                 );
             }
-            let check = LightCheck::compare(
-                &Moments::of(&EnvMap::new(cube, w, "u").unwrap(), &IDENTITY),
-                &Moments::of(&EnvMap::new(cube, l, "c").unwrap(), &IDENTITY),
-            );
-            assert!(
-                check.irradiance_error.unwrap() < 0.01,
-                "{name} level {i}: {check:?}"
-            );
+            let sh9 = sh9_error(w, l);
+            assert!(sh9 < 0.01, "{name} level {i}: SH9 {sh9}");
         }
     }
 }
@@ -275,13 +285,8 @@ fn bc6h_repair_keeps_every_level_s_power_and_sh9() {
     // 0.5 % per channel, and its SH9 irradiance within 1 % for faces of 8² and more, where the
     // encoder alone is off by up to 13 %; on a studio and on a sky with a 1° sun holding half
     // the power.
-    let ll = Mapping::parse("latlong", None).unwrap();
-    let cube = Mapping::parse("cube", None).unwrap();
     for (name, sun) in [("studio.exr", None), ("sky.exr", Some((1.0, 0.5)))] {
-        let mut src = hdri(name);
-        if let Some((deg, f)) = sun {
-            add_sun(&mut src, ll, [0.35, 0.6, -0.72], deg, f).unwrap();
-        }
+        let src = with_sun(name, sun);
         let tex = cube_chain(&src, 64, 7);
         let (k, rep) = encode(&tex, Format::Ktx2, Encoding::Bc6h, None, CUBE_NOTE);
         let rep = rep.unwrap();
@@ -298,17 +303,11 @@ fn bc6h_repair_keeps_every_level_s_power_and_sh9() {
                 );
             }
             assert!(worst(&r.power_error) < 5e-3, "{name} level {i}: {r:?}");
-            let check = LightCheck::compare(
-                &Moments::of(&EnvMap::new(cube, w, "u").unwrap(), &IDENTITY),
-                &Moments::of(&EnvMap::new(cube, l, "c").unwrap(), &IDENTITY),
-            );
             // A face of one block (4² and 2²) holds the block's power, not where in the block
             // it sits: its SH9 misses by up to 3 % (measured: 1.1–2.7 %).
             let sh_bound = if l.width >= 8 { 0.01 } else { 0.03 };
-            assert!(
-                check.irradiance_error.unwrap() < sh_bound,
-                "{name} level {i}: {check:?}"
-            );
+            let sh9 = sh9_error(w, l);
+            assert!(sh9 < sh_bound, "{name} level {i}: SH9 {sh9}");
             worst_alone = worst_alone.max(worst(&r.power_error_unrepaired));
             assert!(r.rmsle < 0.1, "{name} level {i}: {r:?}");
             assert!(l.data.iter().all(|v| v.is_finite() && *v >= 0.0));
@@ -679,13 +678,8 @@ fn uastc_and_astc_hdr_repair_keeps_every_level_s_power() {
     };
     use spheremap::images::compress::bc6h_decode_block;
     basisu_transcoder_init();
-    let ll = Mapping::parse("latlong", None).unwrap();
-    let cube = Mapping::parse("cube", None).unwrap();
     for (name, sun) in [("studio.exr", None), ("sky.exr", Some((1.0, 0.5)))] {
-        let mut src = hdri(name);
-        if let Some((deg, f)) = sun {
-            add_sun(&mut src, ll, [0.35, 0.6, -0.72], deg, f).unwrap();
-        }
+        let src = with_sun(name, sun);
         let tex = cube_chain(&src, 32, 6);
         for e in [Encoding::UastcHdr4x4, Encoding::AstcHdr6x6] {
             let uastc = e == Encoding::UastcHdr4x4;
@@ -722,12 +716,7 @@ fn uastc_and_astc_hdr_repair_keeps_every_level_s_power() {
                     "{at_level}"
                 );
                 worst_alone = worst_alone.max(worst(&r.power_error_unrepaired));
-                let sh9 = LightCheck::compare(
-                    &Moments::of(&EnvMap::new(cube, w, "u").unwrap(), &IDENTITY),
-                    &Moments::of(&EnvMap::new(cube, l, "c").unwrap(), &IDENTITY),
-                )
-                .irradiance_error
-                .unwrap();
+                let sh9 = sh9_error(w, l);
                 let sh_bound = match (uastc, n >= 16) {
                     (true, true) => 0.02,
                     (true, false) => 0.15,

@@ -537,6 +537,19 @@ pub fn encode_holding_power(texels: &[[f32; 3]], weights: &[f64], aim: &Aim) -> 
 mod tests {
     use super::*;
 
+    /// Equal weights for a block's texels, and the aim of holding its mean power per channel
+    /// within 0.1 %.
+    fn even_aim(texels: &[[f32; 3]; 16]) -> ([f64; 16], Aim) {
+        let target: [f64; 3] =
+            std::array::from_fn(|k| texels.iter().map(|t| t[k] as f64 / 16.0).sum());
+        let aim = Aim {
+            target,
+            scale: target,
+            tolerance: 1e-3,
+        };
+        ([1.0 / 16.0; 16], aim)
+    }
+
     fn decode_bytes(b: &[u8; 16]) -> Vec<[f32; 3]> {
         let mut half = [0u16; 48];
         bcdec_rs::bc6h_half(b, &mut half, 12, false);
@@ -596,14 +609,8 @@ mod tests {
         let mut texels = [[1.0f32, 0.9, 0.8]; 16];
         texels[5] = [9876.5, 8123.4, 7001.0];
         texels[6] = [120.0, 100.0, 90.0];
-        let weights = [1.0 / 16.0; 16];
-        let target: [f64; 3] =
-            std::array::from_fn(|k| texels.iter().map(|t| t[k] as f64 / 16.0).sum());
-        let aim = Aim {
-            target,
-            scale: target,
-            tolerance: 1e-3,
-        };
+        let (weights, aim) = even_aim(&texels);
+        let target = aim.target;
         let (block, err) = encode_holding_power(&texels, &weights, &aim);
         // Per channel within half a percent: its indices are shared, and the sun's ten-bit
         // endpoints step by 3 %, so channels missing in opposite directions cannot all be
@@ -645,14 +652,7 @@ mod tests {
             [5.33, 4.16, 20.68],
             [10.47, 8.74, 4.85],
         ];
-        let weights = [1.0 / 16.0; 16];
-        let target: [f64; 3] =
-            std::array::from_fn(|k| texels.iter().map(|t| t[k] as f64 / 16.0).sum());
-        let aim = Aim {
-            target,
-            scale: target,
-            tolerance: 1e-3,
-        };
+        let (weights, aim) = even_aim(&texels);
         let (block, err) = encode_holding_power(&texels, &weights, &aim);
         // Within 1 % (red and green, black under the blue sun, share its index: one region
         // cannot hold them more closely; per-channel endpoints along the axis alone missed
