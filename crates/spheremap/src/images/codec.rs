@@ -11,6 +11,7 @@
 //! * Writes are atomic (temporary file + rename; see [`crate::base::files::atomic_write`]).
 
 use super::compress::{Encoding, LevelCompression};
+use super::fold::fold_negatives;
 use super::format::Format;
 use super::Image;
 use crate::base::error::{Error, Result};
@@ -539,6 +540,16 @@ pub fn write_image_with_note(
     })
 }
 
+/// The texel solid angles of `img` by the mapping its note records (equal weights for a cube
+/// layout or a map without a note).
+fn note_weights(note: Option<&str>, img: &Image) -> Vec<f64> {
+    let mapping = note
+        .and_then(super::note::MapNote::parse)
+        .filter(|n| n.layout.is_none())
+        .map(|n| n.mapping);
+    super::compress::texel_weights(mapping, false, img.width, img.height)
+}
+
 /// Encodes into memory in `format`.
 pub fn encode(path: &Path, img: &Image, format: Format, opts: &WriteOptions) -> Result<Vec<u8>> {
     encode_with_note(path, img, format, opts, None)
@@ -580,6 +591,8 @@ pub fn encode_with_note(
             return encode_texture(path, &tex, format, opts, note).map(|(b, _)| b);
         }
         Format::Hdr => {
+            // No negative values: their light moved into their neighbours.
+            let img = &fold_negatives(img, &note_weights(note, img)).0;
             let rgb = to_rgb(img);
             let px: Vec<image::Rgb<f32>> = rgb
                 .chunks_exact(3)
@@ -590,17 +603,18 @@ pub fn encode_with_note(
                 .map_err(bad)?;
         }
         Format::Png if opts.encode.is_packing() => {
-            let (raw, clamped) = super::compress::pack_image(img, opts.encode);
+            // Negative values' light moved into their neighbours; values beyond the range
+            // clamped, with the power that loses.
+            let omega = note_weights(note, img);
+            let (folded, neg) = fold_negatives(img, &omega);
+            let (raw, over) = super::compress::pack_image(&folded, opts.encode);
+            let clamped = over + neg.values;
             if clamped > 0 {
-                let mapping = note
-                    .and_then(super::note::MapNote::parse)
-                    .filter(|n| n.layout.is_none())
-                    .map(|n| n.mapping);
-                let omega = super::compress::texel_weights(mapping, false, img.width, img.height);
-                let lost = super::compress::range_loss(img, &omega, opts.encode);
+                let lost = super::compress::range_loss(img, &omega, opts.encode, &folded);
                 crate::base::error::warn(&format!(
-                    "{}: {clamped} value{} outside {}'s range [0, {}] clamped to it; the \
-                     image's power changes by {:+.4} % (R), {:+.4} % (G), {:+.4} % (B)",
+                    "{}: {clamped} value{} outside {}'s range [0, {}] clamped to it (the light \
+                     of negative ones moved into their neighbours); the image's power changes \
+                     by {:+.4} % (R), {:+.4} % (G), {:+.4} % (B)",
                     path.display(),
                     if clamped == 1 { "" } else { "s" },
                     opts.encode.name(),

@@ -16,8 +16,11 @@
 //!
 //! All hold RGB (no alpha: a grey map is written to R, G and B, an alpha channel is dropped
 //! with a warning unless it is 1 everywhere) and no negative values.  A texel beyond the range
-//! is clamped to it and a negative one to 0, with a warning that states the power each
-//! channel loses; NaN and Inf are refused.
+//! is clamped to it and a negative one to 0, and the light it gained or lost is moved into
+//! its neighbours on the same face ([`super::fold`]: the negative lobes that resizing rings
+//! beside a sun would otherwise add percents to the power), with a warning that counts the
+//! values and states the power each channel changes (0 unless no neighbour could take it);
+//! NaN and Inf are refused.
 //!
 //! ## Keeping the light
 //!
@@ -68,6 +71,7 @@
 //! format holds: there is nothing to repair.  [`LevelCompression`] reports, per level, the
 //! power error before and after the repair, the blocks repaired and the RMSLE.
 
+use super::fold::fold_into_range;
 use super::{bc6h, Image};
 use crate::base::error::{Error, Result};
 use crate::mappings::mapping::Mapping;
@@ -205,10 +209,11 @@ pub struct LevelCompression {
     pub rmsle: f64,
     /// The same for the encoder's blocks before the repair.
     pub rmsle_unrepaired: f64,
-    /// Values clamped to the encoding's range (above it, or negative).
+    /// Values outside the encoding's range (above it, or negative), clamped to it with their
+    /// light moved into their neighbours ([`super::fold`]).
     pub clamped: u64,
-    /// The power per channel the clamp removed, relative to the level's (≤ 0 for values
-    /// above the range).
+    /// The power per channel the clamp changed, relative to the level's: what no neighbour
+    /// could take (0 where every value's light was moved).
     pub range_loss: [f64; 3],
 }
 
@@ -257,6 +262,94 @@ pub fn texel_weights(mapping: Option<Mapping>, face: bool, w: usize, h: usize) -
             }
         });
     out
+}
+
+/// The unit direction of each texel's centre of a `w`×`h` map in `mapping`, or of cube face
+/// `face` (GL order), in the map's frame; `None` where the mapping is not known.  Texels off
+/// the map: 0.
+fn texel_directions(
+    mapping: Option<Mapping>,
+    face: Option<usize>,
+    w: usize,
+    h: usize,
+) -> Option<Vec<[f64; 3]>> {
+    if face.is_none() && mapping.is_none() {
+        return None;
+    }
+    let mut out = vec![[0.0; 3]; w * h];
+    out.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let uv = [(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64];
+                *o = match (face, mapping) {
+                    (Some(f), _) => crate::mappings::cube::face_st_to_dir(f, uv[0], uv[1]),
+                    (None, Some(m)) => m.uv_to_dir(uv).unwrap_or([0.0; 3]),
+                    (None, None) => unreachable!(),
+                };
+            }
+        });
+    Some(out)
+}
+
+/// How far replacing texels `src` (weights `w`, unit directions `d`) by their weighted mean
+/// moves the light, as the largest change it can make to the SH9 irradiance of any direction
+/// in units of the mean irradiance of a map of power `power` (per channel; the largest
+/// channel): [`moment_bound`] of the change in [`light_moments`].
+fn flattening_cost(src: &Texels, w: &[f64], d: &[[f64; 3]], power: &[f64; 3]) -> f64 {
+    let area: f64 = w.iter().sum();
+    if area <= 0.0 {
+        return 0.0;
+    }
+    let p = self::power(src, w);
+    let flat: Texels = vec![std::array::from_fn(|k| (p[k] / area) as f32); src.len()];
+    let (a, b) = (light_moments(&flat, w, d), light_moments(src, w, d));
+    (0..3)
+        .filter(|&k| power[k] > 0.0)
+        .map(|k| {
+            let dm: [f64; 10] = std::array::from_fn(|j| a[k][j] - b[k][j]);
+            moment_bound(&dm) / (power[k] / 4.0)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The light moments of texels (weights `w`, unit directions `d`) per channel: Σ L·Ω times
+/// 1, the direction's x, y, z and its products xx, xy, xz, yy, yz, zz.  The SH9 irradiance
+/// (the clamped cosine's first three bands) of light p at direction d, seen from n, is
+/// p·(3/32 + n·d/2 + 15/32 (n·d)²), so that of light with moments M is
+/// 3/32 M₀ + ½ n·M₁ + 15/32 nᵀM₂n, and a level whose moments hold holds its SH9 irradiance.
+fn light_moments(t: &Texels, w: &[f64], d: &[[f64; 3]]) -> [[f64; 10]; 3] {
+    let mut m = [[0.0; 10]; 3];
+    for ((p, &wi), di) in t.iter().zip(w).zip(d) {
+        if wi <= 0.0 {
+            continue;
+        }
+        let basis = moment_basis(di);
+        for k in 0..3 {
+            let l = p[k] as f64 * wi;
+            for (mj, bj) in m[k].iter_mut().zip(&basis) {
+                *mj += l * bj;
+            }
+        }
+    }
+    m
+}
+
+fn moment_basis(d: &[f64; 3]) -> [f64; 10] {
+    let [x, y, z] = *d;
+    [1.0, x, y, z, x * x, x * y, x * z, y * y, y * z, z * z]
+}
+
+/// The largest SH9 irradiance change over all directions that a change `dm` of one
+/// channel's light moments can make, bounded: 3/32 |ΔM₀| + ½ |ΔM₁| + 15/32 ‖ΔM₂‖_F.
+fn moment_bound(dm: &[f64; 10]) -> f64 {
+    let m1 = (dm[1] * dm[1] + dm[2] * dm[2] + dm[3] * dm[3]).sqrt();
+    let m2 = (dm[4] * dm[4]
+        + dm[7] * dm[7]
+        + dm[9] * dm[9]
+        + 2.0 * (dm[5] * dm[5] + dm[6] * dm[6] + dm[8] * dm[8]))
+        .sqrt();
+    3.0 / 32.0 * dm[0].abs() + 0.5 * m1 + 15.0 / 32.0 * m2
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -387,17 +480,24 @@ pub fn packing_of_note(text: &str) -> Option<(Encoding, f32)> {
     e.map(|e| (e, range))
 }
 
-/// The power per channel that clamping `img` to `e`'s range changes, relative to the image's
-/// (Σ L·Ω with the texel weights `omega`).
-pub fn range_loss(img: &Image, omega: &[f64], e: Encoding) -> [f64; 3] {
+/// The power per channel that `folded` (`img` with its negative values folded,
+/// [`super::fold::fold_negatives`]) clamped to `e`'s range holds relative to `img`'s (Σ L·Ω
+/// with the texel weights `omega`), minus 1.
+pub fn range_loss(img: &Image, omega: &[f64], e: Encoding, folded: &Image) -> [f64; 3] {
     let max = e.range().unwrap_or(f32::MAX);
     let (mut before, mut after) = ([0.0f64; 3], [0.0f64; 3]);
-    for (p, w) in img.data.chunks_exact(img.channels).zip(omega) {
-        let v = rgb_of(p);
+    let c = img.channels;
+    for ((p, q), w) in img
+        .data
+        .chunks_exact(c)
+        .zip(folded.data.chunks_exact(c))
+        .zip(omega)
+    {
+        let (v, u) = (rgb_of(p), rgb_of(q));
         for k in 0..3 {
             if v[k].is_finite() {
                 before[k] += v[k] as f64 * w;
-                after[k] += v[k].clamp(0.0, max) as f64 * w;
+                after[k] += u[k].clamp(0.0, max) as f64 * w;
             }
         }
     }
@@ -436,7 +536,8 @@ type Texels = Vec<[f32; 3]>;
 
 /// A block to encode holding a power: its source texels and their weights, the power it should
 /// hold, its best encoding so far, the error (in `aim`'s units) beyond which it must hold its
-/// power whatever its texels cost, and how many blocks its surface has.
+/// power whatever its texels cost, and whether it may become one constant colour (which
+/// moves its light within it by no more than [`FLAT_SH_SHARE`] of the SH9 irradiance).
 #[cfg_attr(not(feature = "basisu"), allow(dead_code))]
 struct Ask<'a> {
     texels: &'a Texels,
@@ -444,7 +545,7 @@ struct Ask<'a> {
     aim: bc6h::Aim,
     current: &'a [u8],
     must: f64,
-    blocks: usize,
+    flat_ok: bool,
 }
 
 /// Encodes blocks of `side`×`side` texels (each `side²` RGB values, rows first) into `bytes`
@@ -558,6 +659,8 @@ struct Surface {
     h: usize,
     rgb: Vec<[f32; 3]>,
     omega: Vec<f64>,
+    /// Texel directions, where the mapping is known ([`texel_directions`]).
+    dirs: Option<Vec<[f64; 3]>>,
 }
 
 /// Per channel power sums, f64.
@@ -592,15 +695,25 @@ fn block_error(got: &[f64; 3], want: &[f64; 3], mean: &[f64; 3]) -> f64 {
 }
 
 /// The blocks of a surface (edge texels repeated past its right and bottom edges), with their
-/// texels' weights (0 for the repeated ones).
-fn blocks_of(s: &Surface, side: usize) -> (Vec<Texels>, Vec<Vec<f64>>) {
+/// texels' weights (0 for the repeated ones) and directions (where the surface has them).
+struct Blocks {
+    texels: Vec<Texels>,
+    weights: Vec<Vec<f64>>,
+    dirs: Option<Vec<Vec<[f64; 3]>>>,
+}
+
+fn blocks_of(s: &Surface, side: usize) -> Blocks {
     let (bx, by) = (s.w.div_ceil(side), s.h.div_ceil(side));
-    let mut blocks = Vec::with_capacity(bx * by);
-    let mut weights = Vec::with_capacity(bx * by);
+    let mut out = Blocks {
+        texels: Vec::with_capacity(bx * by),
+        weights: Vec::with_capacity(bx * by),
+        dirs: s.dirs.as_ref().map(|_| Vec::with_capacity(bx * by)),
+    };
     for j in 0..by {
         for i in 0..bx {
             let mut t = Vec::with_capacity(side * side);
             let mut w = Vec::with_capacity(side * side);
+            let mut d = Vec::with_capacity(side * side);
             for y in 0..side {
                 for x in 0..side {
                     let (px, py) = (i * side + x, j * side + y);
@@ -608,13 +721,19 @@ fn blocks_of(s: &Surface, side: usize) -> (Vec<Texels>, Vec<Vec<f64>>) {
                     let at = py.min(s.h - 1) * s.w + px.min(s.w - 1);
                     t.push(s.rgb[at]);
                     w.push(if inside { s.omega[at] } else { 0.0 });
+                    if let Some(sd) = &s.dirs {
+                        d.push(sd[at]);
+                    }
                 }
             }
-            blocks.push(t);
-            weights.push(w);
+            out.texels.push(t);
+            out.weights.push(w);
+            if let Some(od) = &mut out.dirs {
+                od.push(d);
+            }
         }
     }
-    (blocks, weights)
+    out
 }
 
 /// What encoding one surface gave.
@@ -650,6 +769,10 @@ struct Repair<'a> {
     /// Source texels and their weights, per block.
     blocks: Vec<Texels>,
     weights: Vec<Vec<f64>>,
+    /// The blocks' texel directions, where the mapping is known.
+    dirs: Option<Vec<Vec<[f64; 3]>>>,
+    /// The level's power, per channel (all faces).
+    level: [f64; 3],
     /// The surface's power, per channel.
     source: [f64; 3],
     /// The power each block should hold (its source's, plus what leaky neighbours carried
@@ -669,6 +792,19 @@ struct Repair<'a> {
 impl Repair<'_> {
     fn error(&self, b: usize, p: &[f64; 3]) -> f64 {
         block_error(p, &self.target[b], &self.mean)
+    }
+
+    /// Whether block `b` may become one constant colour: where it moves the level's SH9
+    /// irradiance by at most [`FLAT_SH_SHARE`] ([`flattening_cost`]); where the texels'
+    /// directions are not known, where its surface has [`FLAT_MIN_BLOCKS`] blocks or more.
+    fn flat_ok(&self, b: usize) -> bool {
+        match &self.dirs {
+            Some(d) => {
+                flattening_cost(&self.blocks[b], &self.weights[b], &d[b], &self.level)
+                    <= FLAT_SH_SHARE
+            }
+            None => self.blocks.len() >= FLAT_MIN_BLOCKS,
+        }
     }
 
     /// Whether power `p` is closer to block `b`'s target than its best so far: a smaller
@@ -828,7 +964,7 @@ impl Repair<'_> {
                         },
                         current: &self.bytes[b * nb..(b + 1) * nb],
                         must,
-                        blocks: self.blocks.len(),
+                        flat_ok: self.flat_ok(b),
                     }
                 })
                 .collect();
@@ -967,6 +1103,16 @@ pub const OWN_LOG_SHARE: f64 = 0.1;
 /// up to 0.95 % off).
 pub const ASTC_LOG_SHARE: f64 = 1.0;
 
+/// The most a block that becomes one constant colour (ASTC's void-extent block, where
+/// nothing else holds its power) may move the level's SH9 irradiance, in units of its mean
+/// irradiance ([`flattening_cost`]): a constant block over a small bright source moves the
+/// source across the block, which on a small face is a large part of the sphere.
+pub const FLAT_SH_SHARE: f64 = 1e-3;
+
+/// Where the texels' directions are not known (a 2D texture whose mapping is not recorded):
+/// the fewest blocks a surface has where a block may become one constant colour.
+pub const FLAT_MIN_BLOCKS: usize = 16;
+
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
 pub const CARRY_SHARE: f64 = 0.25;
 
@@ -1049,11 +1195,23 @@ struct Started<'a> {
     shape: (usize, usize, usize, usize),
     unrepaired: [f64; 3],
     log_sq_unrepaired: f64,
+    /// What blocks from [`Codec::holding_power`] may still add to the surface's squared log
+    /// error.
+    budget: f64,
 }
 
-fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Result<Started<'a>> {
+fn start_surface<'a>(
+    c: &'a dyn Codec,
+    s: &Surface,
+    mean: [f64; 3],
+    level: [f64; 3],
+) -> Result<Started<'a>> {
     let side = c.side();
-    let (blocks, weights) = blocks_of(s, side);
+    let Blocks {
+        texels: blocks,
+        weights,
+        dirs,
+    } = blocks_of(s, side);
     let n = blocks.len();
     let (bytes, decoded) = c.encode(&blocks)?;
     let want: Vec<[f64; 3]> = blocks
@@ -1076,6 +1234,8 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Result<St
         repaired: vec![false; n],
         blocks,
         weights,
+        dirs,
+        level,
     };
     r.got = r
         .decoded
@@ -1090,6 +1250,7 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Result<St
     // Repair each block by the encoder.
     r.rounds()?;
     Ok(Started {
+        budget: c.log_share() * log_sq_unrepaired,
         r,
         shape,
         unrepaired,
@@ -1099,27 +1260,34 @@ fn start_surface<'a>(c: &'a dyn Codec, s: &Surface, mean: [f64; 3]) -> Result<St
 
 /// The rest of a surface's repair where `more` (its level misses): blocks given to the
 /// one-region encoder, misses carried to neighbours, near first, while the surface misses.
-fn finish_surface(st: Started, more: bool) -> Result<SurfaceOut> {
+fn finish_surface(st: &mut Started, more: bool) -> Result<()> {
     let Started {
-        mut r,
-        shape,
-        unrepaired,
-        log_sq_unrepaired,
+        r, shape, budget, ..
     } = st;
     if more {
-        // What the one-region blocks may add to the surface's squared log error.
-        let mut budget = r.c.log_share() * log_sq_unrepaired;
-        r.own(&mut budget);
+        r.own(budget);
         for reach in [1, 2, 4] {
             if r.surface_miss() <= SURFACE_TOLERANCE || !r.carry(shape.3, reach) {
                 break;
             }
             r.rounds()?;
-            r.own(&mut budget);
+            r.own(budget);
         }
     }
+    Ok(())
+}
+
+/// What a surface's encoding gave.
+fn surface_out(st: Started) -> SurfaceOut {
+    let Started {
+        r,
+        shape,
+        unrepaired,
+        log_sq_unrepaired,
+        ..
+    } = st;
     let (log_sq, values) = log_error(shape, &r.blocks, &r.decoded);
-    Ok(SurfaceOut {
+    SurfaceOut {
         blocks: r.blocks.len(),
         repaired: r.repaired.iter().filter(|&&x| x).count(),
         source: r.source,
@@ -1129,7 +1297,7 @@ fn finish_surface(st: Started, more: bool) -> Result<SurfaceOut> {
         log_sq_unrepaired,
         values,
         bytes: r.bytes,
-    })
+    }
 }
 
 /// RGB of a pixel of 1–4 channels.
@@ -1162,8 +1330,10 @@ pub fn compress(
     for (li, level) in levels.iter().enumerate() {
         let (w, h) = (level.width, level.height / nf);
         let omega = texel_weights(if cube { None } else { mapping }, cube, w, h);
+        let dirs =
+            |f: usize| texel_directions(if cube { None } else { mapping }, cube.then_some(f), w, h);
         let ch = level.channels;
-        // The faces as RGB, clamped to the range; what the clamp removed.
+        // The faces as RGB, folded into the range; what the fold could not keep.
         let mut faces = Vec::with_capacity(nf);
         let mut clamped = 0u64;
         let (mut before, mut after) = ([0.0f64; 3], [0.0f64; 3]);
@@ -1186,21 +1356,24 @@ pub fn compress(
                     alpha_dropped = true;
                 }
                 let v = rgb_of(p);
-                let cl = v.map(|x| x.clamp(0.0, range));
                 for k in 0..3 {
-                    if cl[k] != v[k] {
-                        clamped += 1;
-                    }
                     before[k] += v[k] as f64 * omega[i];
-                    after[k] += cl[k] as f64 * omega[i];
                 }
-                rgb.push(cl);
+                rgb.push(v);
+            }
+            // Values outside the range: their light moved into their neighbours.
+            clamped += fold_into_range(&mut rgb, &omega, w, h, range).values;
+            for (t, om) in rgb.iter().zip(&omega) {
+                for k in 0..3 {
+                    after[k] += t[k] as f64 * om;
+                }
             }
             faces.push(Surface {
                 w,
                 h,
                 rgb,
                 omega: omega.clone(),
+                dirs: dirs(f),
             });
         }
         let rel = |a: f64, b: f64| if b != 0.0 { a / b - 1.0 } else { 0.0 };
@@ -1208,8 +1381,8 @@ pub fn compress(
         if clamped > 0 {
             crate::base::error::warn(&format!(
                 "{what}: level {li}: {clamped} value{} outside {}'s range [0, {range}] \
-                 clamped to it; the level's power changes by {:+.4} % (R), {:+.4} % (G), \
-                 {:+.4} % (B)",
+                 clamped to it, their light moved into their neighbours; the level's power \
+                 changes by {:+.4} % (R), {:+.4} % (G), {:+.4} % (B)",
                 if clamped == 1 { "" } else { "s" },
                 e.name(),
                 100.0 * range_loss[0],
@@ -1226,7 +1399,7 @@ pub fn compress(
             // face goes on to the one-region encoder and the carry.
             let started = faces
                 .iter()
-                .map(|s| start_surface(c.as_ref(), s, mean))
+                .map(|s| start_surface(c.as_ref(), s, mean, after))
                 .collect::<Result<Vec<Started>>>()?;
             let level_miss = (0..3)
                 .filter(|&k| after[k] > 0.0)
@@ -1242,10 +1415,11 @@ pub fn compress(
                 || started
                     .iter()
                     .any(|st| st.r.surface_miss() > FACE_TOLERANCE);
-            started
-                .into_iter()
-                .map(|st| finish_surface(st, more))
-                .collect::<Result<_>>()?
+            let mut started = started;
+            for st in started.iter_mut() {
+                finish_surface(st, more)?;
+            }
+            started.into_iter().map(surface_out).collect()
         } else {
             faces.iter().map(encode_rgb9e5).collect()
         };
@@ -1595,8 +1769,8 @@ pub mod basis {
                 .zip(asks)
                 .map(|(mut b, a)| {
                     // A constant block moves a small bright source across the block: only
-                    // where the block is a small part of its surface.
-                    if short(&b, a) && (a.blocks >= SOLID_MIN_BLOCKS || b.is_none()) {
+                    // where that moves the light little (or nothing else holds the block).
+                    if short(&b, a) && (a.flat_ok || b.is_none()) {
                         if let Some(t) = astc_solid(a.texels, a.weights, &a.aim, side) {
                             if b.as_ref().is_none_or(|b| t.2 < b.2) {
                                 b = Some(t);
@@ -1846,12 +2020,6 @@ pub mod basis {
     /// The most steps [`astc_nudge`] takes.
     #[cfg(feature = "basisu")]
     const NUDGES: usize = 48;
-
-    /// The fewest blocks a surface has where a block that nothing else holds becomes a
-    /// constant block: below, the block stays as nudged and the level may miss (a constant
-    /// block over a large part of a face would move a small bright source across it).
-    #[cfg(feature = "basisu")]
-    const SOLID_MIN_BLOCKS: usize = 16;
 
     /// Gains (on the power ratio) a block that nudging cannot hold is encoded again with.
     #[cfg(feature = "basisu")]

@@ -10,6 +10,7 @@ pub mod container;
 pub mod cube_layout;
 pub mod draw;
 pub mod envmap;
+pub mod fold;
 pub mod format;
 pub mod info;
 pub mod limits;
