@@ -80,11 +80,11 @@ def test_content_disagreeing_with_the_name_is_read_with_a_warning(tmp_path):
     named = CORPUS / "png_named.exr"
     warning = f"spheremap: warning: {named}: the file holds PNG but its extension names OpenEXR; reading it as PNG"
     runs = [
-        ("convert", named, tmp_path / "c.exr", "--from", "latlong", "--to", "sphere", "--size", "8"),
-        ("generate", "--env", named, "--env-format", "latlong", "--size", "8", "-o", tmp_path / "g.exr"),
+        ("convert", named, tmp_path / "c.exr", "--from", "sphere", "--to", "latlong", "--size", "8"),
+        ("generate", "--env", named, "--env-format", "sphere", "--size", "8", "-o", tmp_path / "g.exr"),
         ("render", TEAPOT, "--env", named, "--env-format", "sphere", "--mode", "per-pixel", "--size", "32", "32",
          "-o", tmp_path / "r.png"),
-        ("preview", "--env", named, "--env-format", "latlong", "--eye", 0, 0, 0, "--target", 0, 0, -1,
+        ("preview", "--env", named, "--env-format", "sphere", "--eye", 0, 0, 0, "--target", 0, 0, -1,
          "--size", 16, 16, "-o", tmp_path / "p.exr"),
         ("from-fisheye", named, "--model", "equidistant", "--fov", 180, "--size", 8, "-o", tmp_path / "f.exr"),
         ("from-photo", named, "--orthographic", "--circle", 16, 16, 15, "--size", 8, "-o", tmp_path / "b.exr"),
@@ -192,3 +192,28 @@ def test_python_convert_to_the_same_mapping_is_exact():
     s = sm.convert(img, "latlong", "sphere", size=64)
     np.testing.assert_array_equal(sm.convert(s, "sphere", "sphere"), s)
     assert not np.array_equal(sm.convert(s, "sphere", "sphere", look=(1, 0, 0)), s)
+
+
+def test_a_lat_long_not_2_to_1_is_named_and_a_map_too_small_for_its_mapping_refused(tmp_path):
+    square, wide, one = tmp_path / "square.exr", tmp_path / "wide.exr", tmp_path / "one.exr"
+    sm.write_image(square, np.ones((64, 64, 3), np.float32))
+    sm.write_image(wide, np.ones((30, 128, 3), np.float32))
+    sm.write_image(one, np.ones((1, 1, 3), np.float32))
+    for src, aspect in [(square, "64x64 (1.000:1)"), (wide, "128x30 (4.267:1)")]:
+        r = cli("convert", src, tmp_path / "o.exr", "--from", "latlong", "--to", "cube", "--size", "4")
+        assert r.returncode == 0, r.stderr
+        lines = [l for l in r.stderr.splitlines() if "warning" in l]
+        assert len(lines) == 1 and f"a lat-long map is 2:1 (2N x N), this one is {aspect}" in lines[0], r.stderr
+    with pytest.warns(UserWarning, match=r"this one is 64x64 \(1.000:1\)"):
+        sm.convert(sm.read_image(square), "latlong", "cube", size=4)
+    # A 2:1 lat-long says nothing.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sm.convert(np.ones((8, 16, 3), np.float32), "latlong", "cube", size=4)
+    # One texel cannot be a sphere map: refused, naming the smallest, nothing written.
+    out = tmp_path / "s.exr"
+    r = cli("convert", one, out, "--from", "sphere", "--to", "latlong", "--size", "8")
+    assert r.returncode == 2 and not out.exists()
+    assert r.stderr.strip().splitlines() == [f"spheremap: {one}: 1x1 is too small for a sphere map: the smallest is 2x2"]
+    with pytest.raises(sm.DataError, match="1x1 is too small for a sphere map: the smallest is 2x2"):
+        sm.convert(np.ones((1, 1, 3), np.float32), "sphere", "latlong", size=8)

@@ -76,7 +76,8 @@ def write_image(
     half: a value beyond the half-float range (65504), which half would hold as Inf, raises
     spheremap.DataError naming the count and the largest, unless `clamp_half` (clamp to 65504).
     Returns what the format lost: {"clipped": values clipped to the format's range (PNG/JPEG
-    [0, 1], HDR no negatives), "clamped_half": values clamped with `clamp_half`}.
+    [0, 1], HDR no negatives: their light is moved into the texels around them),
+    "clamped_half": values clamped with `clamp_half`}.
 
     mapping, preset, layout, look, up: record what the image is (one of MAPPINGS, its preset,
     for a cube its layout, and the view it was made for) in the file, as the CLI records it in
@@ -158,8 +159,9 @@ def write_texture(
     encode: "float" (RGBA float32 or `half`), "bc6h" (BC6H_UF16 blocks) or "rgb9e5" (shared
     exponent), both RGB in 0..65504 (rgb9e5: 65408), or, KTX2 only, "uastc-hdr-4x4" and
     "astc-hdr-6x6" (Basis Universal's; RGB in 0..65216; writing them needs a build with the
-    basisu feature). Values outside the range are clamped with a warning naming the power
-    lost; every level is kept to its light: blocks that leak are encoded again.
+    basisu feature). Values outside the range are clamped with their light moved into the
+    texels around them (a warning names the power that still changes); every level is kept
+    to its light: blocks that leak are encoded again.
     Their weights are the texel solid angles of the cube's faces or of `mapping`. Returns, for
     an encoding other than float, one dict per level: blocks, repaired, power_error and
     power_error_unrepaired (per channel, decoded / written - 1), rmsle, rmsle_unrepaired,

@@ -24,8 +24,9 @@ pub struct JobFlags {
     /// leak are encoded again (the --json summary reports the power per level). PNG: rgbd
     /// (Babylon.js's RGBD, 0..255) or rgbm (three.js's RGBM as its RGBMLoader reads it,
     /// 0..7), 8-bit RGBA with the packing in the note. Values outside the range (bc6h
-    /// 0..65504, rgb9e5 0..65408, uastc-hdr-4x4 and astc-hdr-6x6 0..65216) are clamped with a
-    /// warning naming the power lost.
+    /// 0..65504, rgb9e5 0..65408, uastc-hdr-4x4 and astc-hdr-6x6 0..65216; rgbd and rgbm: below
+    /// 0) are clamped with their light moved into the texels around them, and a warning naming
+    /// the power that still changes; rgbd and rgbm clamp values above their range.
     #[arg(long, default_value = "float", value_parser = crate::names::core("encode"))]
     pub encode: String,
     /// KTX2: supercompress each level with Zstandard at this level (1-22).

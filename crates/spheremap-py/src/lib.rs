@@ -571,11 +571,13 @@ fn convert<'py>(
                     .map_err(python_names)
             })?;
         }
+        emit_warnings(py)?;
         return Ok(arr.into_any());
     }
     let (img, _, _) = run_cancellable(py, &progress, "the conversion", |p| {
         job.run_image(&img, Some(p), None).map_err(python_names)
     })?;
+    emit_warnings(py)?;
     let img = img.expect("no buffer given: a new image");
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([img.height, img.width, img.channels])?

@@ -761,9 +761,9 @@ fn uastc_and_astc_hdr_repair_keeps_every_level_s_power() {
     // Each level's power against the uncompressed level's, down to faces of one texel, where
     // Basis Universal's encoder alone misses by up to 27 %, on a studio and on a sky with a 1°
     // sun holding half the power: UASTC HDR 4x4 within 0.5 % everywhere; ASTC HDR 6x6 within
-    // 0.5 % where a face holds 16 blocks or more and within 1 % below (a face of nine 6×6
-    // blocks or fewer cannot take a constant block without moving its sun; measured up to
-    // 0.75 %).
+    // 0.5 % where a face holds 16 blocks or more and within 1 % below (on a face of nine 6×6
+    // blocks or fewer a constant block would move its sun's light further than the miss
+    // does; measured up to 0.75 %).
     // SH9 irradiance: within 1 % for UASTC HDR 4x4 at faces of 32² and more (measured up to
     // 0.63 %), 2 % at 16² (1.7 %), 15 % below; within 8 % for ASTC HDR 6x6 at faces of 16² and
     // more (measured up to 5.4 %). Basis Universal's C++ transcoder turns the repaired blocks into the BC6H a GPU

@@ -292,18 +292,13 @@ fn texel_directions(
     Some(out)
 }
 
-/// How far replacing texels `src` (weights `w`, unit directions `d`) by their weighted mean
-/// moves the light, as the largest change it can make to the SH9 irradiance of any direction
-/// in units of the mean irradiance of a map of power `power` (per channel; the largest
-/// channel): [`moment_bound`] of the change in [`light_moments`].
-fn flattening_cost(src: &Texels, w: &[f64], d: &[[f64; 3]], power: &[f64; 3]) -> f64 {
-    let area: f64 = w.iter().sum();
-    if area <= 0.0 {
-        return 0.0;
-    }
-    let p = self::power(src, w);
-    let flat: Texels = vec![std::array::from_fn(|k| (p[k] / area) as f32); src.len()];
-    let (a, b) = (light_moments(&flat, w, d), light_moments(src, w, d));
+/// How far texels `got` move the light of texels `src` (weights `w`, unit directions `d`):
+/// the largest change they can make to the SH9 irradiance of any direction, in units of the
+/// mean irradiance of a map of power `power` (the largest channel) — [`moment_bound`] of the
+/// change in [`light_moments`].  It counts a change of the block's power (about 1.06 times
+/// it) and of where in the block its light sits alike.
+fn light_cost(src: &Texels, got: &Texels, w: &[f64], d: &[[f64; 3]], power: &[f64; 3]) -> f64 {
+    let (a, b) = (light_moments(got, w, d), light_moments(src, w, d));
     (0..3)
         .filter(|&k| power[k] > 0.0)
         .map(|k| {
@@ -536,8 +531,10 @@ type Texels = Vec<[f32; 3]>;
 
 /// A block to encode holding a power: its source texels and their weights, the power it should
 /// hold, its best encoding so far, the error (in `aim`'s units) beyond which it must hold its
-/// power whatever its texels cost, and whether it may become one constant colour (which
-/// moves its light within it by no more than [`FLAT_SH_SHARE`] of the SH9 irradiance).
+/// power whatever its texels cost, and where its texels' directions are known, those and the
+/// level's power (so that an encoding may be judged by how far it moves the block's light,
+/// [`Ask::light_cost`]); where they are not, whether its surface has [`FLAT_MIN_BLOCKS`]
+/// blocks or more.
 #[cfg_attr(not(feature = "basisu"), allow(dead_code))]
 struct Ask<'a> {
     texels: &'a Texels,
@@ -545,7 +542,19 @@ struct Ask<'a> {
     aim: bc6h::Aim,
     current: &'a [u8],
     must: f64,
-    flat_ok: bool,
+    dirs: Option<&'a [[f64; 3]]>,
+    level: [f64; 3],
+    many_blocks: bool,
+}
+
+impl Ask<'_> {
+    /// How far `got` moves the block's light ([`light_cost`]); `None` where the directions
+    /// are not known.
+    #[cfg_attr(not(feature = "basisu"), allow(dead_code))]
+    fn light_cost(&self, got: &Texels) -> Option<f64> {
+        self.dirs
+            .map(|d| light_cost(self.texels, got, self.weights, d, &self.level))
+    }
 }
 
 /// Encodes blocks of `side`×`side` texels (each `side²` RGB values, rows first) into `bytes`
@@ -794,19 +803,6 @@ impl Repair<'_> {
         block_error(p, &self.target[b], &self.mean)
     }
 
-    /// Whether block `b` may become one constant colour: where it moves the level's SH9
-    /// irradiance by at most [`FLAT_SH_SHARE`] ([`flattening_cost`]); where the texels'
-    /// directions are not known, where its surface has [`FLAT_MIN_BLOCKS`] blocks or more.
-    fn flat_ok(&self, b: usize) -> bool {
-        match &self.dirs {
-            Some(d) => {
-                flattening_cost(&self.blocks[b], &self.weights[b], &d[b], &self.level)
-                    <= FLAT_SH_SHARE
-            }
-            None => self.blocks.len() >= FLAT_MIN_BLOCKS,
-        }
-    }
-
     /// Whether power `p` is closer to block `b`'s target than its best so far: a smaller
     /// largest error, and no channel worse than before (or than the tolerance).
     fn better(&self, b: usize, p: &[f64; 3]) -> bool {
@@ -964,7 +960,9 @@ impl Repair<'_> {
                         },
                         current: &self.bytes[b * nb..(b + 1) * nb],
                         must,
-                        flat_ok: self.flat_ok(b),
+                        dirs: self.dirs.as_ref().map(|d| d[b].as_slice()),
+                        level: self.level,
+                        many_blocks: self.blocks.len() >= FLAT_MIN_BLOCKS,
                     }
                 })
                 .collect();
@@ -1103,14 +1101,12 @@ pub const OWN_LOG_SHARE: f64 = 0.1;
 /// up to 0.95 % off).
 pub const ASTC_LOG_SHARE: f64 = 1.0;
 
-/// The most a block that becomes one constant colour (ASTC's void-extent block, where
-/// nothing else holds its power) may move the level's SH9 irradiance, in units of its mean
-/// irradiance ([`flattening_cost`]): a constant block over a small bright source moves the
-/// source across the block, which on a small face is a large part of the sphere.
-pub const FLAT_SH_SHARE: f64 = 1e-3;
-
-/// Where the texels' directions are not known (a 2D texture whose mapping is not recorded):
-/// the fewest blocks a surface has where a block may become one constant colour.
+/// A block that nothing else holds becomes one constant colour (ASTC's void-extent block)
+/// where that moves its light less than its best other encoding does ([`light_cost`]: a
+/// constant block over a small bright source moves the source across the block, on a small
+/// face a large part of the sphere, and a block that misses its power moves the light too).
+/// Where the texels' directions are not known (a 2D texture whose mapping is not recorded),
+/// where its surface has this many blocks or more.
 pub const FLAT_MIN_BLOCKS: usize = 16;
 
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
@@ -1769,10 +1765,17 @@ pub mod basis {
                 .zip(asks)
                 .map(|(mut b, a)| {
                     // A constant block moves a small bright source across the block: only
-                    // where that moves the light little (or nothing else holds the block).
-                    if short(&b, a) && (a.flat_ok || b.is_none()) {
+                    // where that moves the light less than the block as it is.
+                    if short(&b, a) {
                         if let Some(t) = astc_solid(a.texels, a.weights, &a.aim, side) {
-                            if b.as_ref().is_none_or(|b| t.2 < b.2) {
+                            let flat = match &b {
+                                None => true,
+                                Some(b) => match (a.light_cost(&t.1), a.light_cost(&b.1)) {
+                                    (Some(f), Some(k)) => f < k,
+                                    _ => a.many_blocks && t.2 < b.2,
+                                },
+                            };
+                            if flat {
                                 b = Some(t);
                             }
                         }

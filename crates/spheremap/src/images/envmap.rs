@@ -207,7 +207,7 @@ pub fn read_env_layout(
             .map_err(|e| Error::data(path, e.to_string()))?;
         return Ok((stack, Some(layout)));
     }
-    mapping.size_of(img.width, img.height, path)?;
+    mapping.check_input(img.width, img.height, path)?;
     Ok((img, None))
 }
 

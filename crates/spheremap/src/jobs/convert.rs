@@ -351,7 +351,7 @@ impl ConvertJob {
         out: Option<&mut [f32]>,
     ) -> Result<(Option<Image>, Resolved, ResampleReport)> {
         let r = self.resolve(None, "image")?;
-        let n = self.size_for(&r, r.src.size_of(image.width, image.height, "image")?)?;
+        let n = self.size_for(&r, r.src.check_input(image.width, image.height, "image")?)?;
         let (w, h) = r.dst.canvas(n);
         let env = EnvMap {
             mapping: r.src,

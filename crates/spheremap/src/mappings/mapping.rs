@@ -191,6 +191,47 @@ impl Mapping {
         }
     }
 
+    /// The smallest canvas (width, height) an input map of this mapping may have: a disc or
+    /// square map of 2×2 (one texel would hold the whole sphere, or most of it, in one
+    /// value), a lat-long or paraboloid pair of 2×1, a cube of faces of 1×1 (a mip chain's
+    /// last level).
+    pub fn min_input(&self) -> (usize, usize) {
+        match self {
+            Mapping::Sphere(_) | Mapping::Angular | Mapping::Octahedral => (2, 2),
+            Mapping::LatLong(_) | Mapping::Paraboloid => (2, 1),
+            Mapping::Cube(_) => (1, 6),
+        }
+    }
+
+    /// [`Mapping::size_of`] for a map given as input, also refusing one smaller than
+    /// [`Mapping::min_input`] (naming that size) and warning, naming its aspect, of a
+    /// lat-long that is not 2:1 (its texels are then not square in angle: often a map of
+    /// another mapping named as a lat-long).
+    pub fn check_input(&self, w: usize, h: usize, what: &str) -> Result<usize> {
+        let n = self.size_of(w, h, what)?;
+        let (mw, mh) = self.min_input();
+        if w < mw || h < mh {
+            return Err(Error::data(
+                what,
+                format!(
+                    "{w}x{h} is too small for a {} map: the smallest is {mw}x{mh}",
+                    self.name()
+                ),
+            ));
+        }
+        if matches!(self, Mapping::LatLong(_)) && w != 2 * h {
+            crate::base::error::warn(&format!(
+                "{what}: a lat-long map is 2:1 (2N x N), this one is {w}x{h} ({:.3}:1): each \
+                 texel spans {:.3}° of longitude and {:.3}° of latitude; is it another \
+                 mapping?",
+                w as f64 / h as f64,
+                360.0 / w as f64,
+                180.0 / h as f64
+            ));
+        }
+        Ok(n)
+    }
+
     /// Direction (this mapping's frame, any non-zero length) → canvas (u, v).  NaN where the
     /// direction has no single point (zero input; a sphere map's straight-ahead direction).
     #[inline(always)]
@@ -350,6 +391,31 @@ pub fn name_fields(e: Error, mapping: &str, preset: &str) -> Error {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn inputs_smaller_than_their_mapping_s_smallest_are_refused_naming_it() {
+        let parse = |n| Mapping::parse(n, None).unwrap();
+        for (name, (w, h), ok) in [
+            ("sphere", (1, 1), false),
+            ("sphere", (2, 2), true),
+            ("angular", (1, 1), false),
+            ("octahedral", (1, 1), false),
+            ("latlong", (1, 1), false),
+            ("latlong", (2, 1), true),
+            ("paraboloid", (2, 1), true),
+            ("cube", (1, 6), true),
+        ] {
+            let m = parse(name);
+            assert_eq!(m.check_input(w, h, "in").is_ok(), ok, "{name} {w}x{h}");
+            if !ok {
+                let (mw, mh) = m.min_input();
+                let e = m.check_input(w, h, "in").unwrap_err().to_string();
+                assert!(e.contains(&format!("the smallest is {mw}x{mh}")), "{e}");
+            }
+            // Outputs (mip levels down to one texel) are not held to it.
+            assert!(m.size_of(w, h, "out").is_ok());
+        }
+    }
 
     /// `texel_rows` gives each texel's solid angle and centre direction bit for bit as the
     /// per-texel functions do, in every mapping and preset.
