@@ -545,6 +545,9 @@ struct Ask<'a> {
     dirs: Option<&'a [[f64; 3]]>,
     level: [f64; 3],
     many_blocks: bool,
+    /// Whether its face still misses after the carry: a constant block may then move the
+    /// light further than [`FLAT_SH_SHARE`] where it moves it less than the block as it is.
+    last_resort: bool,
 }
 
 impl Ask<'_> {
@@ -782,6 +785,8 @@ struct Repair<'a> {
     dirs: Option<Vec<Vec<[f64; 3]>>>,
     /// The level's power, per channel (all faces).
     level: [f64; 3],
+    /// Whether the face still missed after its carry ([`Ask::last_resort`]).
+    last_resort: bool,
     /// The surface's power, per channel.
     source: [f64; 3],
     /// The power each block should hold (its source's, plus what leaky neighbours carried
@@ -963,6 +968,7 @@ impl Repair<'_> {
                         dirs: self.dirs.as_ref().map(|d| d[b].as_slice()),
                         level: self.level,
                         many_blocks: self.blocks.len() >= FLAT_MIN_BLOCKS,
+                        last_resort: self.last_resort,
                     }
                 })
                 .collect();
@@ -1101,12 +1107,17 @@ pub const OWN_LOG_SHARE: f64 = 0.1;
 /// up to 0.95 % off).
 pub const ASTC_LOG_SHARE: f64 = 1.0;
 
-/// A block that nothing else holds becomes one constant colour (ASTC's void-extent block)
-/// where that moves its light less than its best other encoding does ([`light_cost`]: a
-/// constant block over a small bright source moves the source across the block, on a small
-/// face a large part of the sphere, and a block that misses its power moves the light too).
+/// A block that nothing else holds becomes one constant colour (ASTC's void-extent block,
+/// which holds its power to half-float precision) where that moves its light
+/// ([`light_cost`]) by at most this, in units of the level's mean SH9 irradiance: a constant
+/// block over a small bright source moves the source across the block, on a small face a
+/// large part of the sphere.  Where its face still misses its power after the carry, also
+/// where it moves the light less than the block as it is (a block that misses its power
+/// moves the light too).
+pub const FLAT_SH_SHARE: f64 = 1e-3;
+
 /// Where the texels' directions are not known (a 2D texture whose mapping is not recorded),
-/// where its surface has this many blocks or more.
+/// a block may become one constant colour where its surface has this many blocks or more.
 pub const FLAT_MIN_BLOCKS: usize = 16;
 
 /// The most a block's target power changes by what leaky neighbours carry over (relative).
@@ -1232,6 +1243,7 @@ fn start_surface<'a>(
         weights,
         dirs,
         level,
+        last_resort: false,
     };
     r.got = r
         .decoded
@@ -1267,6 +1279,10 @@ fn finish_surface(st: &mut Started, more: bool) -> Result<()> {
                 break;
             }
             r.rounds()?;
+            r.own(budget);
+        }
+        if r.surface_miss() > SURFACE_TOLERANCE {
+            r.last_resort = true;
             r.own(budget);
         }
     }
@@ -1770,10 +1786,16 @@ pub mod basis {
                         if let Some(t) = astc_solid(a.texels, a.weights, &a.aim, side) {
                             let flat = match &b {
                                 None => true,
-                                Some(b) => match (a.light_cost(&t.1), a.light_cost(&b.1)) {
-                                    (Some(f), Some(k)) => f < k,
-                                    _ => a.many_blocks && t.2 < b.2,
-                                },
+                                Some(b) => {
+                                    t.2 < b.2
+                                        && match (a.light_cost(&t.1), a.light_cost(&b.1)) {
+                                            (Some(f), Some(k)) => {
+                                                f <= super::FLAT_SH_SHARE
+                                                    || (a.last_resort && f < k)
+                                            }
+                                            _ => a.many_blocks,
+                                        }
+                                }
                             };
                             if flat {
                                 b = Some(t);
