@@ -52,14 +52,17 @@
 //!    the block's own configuration, through the `basisu` crate's ASTC unpacker and packer),
 //!    each step the one that removes the most power error per log error added; where that
 //!    cannot hold the block, it is encoded again at gains around its power ratio and each
-//!    result moved so; where that cannot either and the face holds
-//!    16 blocks or more, a constant (void-extent) block of its mean colour.  That costs texel
+//!    result moved so; where that cannot either, a constant (void-extent) block of its mean
+//!    colour where that moves the level's SH9 irradiance by at most [`FLAT_SH_SHARE`]
+//!    ([`light_cost`]; a constant block over a sun moves the sun across the block).  That costs texel
 //!    accuracy, so a block is taken only while the face's squared log error grows by at most
 //!    a share of the encoder's ([`OWN_LOG_SHARE`], [`ASTC_LOG_SHARE`]), unless its miss alone
 //!    breaks the face's tolerance.
 //! 5. What a block still cannot hold is carried to its neighbours on the same face (within
 //!    1, 2, then 4 blocks; each takes at most [`CARRY_SHARE`] of its own power more or less),
-//!    and they are encoded again (steps 3 and 4), while the face misses.
+//!    and they are encoded again (steps 3 and 4), while the face misses.  Where it still
+//!    misses, its blocks that miss are tried once more, a constant ASTC block now taken
+//!    wherever it moves the light less than the block as it is.
 //!
 //! Where every block holds its light, or its neighbours hold it, the level's power and its
 //! low-order moments (SH9) hold with it.  A block whose light sits in one texel far brighter
