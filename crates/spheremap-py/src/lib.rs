@@ -712,12 +712,12 @@ fn write_texture<'py>(
         zstd,
         ..Default::default()
     };
-    let report = py
-        .detach(|| {
-            tex.check("levels")?;
-            spheremap::images::codec::write_texture(&path, &tex, &opts, note.as_deref())
-        })
-        .map_err(to_py)?;
+    let report = py.detach(|| {
+        tex.check("levels")?;
+        spheremap::images::codec::write_texture(&path, &tex, &opts, note.as_deref())
+    });
+    emit_warnings(py)?;
+    let report = report.map_err(to_py)?;
     pythonize::pythonize(py, &report).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
@@ -968,14 +968,15 @@ fn write_image(
         encode,
         ..Default::default()
     };
-    py.detach(|| {
+    let done = py.detach(|| {
         spheremap::images::codec::write_image_with_note(&path, &img, &opts, note.as_deref())?;
         let l = Format::from_extension(&path)
             .map(|f| Losses::of(&img, f, &opts))
             .unwrap_or_default();
         Ok((l.clipped, l.beyond_half))
-    })
-    .map_err(to_py)
+    });
+    emit_warnings(py)?;
+    done.map_err(to_py)
 }
 
 /// What to read the map at `path` as: (mapping, preset, layout) from the `mapping`/`preset`
