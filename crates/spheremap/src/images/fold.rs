@@ -51,6 +51,17 @@ pub fn fold_into_range(
     debug_assert_eq!(rgb.len(), w * h);
     let mut out = Folded::default();
     let maxd = max as f64;
+    // Per channel, whether any texel can take a deficit (holds light) or an excess (has room):
+    // where none can, values are clamped at once (a map negative everywhere is not searched).
+    let mut can_take = [[false; 2]; 3];
+    for (p, &om) in rgb.iter().zip(omega) {
+        if om > 0.0 {
+            for k in 0..3 {
+                can_take[k][0] |= p[k] > 0.0;
+                can_take[k][1] |= p[k] < max;
+            }
+        }
+    }
     for i in 0..rgb.len() {
         for k in 0..3 {
             let v = rgb[i][k];
@@ -64,6 +75,10 @@ pub fn fold_into_range(
             // deficit to take from its neighbours).
             let need = (v as f64 - c as f64) * omega[i];
             if need == 0.0 {
+                continue;
+            }
+            if !can_take[k][usize::from(need > 0.0)] {
+                out.lost[k] -= need;
                 continue;
             }
             let (x, y) = (i % w, i / w);
@@ -94,7 +109,10 @@ pub fn fold_into_range(
                             let q = rgb[j][k];
                             rgb[j][k] = if need < 0.0 {
                                 if q > 0.0 {
-                                    (q as f64 * (1.0 - f)) as f32
+                                    // (What it gives is a share of its value within the range,
+                                    // as counted; a texel beyond the range keeps the rest for
+                                    // its own turn.)
+                                    (q as f64 - f * (q as f64).min(maxd)) as f32
                                 } else {
                                     q
                                 }
@@ -270,6 +288,27 @@ mod tests {
         };
         let (out, f) = fold_negatives(&grey, &[1.0; 2]);
         assert_eq!((out.data.clone(), f.values), (vec![0.0, 2.0], 1));
+    }
+
+    #[test]
+    fn a_lobe_beside_a_sun_beyond_the_range_and_a_map_with_nothing_to_give() {
+        // The lobe comes first in raster order, beside a sun still beyond the range.
+        let mut rgb = vec![[1.0f32; 3]; 9];
+        rgb[3] = [-50.0, 1.0, 1.0];
+        rgb[4] = [500.0, 1.0, 1.0];
+        let omega = [1.0; 9];
+        let before = power(&rgb, &omega);
+        let f = fold_into_range(&mut rgb, &omega, 3, 3, 100.0);
+        assert_eq!((f.values, f.lost), (2, [0.0; 3]));
+        let after = power(&rgb, &omega);
+        assert!((after[0] - before[0]).abs() < 1e-4, "{after:?} {before:?}");
+        assert!(rgb.iter().all(|p| (0.0..=100.0).contains(&p[0])));
+        // Negative everywhere: nothing can give, every value is clamped and its light counted.
+        let mut neg = vec![[-1.0f32, 2.0, 2.0]; 4096];
+        let f = fold_into_range(&mut neg, &[0.5; 4096], 64, 64, 100.0);
+        assert_eq!(f.values, 4096);
+        assert_eq!(f.lost, [2048.0, 0.0, 0.0]);
+        assert!(neg.iter().all(|p| *p == [0.0, 2.0, 2.0]));
     }
 
     #[test]
