@@ -592,7 +592,8 @@ pub fn encode_with_note(
         }
         Format::Hdr => {
             // No negative values: their light moved into their neighbours.
-            let img = &fold_negatives(img, &note_weights(note, img)).0;
+            let (img, _) = fold_negatives(img, || note_weights(note, img));
+            let img = img.as_ref();
             let rgb = to_rgb(img);
             let px: Vec<image::Rgb<f32>> = rgb
                 .chunks_exact(3)
@@ -605,11 +606,11 @@ pub fn encode_with_note(
         Format::Png if opts.encode.is_packing() => {
             // Negative values' light moved into their neighbours; values beyond the range
             // clamped, with the power that loses.
-            let omega = note_weights(note, img);
-            let (folded, neg) = fold_negatives(img, &omega);
+            let (folded, neg) = fold_negatives(img, || note_weights(note, img));
             let (raw, over) = super::compress::pack_image(&folded, opts.encode);
             let clamped = over + neg.values;
             if clamped > 0 {
+                let omega = note_weights(note, img);
                 let lost = super::compress::range_loss(img, &omega, opts.encode, &folded);
                 crate::base::error::warn(&format!(
                     "{}: {clamped} value{} outside {}'s range [0, {}] clamped to it (the light \

@@ -580,6 +580,11 @@ trait Codec: Sync {
     fn rounds(&self) -> usize {
         REPAIR_ROUNDS
     }
+    /// Whether [`Codec::holding_power`] judges blocks by where they put the light
+    /// ([`Ask::light_cost`]), so that asks need the texels' directions.
+    fn weighs_light(&self) -> bool {
+        false
+    }
     /// The share of the encoder's squared log error over a surface that blocks from
     /// [`Codec::holding_power`] may add to it.
     fn log_share(&self) -> f64 {
@@ -674,7 +679,8 @@ struct Surface {
     h: usize,
     rgb: Vec<[f32; 3]>,
     omega: Vec<f64>,
-    /// Texel directions, where the mapping is known ([`texel_directions`]).
+    /// Texel directions, where the mapping is known and the codec weighs where blocks put
+    /// the light ([`texel_directions`], [`Codec::weighs_light`]).
     dirs: Option<Vec<[f64; 3]>>,
 }
 
@@ -1345,8 +1351,15 @@ pub fn compress(
     for (li, level) in levels.iter().enumerate() {
         let (w, h) = (level.width, level.height / nf);
         let omega = texel_weights(if cube { None } else { mapping }, cube, w, h);
-        let dirs =
-            |f: usize| texel_directions(if cube { None } else { mapping }, cube.then_some(f), w, h);
+        // Texel directions, for a codec that judges blocks by where they put the light.
+        let weighs = c.as_ref().is_some_and(|c| c.weighs_light());
+        let dirs = |f: usize| {
+            weighs
+                .then(|| {
+                    texel_directions(if cube { None } else { mapping }, cube.then_some(f), w, h)
+                })
+                .flatten()
+        };
         let ch = level.channels;
         // The faces as RGB, folded into the range; what the fold could not keep.
         let mut faces = Vec::with_capacity(nf);
@@ -1812,6 +1825,10 @@ pub mod basis {
         /// None: a call of the encoder costs more than the nudges that replace its rounds.
         fn rounds(&self) -> usize {
             0
+        }
+        /// Constant blocks are taken by where they put the light.
+        fn weighs_light(&self) -> bool {
+            true
         }
         fn log_share(&self) -> f64 {
             super::ASTC_LOG_SHARE

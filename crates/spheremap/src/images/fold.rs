@@ -25,6 +25,8 @@
 //! texel loses more than half its power to a neighbour's lobe where a wider window avoids
 //! it; at the widest, what they can take.  What even that cannot take is lost, and counted.
 
+use std::borrow::Cow;
+
 /// The widest window (radius, texels) a texel's light is moved within.
 pub const FOLD_MAX_RADIUS: usize = 32;
 
@@ -143,10 +145,14 @@ pub fn fold_into_range(
 }
 
 /// `img` with its negative values' light moved into their neighbours (the whole image is one
-/// surface; texel solid angles `omega`), for formats that hold no negative value but any
-/// positive one (Radiance HDR) or clamp what is beyond their range afterwards (RGBD, RGBM).
-/// Alpha is kept; a grey image stays grey.
-pub fn fold_negatives(img: &super::Image, omega: &[f64]) -> (super::Image, Folded) {
+/// surface; texel solid angles from `omega`, asked for only where a value is negative), for
+/// formats that hold no negative value but any positive one (Radiance HDR) or clamp what is
+/// beyond their range afterwards (RGBD, RGBM); `img` itself where nothing is negative.  Alpha
+/// is kept; a grey image stays grey.
+pub fn fold_negatives(
+    img: &super::Image,
+    omega: impl FnOnce() -> Vec<f64>,
+) -> (Cow<'_, super::Image>, Folded) {
     let c = img.channels;
     let light = if c == 2 || c == 4 { c - 1 } else { c };
     if !img
@@ -154,14 +160,15 @@ pub fn fold_negatives(img: &super::Image, omega: &[f64]) -> (super::Image, Folde
         .chunks_exact(c)
         .any(|p| p[..light].iter().any(|&v| v < 0.0))
     {
-        return (img.clone(), Folded::default());
+        return (Cow::Borrowed(img), Folded::default());
     }
+    let omega = omega();
     let mut rgb: Vec<[f32; 3]> = img
         .data
         .chunks_exact(c)
         .map(|p| std::array::from_fn(|k| p[k.min(light - 1)]))
         .collect();
-    let mut f = fold_into_range(&mut rgb, omega, img.width, img.height, f32::MAX);
+    let mut f = fold_into_range(&mut rgb, &omega, img.width, img.height, f32::MAX);
     let mut out = img.clone();
     for (o, t) in out.data.chunks_exact_mut(c).zip(&rgb) {
         o[..light].copy_from_slice(&t[..light]);
@@ -171,7 +178,7 @@ pub fn fold_negatives(img: &super::Image, omega: &[f64]) -> (super::Image, Folde
         f.values /= 3;
         f.lost = [f.lost[0]; 3];
     }
-    (out, f)
+    (Cow::Owned(out), f)
 }
 
 #[cfg(test)]
@@ -273,7 +280,7 @@ mod tests {
     fn an_image_s_negative_values_fold_and_its_alpha_stays() {
         let mut img = super::super::Image::new(3, 1, 4);
         img.data = vec![5.0, 5.0, 5.0, 0.5, -1.0, 2.0, 2.0, 0.25, 1.0, 1.0, 1.0, 1.0];
-        let (out, f) = fold_negatives(&img, &[1.0; 3]);
+        let (out, f) = fold_negatives(&img, || vec![1.0; 3]);
         assert_eq!(f.values, 1);
         assert_eq!(out.data[3..8], [0.5, 0.0, 2.0, 2.0, 0.25]);
         // R: 5 − 1 + 1 = 5 in all, taken from the two positive texels in proportion.
@@ -286,7 +293,7 @@ mod tests {
             channels: 1,
             data: vec![-1.0, 3.0],
         };
-        let (out, f) = fold_negatives(&grey, &[1.0; 2]);
+        let (out, f) = fold_negatives(&grey, || vec![1.0; 2]);
         assert_eq!((out.data.clone(), f.values), (vec![0.0, 2.0], 1));
     }
 
