@@ -41,7 +41,9 @@
 //!    texels scaled per channel by the ratio of the source's power to the decoded power (the
 //!    ratio within [½, 2]), and from its texels each scaled by source / decoded; a try is kept
 //!    when its power is closer and no channel gets worse.  This repeats up to
-//!    [`REPAIR_ROUNDS`] times.
+//!    [`REPAIR_ROUNDS`] times; a block that a round did not bring closer is not tried again
+//!    unless its miss alone breaks the level's tolerance (a sun's block: the one-region
+//!    encoder of step 4 would hold it at a larger log error).
 //! 4. Where the level then still misses its power by more than [`SURFACE_TOLERANCE`], or a
 //!    face of it by more than [`FACE_TOLERANCE`], each face missing by more than
 //!    [`SURFACE_TOLERANCE`] has its blocks that miss encoded again to hold their power,
@@ -832,6 +834,15 @@ impl Repair<'_> {
             && (0..3).all(|k| err(p, k) <= err(old, k).max(BLOCK_TOLERANCE))
     }
 
+    /// Whether block `b`'s miss alone breaks the surface's tolerance.
+    fn alone(&self, b: usize) -> bool {
+        let n = self.blocks.len() as f64;
+        (0..3).any(|k| {
+            (self.got[b][k] - self.target[b][k]).abs()
+                > SURFACE_TOLERANCE * self.source[k].max(self.mean[k] * n)
+        })
+    }
+
     fn scaled(&self, t: &Texels, f: &dyn Fn(usize, usize) -> f64) -> Texels {
         t.iter()
             .enumerate()
@@ -842,9 +853,14 @@ impl Repair<'_> {
     /// Encodes the blocks that miss their target again, up to [`REPAIR_ROUNDS`] times.
     fn rounds(&mut self) -> Result<()> {
         let nb = self.c.bytes();
+        // A block that a round did not bring closer is not encoded again (the next round's
+        // tries would start from nearly the same texels), unless its miss alone breaks the
+        // surface's tolerance: such a block (a sun's) would otherwise fall to the one-region
+        // encoder, which holds its power at a larger log error.
+        let mut stalled = vec![false; self.blocks.len()];
         for _ in 0..self.c.rounds() {
             let bad: Vec<usize> = (0..self.blocks.len())
-                .filter(|&b| self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
+                .filter(|&b| !stalled[b] && self.error(b, &self.got[b]) > BLOCK_TOLERANCE)
                 .collect();
             if bad.is_empty() {
                 break;
@@ -878,11 +894,13 @@ impl Repair<'_> {
             }
             let (enc, dec) = self.c.encode(&inputs)?;
             for (i, &b) in bad.iter().enumerate() {
+                let mut closer = false;
                 self.trial_got[b] = power(&dec[2 * i], &self.weights[b]);
                 self.trial_in[b] = inputs[2 * i].clone();
                 for j in [2 * i, 2 * i + 1] {
                     let p = power(&dec[j], &self.weights[b]);
                     if self.better(b, &p) {
+                        closer = true;
                         self.got[b] = p;
                         self.decoded[b] = dec[j].clone();
                         self.best_in[b] = inputs[j].clone();
@@ -891,6 +909,7 @@ impl Repair<'_> {
                         self.repaired[b] = true;
                     }
                 }
+                stalled[b] = !closer && !self.alone(b);
             }
         }
         Ok(())
@@ -1024,11 +1043,7 @@ impl Repair<'_> {
             {
                 // A block whose miss alone breaks the surface's tolerance is taken whatever
                 // its log error; the others while the budget lasts.
-                let alone = (0..3).any(|k| {
-                    (self.got[b][k] - self.target[b][k]).abs()
-                        > SURFACE_TOLERANCE * self.source[k].max(self.mean[k] * n)
-                });
-                if cost > 0.0 && !alone {
+                if cost > 0.0 && !self.alone(b) {
                     if cost > *budget {
                         continue;
                     }
