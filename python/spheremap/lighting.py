@@ -118,7 +118,9 @@ def prefilter(
 
     irradiance: one level (default size 32) of (1/pi) times the irradiance: the radiance a white
     Lambertian surface reflects.
-    samples: spatial samples per texel (default 1, the centre; more average its footprint).
+    samples: spatial samples per texel (default 1, the centre; more average its footprint). A
+        texel wider than its level's lobe holds the lobe's mean over its footprint whatever
+        `samples` says: the lobes are evaluated on a finer canvas and averaged by solid angle.
     tolerance: the error each integral may leave, relative to the map's mean radiance (default
     1e-4; 1e-5 is three times slower, 1e-3 three times faster).
     method: "tree" (exact integrals, the default) or "sampled" (filtered importance sampling

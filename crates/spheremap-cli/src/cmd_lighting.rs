@@ -343,7 +343,8 @@ pub struct PrefilterArgs {
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     up: Option<Vec<f64>>,
     /// Spatial samples per texel (1, the default: the texel centre; S > 1: at least S over
-    /// the texel's footprint, adaptive).
+    /// the texel's footprint, adaptive). A texel wider than its level's lobe holds the lobe's
+    /// mean over its footprint either way (evaluated on a finer canvas).
     #[arg(long, default_value_t = 1)]
     samples: u32,
     /// The most samples a texel may take.

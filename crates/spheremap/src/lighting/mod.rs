@@ -398,10 +398,11 @@ pub struct PrefilterRequest {
     /// The output's view: world directions of its −Z and +Y (a sphere map's eye).
     pub look: Option<[f64; 3]>,
     pub up: Option<[f64; 3]>,
-    /// Spatial samples per texel (default 1, the texel's centre: each level's lobe is as wide
-    /// as its texels; the mirror level 0 takes at least the conversion's default, 4, filtered
-    /// over each texel's footprint with its peaks integrated), the most one may take, the
-    /// jitter's seed, the gutter rule.
+    /// Spatial samples per texel (default 1: the texel's centre, or where the texel is wider
+    /// than the level's lobe the centres of its children on a finer canvas, whose mean it holds
+    /// ([`prefilter::Prefilter::footprint`]); the mirror level 0 takes at least the
+    /// conversion's default, 4, filtered over each texel's footprint with its peaks
+    /// integrated), the most one may take, the jitter's seed, the gutter rule.
     pub samples: u32,
     pub max_samples: u32,
     pub seed: u64,
@@ -586,6 +587,7 @@ impl PrefilterRequest {
                 },
                 method: prefilter::PrefilterMethod::parse(&self.method)?,
                 lobe_samples: self.lobe_samples,
+                footprint: true,
             },
             nonfinite: r.nonfinite,
             notice: r.notice,

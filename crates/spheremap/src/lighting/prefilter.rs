@@ -18,6 +18,12 @@
 //! integral L_o(n, v) = ∫ f L (n·l)⁺ dω for the normal n whose mirror direction the texel
 //! addresses.  A constant environment of radiance 1 gives the GGX directional albedo E(n·v).
 //!
+//! A texel holds the lobe's mean over its footprint: where the texel is wider than the lobe
+//! (or than about 6°), the level is evaluated on a canvas m times finer and each texel is the
+//! solid-angle mean of its m×m children ([`fineness`], [`crate::resample::energy::reduce`]),
+//! so the level keeps the power a narrow lobe would otherwise hit or miss at the texel's
+//! centre.
+//!
 //! `irradiance`: one level holding (1/π) ∫ L(l) (n·l)⁺ dω, the radiance a white Lambertian
 //! surface of normal n reflects (a constant environment gives itself); for `sphere`, the
 //! Lambert MatCap of albedo 1.  Multiply by π for the irradiance E(n).
@@ -48,7 +54,7 @@ use crate::base::error::{Error, Result};
 use crate::frame::view::Mat3;
 use crate::images::Image;
 use crate::mappings::mapping::Mapping;
-use crate::resample::energy::{LightCheck, Moments};
+use crate::resample::energy::{reduce, LightCheck, Moments};
 use crate::resample::{EnvMap, Outside, Progress, Sampler};
 use crate::trace::generate::{generate, GenerateOptions, RaySource};
 
@@ -227,6 +233,11 @@ pub struct Prefilter {
     pub method: PrefilterMethod,
     /// GGX samples per texel of [`PrefilterMethod::Sampled`].
     pub lobe_samples: usize,
+    /// Each texel of a GGX or irradiance level the lobe's mean over its footprint, evaluated
+    /// on a finer canvas where the texel is wider than the lobe ([`fineness`]), so that the
+    /// level keeps the light (what requests ask); `false`: the lobe at the texel's centre
+    /// (what engines that prefilter on the GPU compute), for comparisons.
+    pub footprint: bool,
 }
 
 /// One level made.
@@ -313,6 +324,14 @@ pub fn prefilter(
         } else {
             p.samples
         };
+        // Lobes evaluated on a finer canvas where the level's texels are wider than they are
+        // (mirror and sphere levels have their own footprint rules).
+        let m = if mirror || !p.footprint || matches!(p.mapping, Mapping::Sphere(_)) {
+            1
+        } else {
+            fineness(p.mapping, w, h, material)
+        };
+        let (fw, fh) = (w * m, h * m);
         let gen = GenerateOptions {
             samples: p.samples,
             max_samples: p.max_samples,
@@ -365,8 +384,8 @@ pub fn prefilter(
                 scale: [1.0 / std::f64::consts::PI; 3],
                 channels: tree.channels,
             };
-            let (img, r) = source.generate(p.mapping, w, h, &gen, progress)?;
-            (img, Method::Cosine, face, r.rays)
+            let (img, r) = source.generate(p.mapping, fw, fh, &gen, progress)?;
+            (reduce(p.mapping, &img, m), Method::Cosine, face, r.rays)
         } else if p.method == PrefilterMethod::Sampled {
             if pyramid.is_none() {
                 pyramid = Some(CubePyramid::build(env, p, progress)?);
@@ -376,8 +395,8 @@ pub fn prefilter(
                 pyramid,
                 samples: lobe_samples(material, p.lobe_samples, pyramid.face),
             };
-            let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
-            (img, Method::Sampled, 0, r.rays)
+            let (img, r) = generate(p.mapping, fw, fh, &source, &gen, progress)?;
+            (reduce(p.mapping, &img, m), Method::Sampled, 0, r.rays)
         } else {
             let (method, face) = matcap::plan(env, material);
             if tree.as_ref().map(|t| t.face) != Some(face) {
@@ -395,8 +414,8 @@ pub fn prefilter(
                 vndf: (method == Method::Vndf).then(|| (Sampler::new(env), p.world_to_env)),
                 rule: p.rule,
             };
-            let (img, r) = generate(p.mapping, w, h, &source, &gen, progress)?;
-            (img, method, face, r.rays)
+            let (img, r) = generate(p.mapping, fw, fh, &source, &gen, progress)?;
+            (reduce(p.mapping, &img, m), method, face, r.rays)
         };
         let light = {
             let level = EnvMap::new(p.mapping, &img, "level")?;
@@ -425,6 +444,37 @@ pub fn prefilter(
     }
     Ok(out)
 }
+
+/// How many times finer than a `w`×`h` level's canvas its lobes are evaluated, each texel then
+/// the solid-angle mean of its m×m children ([`reduce`]): m = the side of a texel of the
+/// canvas's mean solid angle over the smaller of the GGX lobe's α and [`FINE_TEXEL`], rounded.
+/// A texel so holds the lobe's mean over its footprint: where a lobe is narrower than the
+/// texel, its value at the centre alone hits or misses a small bright source (and the level's
+/// power with it), and where the texel spans many degrees it misses the lobe's curvature
+/// across it.
+fn fineness(mapping: Mapping, w: usize, h: usize, material: Material) -> usize {
+    let disc = if mapping.has_outside() {
+        std::f64::consts::FRAC_PI_4
+    } else {
+        1.0
+    };
+    // The side of a texel of the mean solid angle.
+    let t = (4.0 * std::f64::consts::PI / (w as f64 * h as f64 * disc)).sqrt();
+    let child = match material {
+        Material::Ggx { alpha } => alpha.min(FINE_TEXEL),
+        Material::Lambert => FINE_TEXEL,
+    };
+    if child <= 0.0 {
+        return 1;
+    }
+    ((t / child).round() as usize).clamp(1, FINE_MAX)
+}
+
+/// The widest child ([`fineness`]), in radians: about 6°.
+const FINE_TEXEL: f64 = 0.1;
+
+/// The most children per side of a level's texel ([`fineness`]).
+const FINE_MAX: usize = 64;
 
 /// Neighbouring texels (a 4×4 tile) whose lobes share a cut of the tree.
 const GROUP_RAYS: usize = 16;

@@ -226,6 +226,52 @@ impl LightCheck {
     }
 }
 
+/// A `mapping` canvas `m` times coarser than `fine` (its sides multiples of `m`), each texel
+/// the solid-angle-weighted mean of its m×m children (their plain mean where none is on the
+/// map), so that it holds their light: the power Σ L·dω of the two canvases is the same, as
+/// far as the children's solid angles add up to their parent's (exactly for cube faces,
+/// lat-long rows and the octahedral map).
+pub fn reduce(mapping: Mapping, fine: &Image, m: usize) -> Image {
+    assert!(m >= 1 && fine.width % m == 0 && fine.height % m == 0);
+    if m == 1 {
+        return fine.clone();
+    }
+    let (fw, fh, c) = (fine.width, fine.height, fine.channels);
+    let (w, h) = (fw / m, fh / m);
+    let omega = mapping.solid_angles(fw, fh);
+    let mut out = Image::new(w, h, c);
+    out.data
+        .par_chunks_mut(w * c)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..w {
+                let mut acc = vec![0.0f64; c];
+                let mut plain = vec![0.0f64; c];
+                let mut wsum = 0.0;
+                for fy in y * m..(y + 1) * m {
+                    for fx in x * m..(x + 1) * m {
+                        let at = fy * fw + fx;
+                        let o = omega[at];
+                        wsum += o;
+                        for k in 0..c {
+                            let v = fine.data[at * c + k] as f64;
+                            acc[k] += v * o;
+                            plain[k] += v;
+                        }
+                    }
+                }
+                for k in 0..c {
+                    row[x * c + k] = if wsum > 0.0 {
+                        (acc[k] / wsum) as f32
+                    } else {
+                        (plain[k] / (m * m) as f64) as f32
+                    };
+                }
+            }
+        });
+    out
+}
+
 /// Adds a sun to `img` (a canvas of `mapping`): a disc of `diameter_deg` degrees toward unit
 /// direction `dir` (the map's frame), of uniform radiance, holding `fraction` of the result's
 /// power in each light channel.  Texels are covered by 8×8 points each.  For tests and
