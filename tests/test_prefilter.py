@@ -72,8 +72,8 @@ def test_furnace_every_mapping_and_the_sphere_is_the_matcap():
 
 
 def test_a_level_against_the_split_sum_integral_in_numpy():
-    # A smooth map with a bright spot; level 2 of a 4-level latlong chain against the kernel
-    # summed over every texel (4x4 sub-points, nearest texel: the map is smooth).
+    # A smooth map with a bright spot; levels 2 and 3 of a 4-level latlong chain against the
+    # kernel summed over every texel (4x4 sub-points, nearest texel: the map is smooth).
     h, w = 32, 64
     d = latlong_dirs(h, w)
     spot = np.array([0.3, 0.5, -0.8]) / np.linalg.norm([0.3, 0.5, -0.8])
@@ -85,20 +85,33 @@ def test_a_level_against_the_split_sum_integral_in_numpy():
     dd = latlong_dirs(h * k, w * k).reshape(-1, 3)
     om = spheremap.texel_solid_angles("latlong", w * k, h * k).reshape(-1)
     lv = np.repeat(np.repeat(env, k, 0), k, 1).reshape(-1, 3).astype(np.float64)
+    def ld(n, alpha):
+        c = dd @ n
+        m = c > 0
+        nh = np.sqrt((1 + c[m]) / 2)
+        wgt = ggx_d(alpha, nh) * c[m] / 4 * om[m]
+        return (lv[m] * wgt[:, None]).sum(0) / wgt.sum()
+
     for i in (2, 3):
         r = reports[i]["roughness"]
         alpha = r * r
         out = levels[i]
-        rows = latlong_dirs(*out.shape[:2])
+        # Each texel is the solid-angle mean of its children's integrals (a texel wider than the
+        # lobe, or than 0.1 rad, is split: these levels' texels span 36-72 degrees).
+        ch = reports[i]["children"]
+        assert ch > 1, ch
+        fh, fw = out.shape[0] * ch, out.shape[1] * ch
+        fine = latlong_dirs(fh, fw)
+        fom = spheremap.texel_solid_angles("latlong", fw, fh).reshape(fh, fw)
         worst = 0.0
         for y in range(0, out.shape[0], 2):
             for x in range(0, out.shape[1], 3):
-                n = rows[y, x]
-                c = dd @ n
-                m = c > 0
-                nh = np.sqrt((1 + c[m]) / 2)
-                wgt = ggx_d(alpha, nh) * c[m] / 4 * om[m]
-                want = (lv[m] * wgt[:, None]).sum(0) / wgt.sum()
+                acc, wsum = 0.0, 0.0
+                for fy in range(y * ch, (y + 1) * ch):
+                    for fx in range(x * ch, (x + 1) * ch):
+                        acc = acc + ld(fine[fy, fx], alpha) * fom[fy, fx]
+                        wsum += fom[fy, fx]
+                want = acc / wsum
                 worst = max(worst, float(np.max(np.abs(out[y, x] - want) / np.maximum(want, 0.3))))
         assert worst < 5e-3, (i, r, worst)
 
@@ -528,7 +541,10 @@ def test_an_encoded_cube_ktx2_read_by_ktx_parse(tmp_path, encode, zstd):
     assert len(report["compression"]) == 3
     for lv in report["compression"]:
         assert max(abs(e) for e in lv["power_error"]) < 5e-3, lv
-        assert lv["clamped"] == 0 and lv["rmsle"] < 0.05, lv
+        # A level of a few blocks (here the last: a 4x4 face, one block) pays for its power in
+        # RMSLE, within a small multiple of the encoder's own (docs/lighting.md).
+        assert lv["clamped"] == 0, lv
+        assert lv["rmsle"] < 0.05 or lv["rmsle"] <= 2.5 * lv["rmsle_unrepaired"], lv
     meta = ktx_parse_read(tmp_path, out)
     bc6h = encode == "bc6h"
     # VK_FORMAT_BC6H_UFLOAT_BLOCK / VK_FORMAT_E5B9G9R9_UFLOAT_PACK32; KHR_DF_MODEL_BC6H / RGBSDA.

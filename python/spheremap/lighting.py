@@ -105,7 +105,7 @@ def prefilter(
     """Prefiltered lighting of `env` (the engine of ``spheremap prefilter``) -> a list of levels,
     level 0 first, each an (H, W, C) float32 array in `to`'s canvas (a cube's as (6, F, F, C)
     faces in GL order, as convert returns them); with `report`, (levels, reports), one dict per
-    level ("roughness", "method", "integrals", "seconds", ...).
+    level ("roughness", "method", "integrals", "children", "light", "seconds", ...).
 
     Level i of L has size N >> i (N = `size`, default 256; cube faces N x N, latlong 2N x N) and
     perceptual roughness r_i from `roughness_map`: "filament" (r(2 - r) = i/(L - 1); three.js

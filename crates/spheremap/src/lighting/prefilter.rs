@@ -254,6 +254,9 @@ pub struct LevelReport {
     pub tree_face: usize,
     /// Lighting integrals computed.
     pub integrals: u64,
+    /// Children per side of each texel: its lobes were evaluated at the m×m children's
+    /// centres and averaged by solid angle (1: at the texel itself; see [`fineness`]).
+    pub children: usize,
     /// Time the level took (the tree's build included).
     pub seconds: f64,
     /// The light the level holds against the environment's: power per channel (every level:
@@ -437,6 +440,7 @@ pub fn prefilter(
                 method,
                 tree_face,
                 integrals,
+                children: m,
                 seconds: t0.elapsed().as_secs_f64(),
                 light,
             },
