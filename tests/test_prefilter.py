@@ -85,6 +85,7 @@ def test_a_level_against_the_split_sum_integral_in_numpy():
     dd = latlong_dirs(h * k, w * k).reshape(-1, 3)
     om = spheremap.texel_solid_angles("latlong", w * k, h * k).reshape(-1)
     lv = np.repeat(np.repeat(env, k, 0), k, 1).reshape(-1, 3).astype(np.float64)
+
     def ld(n, alpha):
         c = dd @ n
         m = c > 0
