@@ -257,14 +257,14 @@ fn reduce_keeps_the_power_of_its_children() {
         let (fine, _) = resample(&env, m, w, h, &ResampleOptions::default(), None).unwrap();
         let p = |img: &Image| Moments::of(&EnvMap::new(m, img, "x").unwrap(), &IDENTITY).m0[0];
         for k in [2, 3, 4] {
-            let coarse = reduce(m, &fine, k);
+            let coarse = reduce(m, fine.clone(), k);
             assert_eq!((coarse.width * k, coarse.height * k), (w, h));
             let (a, b) = (p(&fine), p(&coarse));
             assert!((a - b).abs() <= 1e-5 * a, "{name} by {k}: {a} vs {b}");
         }
         let mut flat = fine.clone();
         flat.data.iter_mut().for_each(|v| *v = 2.5);
-        assert!(reduce(m, &flat, 3)
+        assert!(reduce(m, flat, 3)
             .data
             .iter()
             .all(|&v| (v - 2.5).abs() < 1e-6));

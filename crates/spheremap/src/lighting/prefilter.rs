@@ -388,7 +388,7 @@ pub fn prefilter(
                 channels: tree.channels,
             };
             let (img, r) = source.generate(p.mapping, fw, fh, &gen, progress)?;
-            (reduce(p.mapping, &img, m), Method::Cosine, face, r.rays)
+            (reduce(p.mapping, img, m), Method::Cosine, face, r.rays)
         } else if p.method == PrefilterMethod::Sampled {
             if pyramid.is_none() {
                 pyramid = Some(CubePyramid::build(env, p, progress)?);
@@ -399,7 +399,7 @@ pub fn prefilter(
                 samples: lobe_samples(material, p.lobe_samples, pyramid.face),
             };
             let (img, r) = generate(p.mapping, fw, fh, &source, &gen, progress)?;
-            (reduce(p.mapping, &img, m), Method::Sampled, 0, r.rays)
+            (reduce(p.mapping, img, m), Method::Sampled, 0, r.rays)
         } else {
             let (method, face) = matcap::plan(env, material);
             if tree.as_ref().map(|t| t.face) != Some(face) {
@@ -418,7 +418,7 @@ pub fn prefilter(
                 rule: p.rule,
             };
             let (img, r) = generate(p.mapping, fw, fh, &source, &gen, progress)?;
-            (reduce(p.mapping, &img, m), method, face, r.rays)
+            (reduce(p.mapping, img, m), method, face, r.rays)
         };
         let light = {
             let level = EnvMap::new(p.mapping, &img, "level")?;

@@ -230,11 +230,11 @@ impl LightCheck {
 /// the solid-angle-weighted mean of its m×m children (their plain mean where none is on the
 /// map), so that it holds their light: the power Σ L·dω of the two canvases is the same, as
 /// far as the children's solid angles add up to their parent's (exactly for cube faces,
-/// lat-long rows and the octahedral map).
-pub fn reduce(mapping: Mapping, fine: &Image, m: usize) -> Image {
+/// lat-long rows and the octahedral map).  With `m` = 1, `fine` itself.
+pub fn reduce(mapping: Mapping, fine: Image, m: usize) -> Image {
     assert!(m >= 1 && fine.width % m == 0 && fine.height % m == 0);
     if m == 1 {
-        return fine.clone();
+        return fine;
     }
     let (fw, fh, c) = (fine.width, fine.height, fine.channels);
     let (w, h) = (fw / m, fh / m);
