@@ -3,7 +3,7 @@
 //!
 //! Usage: cargo run --release -p spheremap --example prefilter_light -- HDRI.exr [...]
 //! `SIZE=256` level 0's face; `LEVELS` (default: the prefilter's); `SAMPLES=1` spatial samples per texel;
-//! `RMAP=threejs` the roughness map;
+//! `RMAP=threejs` the roughness map; `TO=octahedral` the output mapping;
 //! `SUN=1,0.5` inserts a sun of that diameter (degrees) holding that fraction of the power.
 use spheremap::images::codec::{read_image, ReadOptions};
 use spheremap::lighting::PrefilterRequest;
@@ -31,6 +31,7 @@ fn main() {
             levels,
             samples: samples as u32,
             roughness_map: std::env::var("RMAP").unwrap_or("filament".into()),
+            to: std::env::var("TO").unwrap_or("cube".into()),
             ..Default::default()
         };
         let name = std::path::Path::new(path)
