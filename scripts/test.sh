@@ -26,7 +26,7 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 
 echo "== Python test dependencies"
-python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40" "dask[distributed]>=2024.1" blake3
+python3 -m pip install -q --disable-pip-version-check "numpy>=1.24" "pytest>=7" "hypothesis>=6" "PyOpenGL>=3.1.7" "maturin>=1.7,<2" ziglang auditwheel "pillow>=9" skylibs py360convert "mypy>=1.10" "playwright>=1.40" "dask[distributed]>=2024.1" blake3
 
 # Blender's Python module (bpy, CPython 3.11 wheels only), in an environment of its own, for the
 # MatCaps' check against Cycles (tests/test_lighting.py).
@@ -42,9 +42,10 @@ if [ -z "${SPHEREMAP_BPY_PYTHON:-}" ] && python3 -c 'import sys; sys.exit(sys.ve
 fi
 
 features=()
+wheel_features=()
 if ls /usr/lib/llvm-*/lib/libclang.so* >/dev/null 2>&1 || [ -n "${LIBCLANG_PATH:-}" ]; then
   features=(--features spheremap/basisu)
-  export MATURIN_PEP517_ARGS="--features basisu"
+  wheel_features=(--features basisu)
 elif [ "${SPHEREMAP_REQUIRE_BASISU:-}" = 1 ]; then
   echo "libclang is required (SPHEREMAP_REQUIRE_BASISU=1) for the Basis Universal encoder" >&2
   exit 1
@@ -65,12 +66,23 @@ if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
   SPHEREMAP_NO_AVX512=1 cargo test -p spheremap -q "${features[@]}" --lib -- lighting::cosine lighting::envtree
 fi
 
-echo "== building the Python wheel (abi3, CPython >= 3.11) and installing it"
+echo "== building the manylinux wheel (abi3: CPython >= 3.11; glibc >= 2.28) and the sdist"
+# Zig (PyPI's ziglang) links the extension against glibc 2.28's symbols and its own static C++
+# library, whatever glibc this machine has, so the wheel installs on any Linux with glibc >= 2.28;
+# auditwheel confirms the tag from the symbols the library actually uses.
 wheels="$PWD/target/wheels"
 rm -rf "$wheels"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target/py}" \
-  python3 -m pip wheel -q --disable-pip-version-check --no-deps -w "$wheels" .
-wheel=$(ls "$wheels"/spheremap-*.whl)
+  python3 -m maturin build -q --release --zig --compatibility manylinux_2_28 "${wheel_features[@]}" -o "$wheels"
+python3 -m maturin sdist -o "$wheels" >/dev/null
+wheel=$(ls "$wheels"/spheremap-*-manylinux_2_28_*.whl)
+sdist=$(ls "$wheels"/spheremap-*.tar.gz)
+audit=$(python3 -m auditwheel show "$wheel" | tr -s ' \n' ' ')
+case "$audit" in
+  *'platform tag: "manylinux_2_28_'*) echo "auditwheel: $(basename "$wheel") is manylinux_2_28" ;;
+  *) echo "auditwheel does not confirm manylinux_2_28: $audit" >&2; exit 1 ;;
+esac
+python3 scripts/check_sdist.py "$sdist"
 python3 -m pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
 
 echo "== the wheel in a clean virtual environment: import, CLI and demo, no Rust involved"

@@ -473,6 +473,27 @@ def test_python_view_serves_and_closes():
         urllib.request.urlopen(url + "data/scene.json", timeout=5)
 
 
+def test_python_screenshot_is_the_pages_frame(browser, tmp_path):
+    """Viewer.screenshot drives its own Chromium; its PNG is the canvas this suite's browser reads
+    for the same parameters, pixel for pixel."""
+    q = {"mode": "per-pixel", "size": (W, H), "eye": EYE, "target": TARGET, "background": "black"}
+    with sm.view(mesh=TEAPOT, env=ENV) as v:
+        png = v.screenshot(tmp_path / "shot.png", chromium=CHROMIUM, **q)
+        with opened(browser, v.url + params("per-pixel")) as page:
+            ready(page)
+            ours = pixels(page)
+        with pytest.raises(ValueError, match="^zoom: not a parameter"):
+            v.screenshot(zoom=2)
+        with pytest.raises(FileNotFoundError, match="^chromium: "):
+            v.screenshot(chromium=tmp_path / "no-browser")
+    from PIL import Image
+
+    assert (tmp_path / "shot.png").read_bytes() == png
+    shot = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+    assert shot.shape == (H, W, 3) and shot.max() > 0
+    np.testing.assert_array_equal(shot, ours)
+
+
 def test_python_view_errors_name_the_argument(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.obj"):
         sm.view(mesh=tmp_path / "nope.obj")

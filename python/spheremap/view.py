@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import base64
+import concurrent.futures
 import html
+import json
 import os
+import urllib.parse
+import urllib.request
 import webbrowser
 from typing import Any
 
@@ -49,6 +54,71 @@ class Viewer:
     def open(self) -> None:
         """Opens the page in the system's browser."""
         webbrowser.open(self.url)
+
+    def screenshot(
+        self,
+        path: str | os.PathLike[str] | None = None,
+        *,
+        chromium: str | os.PathLike[str] | None = None,
+        timeout: float = 120.0,
+        **params: Any,
+    ) -> bytes:
+        """The frame the page draws (its canvas, exactly) as PNG bytes (also written to ``path`` when given), drawn by a
+        headless Chromium driven by Playwright (``pip install spheremap[viewer]``).
+
+        params: the page's URL parameters (docs/viewer.md), e.g. ``mode="per-pixel"``,
+            ``size=(800, 600)``, ``eye=(0, 12, 40)``; a tuple is written comma-separated.
+        chromium: the browser to run (default: $SPHEREMAP_CHROMIUM, else /usr/bin/chromium when
+            present, else the one Playwright installed). WebGL runs on SwiftShader, so the
+            picture does not depend on a GPU.
+        """
+        try:
+            from playwright.sync_api import sync_playwright
+        except ImportError as e:
+            raise ImportError(f"screenshot: needs Playwright (pip install spheremap[viewer]): {e}") from None
+        with urllib.request.urlopen(self.url + "data/scene.json", timeout=timeout) as r:
+            known = json.load(r)["url_params"]
+        query = {}
+        for k, v in params.items():
+            if k not in known:
+                raise ValueError(f"{k}: not a parameter of the viewer's page (known: {', '.join(known)})")
+            query[k] = ",".join(map(str, v)) if isinstance(v, (tuple, list)) else str(v)
+        exe = os.fspath(chromium) if chromium is not None else os.environ.get("SPHEREMAP_CHROMIUM")
+        if exe is None and os.path.exists("/usr/bin/chromium"):
+            exe = "/usr/bin/chromium"
+        if exe is not None and not os.path.isfile(exe):
+            raise FileNotFoundError(f"chromium: {exe}: no such browser")
+        args = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
+        if hasattr(os, "geteuid") and os.geteuid() == 0:
+            args.append("--no-sandbox")  # Chromium refuses to run as root with its sandbox
+
+        def shoot() -> bytes:
+            with sync_playwright() as pw:
+                browser = pw.chromium.launch(executable_path=exe, args=args)
+                try:
+                    page = browser.new_page()
+                    errors: list[str] = []
+                    page.on("pageerror", lambda e: errors.append(str(e)))
+                    page.goto(self.url + "?" + urllib.parse.urlencode(query), timeout=timeout * 1000)
+                    page.wait_for_function("window.spheremap !== undefined", timeout=timeout * 1000)
+                    page.evaluate("window.spheremap.ready")
+                    if errors:
+                        raise RuntimeError(f"screenshot: the page failed: {errors[0]}")
+                    url = page.evaluate("document.getElementById('view').toDataURL('image/png')")
+                    return base64.b64decode(url.split(",", 1)[1])
+                finally:
+                    browser.close()
+
+        # Playwright's synchronous API refuses a thread with a running event loop (Jupyter's,
+        # or another Playwright session's): it runs on a thread of its own.
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            png = pool.submit(shoot).result()
+        if path is not None:
+            tmp = os.fspath(path) + ".part"
+            with open(tmp, "wb") as f:
+                f.write(png)
+            os.replace(tmp, path)
+        return png
 
     def __enter__(self) -> Viewer:
         return self
