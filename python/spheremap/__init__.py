@@ -24,6 +24,7 @@ from .names import (
     RENDER_MODES,
     SINGULAR_MODES,
     TAPS,
+    limits,
 )
 from .texgen import (
     Preset,
@@ -49,6 +50,7 @@ from .view import Viewer, view
 from . import batch
 
 __all__ = [
+    "limits",
     "bake_matcap",
     "irradiance_sh",
     "dfg_lut",

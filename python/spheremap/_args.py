@@ -63,14 +63,6 @@ def _choice(value, name: str, allowed: tuple[str, ...]) -> str:
     return value
 
 
-def _size(size, name: str) -> int:
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)):
-        raise ValueError(f"{name}: expected an integer, got {type(size).__name__}")
-    if not 1 <= int(size) <= 1 << 16:
-        raise ValueError(f"{name}: must be between 1 and 65536, got {size}")
-    return int(size)
-
-
 def _size_any(v, name: str) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
         raise ValueError(f"{name}: expected a positive integer, got {v!r}")

@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _choice, _floats, _size
+from ._args import _ArrayLike, _choice, _floats, _size_any
 from .names import MAPPINGS
 
 
@@ -44,11 +44,11 @@ def texel_solid_angles(
     else width); sums to 4 pi (angular and paraboloid: to 1e-7, by quadrature; the others
     exactly)."""
     _choice(mapping, "mapping", MAPPINGS)
-    width = _size(width, "width")
+    width = _size_any(width, "width")
     if height is None:
         height = {"latlong": max(1, width // 2), "paraboloid": max(1, width // 2), "cube": 6 * width}.get(
             mapping, width
         )
     return _ext.texel_solid_angles(
-        mapping=mapping, width=width, height=_size(height, "height"), preset=preset
+        mapping=mapping, width=width, height=_size_any(height, "height"), preset=preset
     )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from . import _spheremap as _ext
 
 # The lists of names are the core's (spheremap's Rust crate defines each once).
@@ -24,3 +26,11 @@ LENS_MODELS = tuple(_ext.names("lens"))
 RENDER_MODES = tuple(_ext.names("render"))
 #: What from_mirror_ball / from_fisheye put where no photo sees.
 PHOTO_FILLS = tuple(_ext.names("fill"))
+
+
+def limits() -> dict[str, dict[str, Any]]:
+    """Every limit the entry points enforce, by name (``spheremap limits``; docs/limits.md):
+    ``{"map_size": {"value": 32768, "min": 1, "unit": "texels", "what": ..., "env": None}, ...}``.
+    ``value`` is the largest accepted (for ``image_pixels`` and ``memory``, the default as
+    ``$SPHEREMAP_MAX_PIXELS`` / ``$SPHEREMAP_MAX_MEMORY`` leave it in this process)."""
+    return {r.pop("name"): r for r in _ext.limits()}

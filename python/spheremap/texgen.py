@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _Float, _floats, _name, _size, _stack3
+from ._args import _ArrayLike, _Float, _floats, _name, _size_any, _stack3
 
 
 def sphere_texgen(
@@ -123,7 +123,7 @@ def sphere_texel_solid_angle(size: int) -> npt.NDArray[np.float64]:
     Texels wholly inside the disc subtend 16/size**2 sr (the map is equal-area); texels cut by
     the rim get 16 x their area inside the disc; the total is 4 pi.
     """
-    size = _size(size, "size")
+    size = _size_any(size, "size")
     return _ext.sphere_texel_solid_angle(size)
 
 
@@ -152,7 +152,7 @@ def dir_to_pixel(
     i + 1/2. NaN where a direction has no single pixel."""
     d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
     return _ext.dir_to_pixel(
-        dirs=d, size=_size(size, "size"), preset=preset, singular=_name("singular", singular, "singular")
+        dirs=d, size=_size_any(size, "size"), preset=preset, singular=_name("singular", singular, "singular")
     )
 
 
@@ -162,5 +162,5 @@ def pixel_to_dir(
     """Continuous pixel coordinates (..., 2) in `preset`'s size x size image -> (unit directions
     in the preset's frame (..., 3), valid (...) bool)."""
     a = _floats(xy, "xy", last=(2,)).astype(np.float64, copy=False)
-    dirs = _ext.pixel_to_dir(xy=a, size=_size(size, "size"), preset=preset)
+    dirs = _ext.pixel_to_dir(xy=a, size=_size_any(size, "size"), preset=preset)
     return dirs, ~np.isnan(dirs[..., 0])

@@ -3,7 +3,6 @@
 
 use crate::job::vec3;
 use spheremap::jobs::convert::ConvertJob;
-use spheremap::resample::Progress;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -35,12 +34,8 @@ pub struct Args {
     size: Option<usize>,
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,
-    /// The output's view: world direction of the eye's -Z (with --up).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    look: Option<Vec<f64>>,
-    /// The output's view: world direction of the eye's +Y (with --look; default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
+    #[command(flatten)]
+    view: crate::view_args::ViewArgs,
     /// The output's view as yaw (degrees about world +Y; 90 = looking along -X).
     #[arg(long, allow_negative_numbers = true, conflicts_with = "look")]
     yaw: Option<f64>,
@@ -94,8 +89,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         preset: a.preset,
         layout: a.layout,
         size: a.size,
-        look: vec3(&a.look),
-        up: vec3(&a.up),
+        look: a.view.get().0,
+        up: a.view.get().1,
         yaw: a.yaw,
         pitch: a.pitch,
         roll: a.roll,
@@ -117,11 +112,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         zstd: a.job.zstd,
         force: a.job.force,
     };
-    let progress = Progress::default();
-    let report = std::thread::scope(|s| {
-        let work = s.spawn(|| job.run_files(&a.paths, Some(&progress)));
-        crate::progress::watch(&progress, &work, a.job.show_progress(), "converting");
-        work.join().expect("the conversion thread panicked")
+    let report = crate::progress::run(a.job.show_progress(), "converting", |p| {
+        job.run_files(&a.paths, Some(p))
     })
     .map_err(crate::flag_error)?;
     if let (Some(n), false) = (&report.notice, a.job.quiet) {

@@ -6,7 +6,7 @@ pub struct Args {
     #[arg(default_value = "spheremap-demo")]
     outdir: PathBuf,
     /// Size of the direction chart and of the HDRI's sphere map, in texels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(16..=8192))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(spheremap::base::limits::DEMO_MIN_SIZE as i64..=spheremap::base::limits::DEMO_SIZE as i64))]
     size: u32,
 }
 

@@ -6,7 +6,7 @@ use anyhow::Context;
 use spheremap::images::envmap::{env_paths, write_env, EnvFiles};
 use spheremap::images::Image;
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::{Progress, IDENTITY};
+use spheremap::resample::IDENTITY;
 use spheremap::trace::generate::{
     generate, GenerateOptions, GenerateReport, MapRequest, RaySource,
 };
@@ -21,12 +21,8 @@ pub struct Args {
     /// The point the rays start from (world coordinates).
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     pos: Option<Vec<f32>>,
-    /// The map's view: world direction of the eye's -Z (with --up); default 0 0 -1.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    look: Option<Vec<f64>>,
-    /// World direction of the eye's +Y (with --look; default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
+    #[command(flatten)]
+    view: crate::view_args::ViewArgs,
     /// Output mapping (default sphere: the GL sphere map of the view).
     #[arg(long, default_value = "sphere", value_parser = crate::names::core("mapping"))]
     to: String,
@@ -65,8 +61,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         layout: a.layout.clone(),
         size: a.size,
         pos: vec3(&a.pos).unwrap_or([0.0; 3]),
-        look: vec3(&a.look),
-        up: vec3(&a.up),
+        look: a.view.get().0,
+        up: a.view.get().1,
         samples: a.sampling.samples,
         max_samples: a.sampling.max_samples,
         filter: a.sampling.filter.clone(),
@@ -95,7 +91,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         // The cube faces are made in the world frame (no view), as six cameras at `pos` would take them.
         let cube = Mapping::parse("cube", None)?;
         let f = a.faces_size.unwrap_or(a.size);
-        spheremap::base::error::check_map_size("faces-size", f)?;
+        spheremap::base::limits::check_map_size("faces-size", f)?;
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
         let fo = GenerateOptions {
             rotation: IDENTITY,
@@ -117,11 +113,8 @@ fn run_generate(
     show: bool,
     what: &str,
 ) -> anyhow::Result<(Image, GenerateReport)> {
-    let progress = Progress::default();
-    Ok(std::thread::scope(|s| {
-        let work = s.spawn(|| generate(m, w, h, source, opts, Some(&progress)));
-        crate::progress::watch(&progress, &work, show, what);
-        work.join().expect("the generator thread panicked")
+    Ok(crate::progress::run(show, what, |p| {
+        generate(m, w, h, source, opts, Some(p))
     })?)
 }
 

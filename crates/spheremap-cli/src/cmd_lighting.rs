@@ -6,7 +6,7 @@ use anyhow::Context;
 use spheremap::images::envmap::{read_env_layout, read_note, write_env, EnvFiles};
 use spheremap::lighting::{dfg, sh, MatcapRequest, PrefilterRequest};
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::{EnvMap, Progress};
+use spheremap::resample::EnvMap;
 
 /// The environment a lighting command reads.
 #[derive(clap::Args, Debug)]
@@ -68,12 +68,8 @@ pub struct BakeArgs {
     /// Linear RGB albedo (default 0.8 0.8 0.8 for lambert, 1 1 1 for ggx).
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
     albedo: Option<Vec<f64>>,
-    /// The MatCap's view: world direction of the eye's -Z (with --up); default 0 0 -1.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    look: Option<Vec<f64>>,
-    /// World direction of the eye's +Y (with --look; default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
+    #[command(flatten)]
+    view: crate::view_args::ViewArgs,
     /// Output size N (N×N).
     #[arg(long, default_value_t = 256)]
     size: usize,
@@ -102,8 +98,8 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
         roughness: a.roughness,
         albedo: vec3(&a.albedo),
         size: a.size,
-        look: vec3(&a.look),
-        up: vec3(&a.up),
+        look: a.view.get().0,
+        up: a.view.get().1,
         samples: a.samples,
         max_samples: a.max_samples,
         seed: a.seed,
@@ -117,13 +113,8 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
         max_memory: Some(a.job.max_memory()?),
     };
     let wopts = a.job.write_options(false);
-    let progress = Progress::default();
-    let (report, notice) = std::thread::scope(|s| {
-        let work = s.spawn(|| {
-            request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(&progress))
-        });
-        crate::progress::watch(&progress, &work, a.job.show_progress(), "baking");
-        work.join().expect("the bake thread panicked")
+    let (report, notice) = crate::progress::run(a.job.show_progress(), "baking", |p| {
+        request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(p))
     })
     .map_err(crate::flag_error)?;
     if let Some(n) = notice.filter(|_| !a.job.quiet) {
@@ -238,7 +229,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
     }
     if let Some(o) = &a.output {
         let (w, h) = to.canvas(a.size);
-        spheremap::base::error::check_map_size("size", a.size).map_err(crate::flag_error)?;
+        spheremap::base::limits::check_map_size("size", a.size).map_err(crate::flag_error)?;
         let map = spheremap::lighting::irradiance_map(&env, &r.world_to_env, to, w, h, a.samples)
             .map_err(crate::flag_error)?;
         let written = write_env(
@@ -336,12 +327,8 @@ pub struct PrefilterArgs {
     /// One level of the cosine-convolved map ((1/pi) times the irradiance) instead.
     #[arg(long)]
     irradiance: bool,
-    /// The output's view: world direction of its -Z (with --up); a sphere map's eye.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    look: Option<Vec<f64>>,
-    /// World direction of the output's +Y (with --look; default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
+    #[command(flatten)]
+    view: crate::view_args::ViewArgs,
     /// Spatial samples per texel (1, the default: the texel centre; S > 1: at least S over
     /// the texel's footprint, adaptive). A texel wider than its level's lobe holds the lobe's
     /// mean over its footprint either way (evaluated on a finer canvas).
@@ -386,8 +373,8 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
         levels: a.levels,
         roughness_map: a.roughness_map.clone(),
         irradiance: a.irradiance,
-        look: vec3(&a.look),
-        up: vec3(&a.up),
+        look: a.view.get().0,
+        up: a.view.get().1,
         samples: a.samples,
         max_samples: a.max_samples,
         seed: a.seed,
@@ -404,13 +391,8 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
         max_memory: Some(a.job.max_memory()?),
     };
     let wopts = a.job.write_options(false);
-    let progress = Progress::default();
-    let (report, notice) = std::thread::scope(|s| {
-        let work = s.spawn(|| {
-            request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(&progress))
-        });
-        crate::progress::watch(&progress, &work, a.job.show_progress(), "prefiltering");
-        work.join().expect("the prefilter thread panicked")
+    let (report, notice) = crate::progress::run(a.job.show_progress(), "prefiltering", |p| {
+        request.run_files(&a.env.env, &a.output, &wopts, a.job.force, Some(p))
     })
     .map_err(crate::flag_error)?;
     if let Some(n) = notice.filter(|_| !a.job.quiet) {

@@ -1,7 +1,7 @@
 //! `spheremap from-photo` (mirror-ball photos) and `spheremap from-fisheye`: thin layers over
 //! `spheremap::jobs::photo`.
 
-use crate::job::{vec3, JobFlags};
+use crate::job::JobFlags;
 use anyhow::{bail, Context};
 use spheremap::images::codec::{check_nonfinite, read_image, ReadOptions};
 use spheremap::images::envmap::{write_env, EnvFiles};
@@ -9,7 +9,6 @@ use spheremap::images::Image;
 use spheremap::jobs::photo::{self, BallModel, BallPhoto, Circle, Fill, PhotoOptions, PhotoReport};
 use spheremap::mappings::fisheye::{Lens, LensModel};
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::Progress;
 use spheremap::trace::generate::{MapRequest, ResolvedMap};
 use std::path::Path;
 use std::time::Instant;
@@ -31,13 +30,8 @@ pub struct MapOut {
     size: usize,
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,
-    /// The output's view, in the camera's frame (the camera looks down -Z, +Y up): the
-    /// direction of the output eye's -Z (with --up); default 0 0 -1, the camera's own view.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    look: Option<Vec<f64>>,
-    /// The output eye's +Y in the camera's frame (with --look; default 0 1 0).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    up: Option<Vec<f64>>,
+    #[command(flatten)]
+    view: crate::view_args::ViewArgs,
     /// What to put where no photo sees: none (0, default), smooth (pull-push interpolation
     /// from the seen texels), mean (their mean colour).
     #[arg(long, default_value = "none", value_parser = crate::names::core("fill"))]
@@ -63,8 +57,8 @@ impl MapOut {
             preset: self.preset.clone(),
             layout: self.layout.clone(),
             size: self.size,
-            look: vec3(&self.look),
-            up: vec3(&self.up),
+            look: self.view.get().0,
+            up: self.view.get().1,
             samples: self.sampling.samples,
             max_samples: self.sampling.max_samples,
             filter: self.sampling.filter.clone(),
@@ -241,11 +235,8 @@ pub fn run_photo(a: PhotoArgs) -> anyhow::Result<()> {
         circle: circle_of(&a.circle2),
     });
     let t0 = Instant::now();
-    let progress = Progress::default();
-    let result = std::thread::scope(|s| {
-        let work = s.spawn(|| photo::from_mirror_ball(&p1, p2.as_ref(), &opts, Some(&progress)));
-        crate::progress::watch(&progress, &work, a.out.job.show_progress(), "unwarping");
-        work.join().expect("the photo thread panicked")
+    let result = crate::progress::run(a.out.job.show_progress(), "unwarping", |p| {
+        photo::from_mirror_ball(&p1, p2.as_ref(), &opts, Some(p))
     });
     // Name the photo in errors about it.
     let (map, mask, report) = result.map_err(|e| anyhow::anyhow!(name_photo(&e, &a)))?;
@@ -314,11 +305,8 @@ pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
     let radius = a.radius.unwrap_or(0.5 * img.width.min(img.height) as f64);
     let lens = Lens::new(model, a.fov, centre, radius)?;
     let t0 = Instant::now();
-    let progress = Progress::default();
-    let (map, mask, report) = std::thread::scope(|s| {
-        let work = s.spawn(|| photo::from_fisheye(&img, lens, &opts, Some(&progress)));
-        crate::progress::watch(&progress, &work, a.out.job.show_progress(), "unwarping");
-        work.join().expect("the photo thread panicked")
+    let (map, mask, report) = crate::progress::run(a.out.job.show_progress(), "unwarping", |p| {
+        photo::from_fisheye(&img, lens, &opts, Some(p))
     })
     .map_err(|e| anyhow::anyhow!("{}: {e}", a.image))?;
     let seconds = t0.elapsed().as_secs_f64();

@@ -3,10 +3,8 @@
 //! test photos of a mirror ball (thin layer over `spheremap::trace::camera`).
 
 use crate::job::vec3;
-use anyhow::bail;
 use spheremap::images::codec::write_image;
 use spheremap::mappings::fisheye::{Lens, LensModel};
-use spheremap::resample::Progress;
 use spheremap::trace::camera::{self, Camera, Projection};
 use std::path::Path;
 use std::time::Instant;
@@ -70,10 +68,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         w,
         h,
     )?;
-    if a.samples == 0 || a.samples > 4096 {
-        bail!("samples: {} is out of range 1..=4096", a.samples);
-    }
-    spheremap::base::error::check_memory(
+    spheremap::base::limits::check_range(
+        "samples",
+        a.samples,
+        1,
+        spheremap::base::limits::PREVIEW_SAMPLES,
+    )?;
+    spheremap::base::limits::check_memory(
         "size",
         2 * (w as u128 * h as u128 * 4 * 4),
         a.job.max_memory()?,
@@ -83,20 +84,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .load(&a.job, a.seed, std::slice::from_ref(&a.output))?;
     let source = world.source();
     let t0 = Instant::now();
-    let progress = Progress::default();
-    let img = std::thread::scope(|s| {
-        let work = s.spawn(|| {
-            camera::render(
-                &cam,
-                source.as_ref(),
-                a.samples,
-                a.seed,
-                false,
-                Some(&progress),
-            )
-        });
-        crate::progress::watch(&progress, &work, a.job.show_progress(), "rendering");
-        work.join().expect("the render thread panicked")
+    let img = crate::progress::run(a.job.show_progress(), "rendering", |p| {
+        camera::render(&cam, source.as_ref(), a.samples, a.seed, false, Some(p))
     })?;
     let seconds = t0.elapsed().as_secs_f64();
     write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;

@@ -201,9 +201,12 @@ fn turntable(
     opts: &RenderOptions,
     op: ToneMap,
 ) -> anyhow::Result<()> {
-    if n == 0 || n > 3600 {
-        bail!("turntable: {n} frames is out of range 1..=3600");
-    }
+    spheremap::base::limits::check_range(
+        "turntable",
+        n,
+        1,
+        spheremap::base::limits::TURNTABLE_FRAMES,
+    )?;
     let gif = a.output.to_ascii_lowercase().ends_with(".gif");
     if !gif && !a.output.contains("{frame}") {
         bail!(

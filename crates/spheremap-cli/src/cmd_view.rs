@@ -30,7 +30,7 @@ pub struct Args {
     #[arg(long)]
     no_browser: bool,
     /// The largest file a user may drop on the page, in bytes (suffixes K, M, G: KiB, MiB, GiB).
-    #[arg(long, default_value = "512M", value_parser = parse_bytes)]
+    #[arg(long, default_value_t = spheremap::base::limits::UPLOAD_BYTES, value_parser = parse_bytes)]
     max_upload: u64,
     /// Instead of serving, write the page and its data into DIR as static files that any static
     /// web server serves (dropping files then needs the spheremap server).
@@ -41,19 +41,9 @@ pub struct Args {
     nonfinite: String,
 }
 
-/// `512M`, `2G`, `1048576`.
+/// `512M`, `2G`, `1048576`, by the core's reading of sizes.
 fn parse_bytes(s: &str) -> Result<u64, String> {
-    let t = s.trim();
-    let (num, k) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
-        Some('K') => (&t[..t.len() - 1], 1u64 << 10),
-        Some('M') => (&t[..t.len() - 1], 1 << 20),
-        Some('G') => (&t[..t.len() - 1], 1 << 30),
-        _ => (t, 1),
-    };
-    num.trim()
-        .parse::<u64>()
-        .ok()
-        .and_then(|n| n.checked_mul(k))
+    spheremap::base::limits::parse_bytes(s)
         .filter(|&n| n > 0)
         .ok_or_else(|| format!("{s:?}: expected a positive size in bytes, e.g. 512M"))
 }

@@ -120,8 +120,11 @@ impl JobFlags {
     /// `--max-memory` (absent: the core's default).
     pub fn max_memory(&self) -> anyhow::Result<u64> {
         match &self.max_memory {
-            None => Ok(spheremap::base::error::default_max_memory()),
-            Some(s) => Ok(spheremap::base::error::parse_memory_limit("max-memory", s)?),
+            None => Ok(spheremap::base::limits::default_max_memory()),
+            Some(s) => Ok(spheremap::base::limits::parse_memory_limit(
+                "max-memory",
+                s,
+            )?),
         }
     }
 

@@ -15,6 +15,7 @@ mod cmd_demo;
 mod cmd_generate;
 mod cmd_info;
 mod cmd_lighting;
+mod cmd_limits;
 mod cmd_photo;
 mod cmd_preview;
 mod cmd_render;
@@ -26,6 +27,7 @@ mod names;
 pub mod progress;
 mod sampling_args;
 mod scene_args;
+mod view_args;
 
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
@@ -97,6 +99,9 @@ enum Command {
     Batch(Box<cmd_batch::Args>),
     /// Describe an image: format (by content), size, channels, range, NaN/Inf, a mapping guess.
     Info(cmd_info::Args),
+    /// Print every limit the commands enforce (sizes, samples, memory, uploads), from the one
+    /// table in the core; --json for programs.
+    Limits(cmd_limits::Args),
     /// Print a completion script for a shell (bash, zsh, fish, powershell, elvish) to stdout.
     Completions(CompletionsArgs),
 }
@@ -168,6 +173,7 @@ where
         Command::Demo(a) => cmd_demo::run(a),
         Command::Conventions(a) => cmd_conventions::run(a),
         Command::Info(a) => cmd_info::run(a),
+        Command::Limits(a) => cmd_limits::run(a),
         Command::Convert(a) => cmd_convert::run(*a),
         Command::Generate(a) => cmd_generate::run(*a),
         Command::FromPhoto(a) => cmd_photo::run_photo(*a),

@@ -18,6 +18,19 @@ pub fn install_ctrlc() {
     });
 }
 
+/// Runs `work` on a thread of its own with a fresh [`Progress`] and waits for it as [`watch`]
+/// does; a panic in the work is resumed here (the binary reports it in one line).
+pub fn run<T: Send>(show: bool, what: &str, work: impl FnOnce(&Progress) -> T + Send) -> T {
+    let p = Progress::default();
+    std::thread::scope(|s| {
+        let handle = s.spawn(|| work(&p));
+        watch(&p, &handle, show, what);
+        handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })
+}
+
 /// Waits for `work`, forwarding Ctrl-C to `p.cancel`; shows a bar when `show` and the work
 /// takes more than 0.4 s.
 pub fn watch<T>(p: &Progress, work: &std::thread::ScopedJoinHandle<'_, T>, show: bool, what: &str) {

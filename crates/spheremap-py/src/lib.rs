@@ -353,8 +353,15 @@ fn matcap_uv<'py>(
     }))
 }
 
+/// `n` as an image side for the argument `what`, by the core's limit.
+fn image_side(what: &str, n: usize) -> PyResult<usize> {
+    spheremap::base::limits::check_range(what, n, 1, spheremap::base::limits::IMAGE_SIDE)
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 #[pyfunction]
 fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
+    let size = image_side("size", size)?;
     let v = py.detach(|| spheremap::mappings::sphere::solid_angle_map(size));
     Ok(PyArray1::from_vec(py, v).reshape([size, size])?.into_any())
 }
@@ -367,6 +374,7 @@ fn dir_to_pixel<'py>(
     preset: &str,
     singular: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let size = image_side("size", size)?;
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     let sg = Singular::parse(singular, "singular").map_err(to_py)?;
     map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| {
@@ -382,6 +390,7 @@ fn pixel_to_dir<'py>(
     size: usize,
     preset: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let size = image_side("size", size)?;
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     map_f64_rows(py, &xy, "xy", |q: [f64; 2]| {
         p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])
@@ -453,6 +462,8 @@ fn texel_solid_angles<'py>(
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
+    image_side("width", width)?;
+    image_side("height", height)?;
     m.size_of(width, height, "height")
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let v = py.detach(|| m.solid_angles(width, height));
@@ -488,6 +499,13 @@ fn names(kind: &str) -> PyResult<Vec<&'static str>> {
     spheremap::names::list(kind)
         .map(|n| n.to_vec())
         .ok_or_else(|| PyValueError::new_err(format!("kind: unknown {kind:?}")))
+}
+
+/// The core's table of limits ([`spheremap::base::limits::table`]): Python's `limits()`.
+#[pyfunction]
+fn limits(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    pythonize::pythonize(py, &spheremap::base::limits::table())
+        .map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// Checks `value` as a name of `kind` with the core's own parser (its aliases included) and
@@ -1084,7 +1102,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     spheremap::base::error::set_warning_sink(Some(queue_warning));
     m.add("__version__", spheremap::VERSION)?;
     m.add("MAX_SPLIT", spheremap::jobs::analyze::MAX_SPLIT)?;
-    m.add("VIEW_MAX_UPLOAD", spheremap::view::DEFAULT_MAX_UPLOAD)?;
+    m.add("VIEW_MAX_UPLOAD", spheremap::base::limits::UPLOAD_BYTES)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("DataError", m.py().get_type::<DataError>())?;
     m.add("UnsupportedError", m.py().get_type::<UnsupportedError>())?;
@@ -1099,6 +1117,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
+    m.add_function(wrap_pyfunction!(limits, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
     m.add_function(wrap_pyfunction!(_all_finite, m)?)?;

@@ -57,7 +57,7 @@ impl Default for ServeOptions {
         ServeOptions {
             host: "127.0.0.1".into(),
             port: 0,
-            max_upload: spheremap::view::DEFAULT_MAX_UPLOAD,
+            max_upload: spheremap::base::limits::UPLOAD_BYTES,
             env_request: EnvRequest::default(),
         }
     }

@@ -173,7 +173,7 @@ fn main() {
             let dirs: Vec<[f64; 3]> = (0..6 * f * f)
                 .map(|k| {
                     let (x, y) = (k % f, k / f);
-                    spheremap::lighting::brdf::normalize(
+                    spheremap::base::vec::normalize(
                         cube.uv_to_dir([
                             (x as f64 + 0.5) / f as f64,
                             (y as f64 + 0.5) / (6 * f) as f64,

@@ -15,7 +15,8 @@
 //! * [`run_local`]: the tasks on a pool of local threads; the same [`run_task`] runs one input
 //!   per Dask task from the Python package.
 
-use crate::base::error::{check_map_size, Error, Result};
+use crate::base::error::{Error, Result};
+use crate::base::limits::check_map_size;
 use crate::images::codec::{ReadOptions, WriteOptions};
 use crate::images::compress::Encoding;
 use crate::images::cube_layout::Layout;

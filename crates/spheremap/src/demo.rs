@@ -78,7 +78,7 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
     // The HDRI as the sphere map of the demo viewer (the eye looks at the target from DEMO_EYE).
     let hdri = apartment()?;
     let src = crate::resample::EnvMap::new(
-        crate::Mapping::parse("latlong", None)?,
+        crate::mappings::mapping::Mapping::parse("latlong", None)?,
         &hdri,
         "apartment.exr",
     )?;
@@ -88,7 +88,7 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         rotation: view,
         ..Default::default()
     };
-    let sphere = crate::Mapping::parse("sphere", None)?;
+    let sphere = crate::mappings::mapping::Mapping::parse("sphere", None)?;
     let (map, _) = crate::resample::resample(&src, sphere, chart_size, chart_size, &opts, None)?;
     // Written as `convert` writes maps: with the note of their mapping and view (crate::images::note).
     for name in ["apartment_sphere.exr", "apartment_sphere.png"] {
@@ -108,7 +108,7 @@ pub fn run(outdir: &Path, chart_size: usize) -> Result<DemoReport> {
         max_samples: 1024,
         seed: 0,
         outside: crate::resample::Outside::Gutter,
-        max_memory: crate::base::error::default_max_memory(),
+        max_memory: crate::base::limits::default_max_memory(),
         rule: Default::default(),
         normal_table: None,
     };

@@ -2,6 +2,7 @@
 //! the Python package's name lists and its argument checks are these, and so are the CLI's.
 
 use crate::base::error::{Error, Result};
+use crate::frame::conventions::Singular;
 use crate::images::codec::NonFinite;
 use crate::images::cube_layout::Layout;
 use crate::images::tonemap::ToneMap;
@@ -13,7 +14,6 @@ use crate::mappings::mapping::MAPPING_NAMES;
 use crate::mappings::matcap::MatcapVariant;
 use crate::mappings::texgen::NormalMode;
 use crate::resample::{Filter, Outside, Precision, Taps};
-use crate::Singular;
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
 pub const KINDS: [&str; 18] = [
@@ -69,7 +69,7 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
 pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
     let named = |r: Result<()>| r.map_err(|e| e.named(arg));
     named(match kind {
-        "mapping" => crate::Mapping::parse(value, None).map(drop),
+        "mapping" => crate::mappings::mapping::Mapping::parse(value, None).map(drop),
         "filter" => Filter::parse(value).map(drop),
         "taps" => Taps::parse(value).map(drop),
         "outside" => Outside::parse(value).map(drop),

@@ -41,8 +41,6 @@ use std::path::Path;
 pub const ENV_MAX_WIDTH: usize = 2048;
 /// The narrowest.
 pub const ENV_MIN_WIDTH: usize = 64;
-/// The largest upload the server accepts unless told otherwise (`--max-upload`), in bytes.
-pub const DEFAULT_MAX_UPLOAD: u64 = 512 << 20;
 /// The file kinds a user may drop on the page (by extension, lower case).
 pub const ENV_EXTENSIONS: [&str; 9] = [
     "exr", "hdr", "pfm", "png", "jpg", "jpeg", "webp", "ktx2", "dds",

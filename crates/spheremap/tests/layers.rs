@@ -232,6 +232,45 @@ fn no_module_imports_from_a_layer_above_and_there_are_no_circles() {
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
+/// `crate::X` paths whose first step is not one of the crate's modules: the crate root's `pub use`
+/// shortcuts (`crate::Mapping`), which hide the layer they come from.
+fn root_shortcuts(code: &str, modules: &BTreeSet<String>) -> BTreeSet<String> {
+    let s = code.as_bytes();
+    let mut raw = Vec::new();
+    let mut i = 0;
+    while i < s.len() {
+        let word_start = i == 0 || !(s[i - 1].is_ascii_alphanumeric() || s[i - 1] == b'_');
+        if word_start && s[i..].starts_with(b"crate::") {
+            i = paths_at(s, i + 7, Vec::new(), &mut raw);
+        } else {
+            i += 1;
+        }
+    }
+    raw.into_iter()
+        .filter_map(|p| p.first().cloned())
+        .filter(|first| !modules.contains(first))
+        .collect()
+}
+
+#[test]
+fn modules_name_the_module_they_use_not_a_crate_root_shortcut() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let tops: BTreeSet<String> = LAYERS.iter().map(|(n, _)| n.to_string()).collect();
+    let mut problems = Vec::new();
+    for f in &files {
+        let m = module_of(&src, f);
+        if m == "lib" {
+            continue;
+        }
+        for name in root_shortcuts(&code_only(&std::fs::read_to_string(f).unwrap()), &tops) {
+            problems.push(format!("{m} uses crate::{name}; name its module instead"));
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
 #[test]
 fn the_checker_sees_what_it_must() {
     let known: BTreeSet<String> = ["a", "a::b", "a::c", "d"].map(String::from).into();
@@ -241,5 +280,11 @@ fn the_checker_sees_what_it_must() {
     let got = references("a::b", &code, &known);
     assert_eq!(got, ["a::b", "a::c"].map(String::from).into());
     assert_eq!(layer("jobs::render::raster"), Some(6));
+    let tops: BTreeSet<String> = ["base", "mappings"].map(String::from).into();
+    let code = code_only("use crate::Mapping;\nlet e = crate::base::error::Error::x();\nuse crate::{mappings::X, Result};");
+    assert_eq!(
+        root_shortcuts(&code, &tops),
+        ["Mapping", "Result"].map(String::from).into()
+    );
     assert_eq!(layer("nowhere"), None);
 }

@@ -499,7 +499,8 @@ mod prefilter {
         // samples of the whole lobe would rarely land.  The reference: the dark level times
         // the lobe's albedo plus the bright texel's bilinear tent summed over 64×64 points per
         // texel of its support, each with its exact solid angle.
-        use spheremap::lighting::brdf::{eval_cos, normalize};
+        use spheremap::base::vec::normalize;
+        use spheremap::lighting::brdf::eval_cos;
         let (w, h) = (256, 128);
         let (dark, bright) = (0.05f32, 500.0f32);
         let m = Mapping::parse("latlong", None).unwrap();
@@ -841,14 +842,16 @@ fn a_shared_cut_keeps_each_normals_integral() {
             let ns: Vec<[f64; 3]> = (0..16)
                 .map(|k| {
                     let (x, y) = ((k % 4) as f64 - 1.5, (k / 4) as f64 - 1.5);
-                    brdf::normalize([0, 1, 2].map(|q| centre[q] + step * (x * t[q] + y * b[q])))
+                    spheremap::base::vec::normalize(
+                        [0, 1, 2].map(|q| centre[q] + step * (x * t[q] + y * b[q])),
+                    )
                 })
                 .collect();
             let spread = ns
                 .iter()
-                .map(|&n| brdf::dot(n, centre).clamp(-1.0, 1.0).acos())
+                .map(|&n| spheremap::base::vec::dot(n, centre).clamp(-1.0, 1.0).acos())
                 .fold(0.0, f64::max);
-            let e = |n: [f64; 3]| albedo.at(brdf::dot(n, v).clamp(0.0, 1.0));
+            let e = |n: [f64; 3]| albedo.at(spheremap::base::vec::dot(n, v).clamp(0.0, 1.0));
             let e_min = ns.iter().map(|&n| e(n)).fold(f64::INFINITY, f64::min);
             let scale = tree.mean_brightness() * e_min;
             tree.group_cut(&Lobe::new(m, centre, v, rule, scale), spread, &mut nodes);

@@ -5,6 +5,8 @@ pub mod buffer;
 pub mod cpu;
 pub mod error;
 pub mod files;
+pub mod limits;
 pub mod parse;
 pub mod quadrature;
 pub mod real;
+pub mod vec;

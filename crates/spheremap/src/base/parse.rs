@@ -6,12 +6,8 @@ use crate::base::error::{Error, Result};
 /// A 4×4 matrix, row-major, math convention (`eye = M · p`).
 pub type Mat4 = [[f64; 4]; 4];
 
-pub const IDENTITY: Mat4 = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
+/// The modelview that does nothing.
+pub use super::vec::IDENTITY4 as IDENTITY;
 
 /// Parses a modelview spec (`param` names the argument in errors):
 ///

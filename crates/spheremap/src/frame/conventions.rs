@@ -152,7 +152,7 @@ pub struct SpherePreset {
     pub doc: &'static str,
 }
 
-const IDENTITY3: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+use crate::base::vec::IDENTITY3;
 
 /// All presets, the first being ours.
 pub const PRESETS: &[SpherePreset] = &[

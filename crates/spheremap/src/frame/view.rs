@@ -12,23 +12,12 @@
 //! The returned matrix is row-major with the eye axes as columns: `world = R · eye`.
 
 use crate::base::error::{Error, Result};
+use crate::base::vec::{cross, norm};
 
 pub type Mat3 = [[f64; 3]; 3];
 
 /// The identity view: looking down world −Z with +Y up.
-pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
+pub use crate::base::vec::IDENTITY3 as IDENTITY;
 
 fn columns(x: [f64; 3], y: [f64; 3], z: [f64; 3]) -> Mat3 {
     [[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]]

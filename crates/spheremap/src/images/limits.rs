@@ -1,6 +1,8 @@
-//! The size limits every reader checks a file's header against before it allocates pixels.
+//! The size limits every reader checks a file's header against before it allocates pixels
+//! (their values: `base::limits`).
 
 use crate::base::error::{Error, Result};
+use crate::base::limits::{max_pixels, IMAGE_SIDE};
 use std::path::Path;
 
 /// Size limits checked against a file's header before its pixels are allocated.
@@ -13,18 +15,13 @@ pub struct Limits {
 }
 
 impl Default for Limits {
-    /// 65,536 on a side and 2²⁸ pixels (4 GiB as float RGBA); `SPHEREMAP_MAX_PIXELS` (a
-    /// pixel count) overrides the total for every front end.
+    /// [`IMAGE_SIDE`] on a side and [`max_pixels`] pixels (`SPHEREMAP_MAX_PIXELS` overrides
+    /// the total for every front end).
     fn default() -> Self {
-        let max_pixels = std::env::var("SPHEREMAP_MAX_PIXELS")
-            .ok()
-            .and_then(|s| s.trim().parse::<usize>().ok())
-            .filter(|&n| n > 0)
-            .unwrap_or(1 << 28);
         Limits {
-            max_width: 1 << 16,
-            max_height: 1 << 16,
-            max_pixels,
+            max_width: IMAGE_SIDE,
+            max_height: IMAGE_SIDE,
+            max_pixels: max_pixels(),
         }
     }
 }

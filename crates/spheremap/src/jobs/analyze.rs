@@ -32,6 +32,7 @@
 //! map's singular rim, are counted apart).
 
 use crate::base::error::{Error, Result};
+use crate::base::vec::{dot, sub};
 use crate::frame::conventions::Singular;
 use crate::images::Image;
 use crate::jobs::render::{GlCamera, PixelError};
@@ -78,26 +79,10 @@ pub fn stats(v: &[f64]) -> Stats {
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// The largest size N analysed from a mapping alone (its maps hold three f64 values per texel:
-/// 1.5 GiB at 8192²).
-pub const MAX_SIZE: usize = 8192;
-
-/// The canvas (width, height) of `mapping` at size `n` (1..=[`MAX_SIZE`]) for analysis, or an
+/// The canvas (width, height) of `mapping` at size `n` (1..=[`crate::base::limits::ANALYZE_SIZE`]) for analysis, or an
 /// error naming the argument `what`.
 pub fn canvas(mapping: Mapping, what: &str, n: usize) -> Result<(usize, usize)> {
-    if n == 0 || n > MAX_SIZE {
-        return Err(crate::base::error::Error::param(
-            what,
-            format!("{n} is out of range 1..={MAX_SIZE}"),
-        ));
-    }
+    crate::base::limits::check_range(what, n, 1, crate::base::limits::ANALYZE_SIZE)?;
     Ok(mapping.canvas(n))
 }
 

@@ -21,9 +21,10 @@
 //!   without either, the source's view.
 //! * **Size**: `size`, else the source's (a cube face F gives a sphere map of 2F, and N gives
 //!   cube faces of N/2: [`crate::images::envmap::default_size`]); checked against
-//!   [`crate::base::error::MAX_MAP_SIZE`].
+//!   [`crate::base::limits::MAP_SIZE`].
 
-use crate::base::error::{check_map_size, default_max_memory, Error, Result};
+use crate::base::error::{Error, Result};
+use crate::base::limits::{check_map_size, default_max_memory};
 use crate::frame::view::{self, Mat3};
 use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
 use crate::images::compress::Encoding;
@@ -224,6 +225,7 @@ impl ConvertJob {
     /// Resolves the job for a source that records `note` (`None` for an image in memory or a
     /// file without one); `input` names the source in errors.
     pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<Resolved> {
+        crate::base::limits::check_samples(self.samples, self.max_samples)?;
         let src = mapping_for(
             self.from.as_deref(),
             self.from_preset.as_deref(),

@@ -16,6 +16,7 @@
 //! radiance 1 reflects; [`Albedo`] tabulates it by a quadrature over the half vector
 //! (Gauss–Legendre, [`ggx_albedo`]), to about 1e-6.
 
+use crate::base::vec::{cross, dot, normalize};
 use std::f64::consts::PI;
 
 /// A material: what `bake-matcap --material` and `prefilter` name.
@@ -32,12 +33,12 @@ impl Material {
     pub const NAMES: [&'static str; 2] = ["lambert", "ggx"];
 
     /// The material from its name and perceptual roughness (ignored for `lambert`).
-    pub fn parse(name: &str, roughness: f64) -> crate::Result<Material> {
+    pub fn parse(name: &str, roughness: f64) -> crate::base::error::Result<Material> {
         match name {
             "lambert" | "diffuse" => Ok(Material::Lambert),
             "ggx" => {
                 if !(0.0..=1.0).contains(&roughness) {
-                    return Err(crate::Error::param(
+                    return Err(crate::base::error::Error::param(
                         "roughness",
                         format!("{roughness} is out of range 0..=1"),
                     ));
@@ -46,7 +47,7 @@ impl Material {
                     alpha: roughness * roughness,
                 })
             }
-            other => Err(crate::Error::param(
+            other => Err(crate::base::error::Error::param(
                 "material",
                 format!("unknown material {other:?}; expected lambert or ggx"),
             )),
@@ -128,26 +129,6 @@ pub fn eval_cos(m: Material, n: [f64; 3], v: [f64; 3], l: [f64; 3]) -> f64 {
             ggx_d(alpha, nh) * ggx_visibility(alpha, mu_l, mu_v) * mu_l
         }
     }
-}
-
-#[inline]
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-pub fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    [a[0] / l, a[1] / l, a[2] / l]
-}
-
-#[inline]
-pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// An orthonormal frame (t, b) completing unit `n` (Duff et al. 2017, branchless).

@@ -39,7 +39,6 @@
 //! (n·l)⁺ − (−n·l)⁺ = n·l, so E(−n) = E(n) − n·M with M = ∫ L l dω summed exactly, and the
 //! antipode costs one dot product and carries the same error as E(n).
 
-use super::brdf;
 use super::envtree::{self, light_channels};
 use crate::base::error::Result;
 use crate::mappings::mapping::Mapping;
@@ -366,7 +365,7 @@ impl CosineTree {
             total.add(a);
         }
         if !total.p.iter().all(|v| v.is_finite()) || !(total.p[3] > 0.0) {
-            return Err(crate::Error::param(
+            return Err(crate::base::error::Error::param(
                 "env",
                 "its radiance does not sum to a finite value (Inf or NaN in the map)",
             ));
@@ -490,12 +489,12 @@ impl CosineTree {
             let s = ns
                 .iter()
                 .fold([0.0; 3], |s, n| [0, 1, 2].map(|q| s[q] + n[q]));
-            let len = brdf::dot(s, s).sqrt();
+            let len = crate::base::vec::dot(s, s).sqrt();
             let axis = if len > 0.0 { s.map(|v| v / len) } else { ns[0] };
             // The widest angle from the axis: that of the smallest cosine.
             let rg = ns
                 .iter()
-                .map(|n| brdf::dot(*n, axis))
+                .map(|n| crate::base::vec::dot(*n, axis))
                 .fold(1.0, f64::min)
                 .clamp(-1.0, 1.0)
                 .acos();
@@ -588,10 +587,10 @@ impl CosineTree {
             .zip(rep_of.par_iter())
             .map(|(&n, &r)| {
                 let (c, e) = (reps[r as usize], e[r as usize]);
-                if brdf::dot(n, c) >= 0.0 {
+                if crate::base::vec::dot(n, c) >= 0.0 {
                     e
                 } else {
-                    [0, 1, 2].map(|ch| e[ch] - brdf::dot(c, self.moment[ch]))
+                    [0, 1, 2].map(|ch| e[ch] - crate::base::vec::dot(c, self.moment[ch]))
                 }
             })
             .collect();
@@ -625,7 +624,7 @@ impl CosineTree {
                 // (the node's M − L̄ M_Ω joins the group's sum), wholly below when
                 // θ − r − r_g > π/2 (dropped); else crossed: a leaf joins the band, a node's
                 // children are tested.  Branch-free but for the rare points apart.
-                let c = brdf::dot(node.axis, axis);
+                let c = crate::base::vec::dot(node.axis, axis);
                 let cos_t = node.cos_r * cos_g - node.sin_r * sin_g;
                 let sin_t = node.sin_r * cos_g + node.cos_r * sin_g;
                 let sure = cos_t > 0.0;
@@ -678,8 +677,9 @@ impl CosineTree {
         let mean = self.mean.map(|v| v as f32);
         let acc = band_sum_dispatch(&self.leaves, band, &self.points, pband, &nx, mean);
         for (i, (n, o)) in ns.iter().zip(out.iter_mut()).enumerate() {
-            *o =
-                [0, 1, 2].map(|ch| PI * self.mean[ch] + brdf::dot(*n, agg[ch]) + acc[ch][i] as f64);
+            *o = [0, 1, 2].map(|ch| {
+                PI * self.mean[ch] + crate::base::vec::dot(*n, agg[ch]) + acc[ch][i] as f64
+            });
         }
     }
 }
@@ -921,7 +921,7 @@ impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> CosineSource<'_, F> {
         let eval = |dirs: &[[f32; 3]]| -> Result<Vec<f32>> {
             let normals: Vec<[f64; 3]> = dirs
                 .par_iter()
-                .map(|d| (self.normal)(brdf::normalize(d.map(|v| v as f64))))
+                .map(|d| (self.normal)(crate::base::vec::normalize(d.map(|v| v as f64))))
                 .collect();
             let e = self.tree.irradiance_all(&normals);
             let mut out = vec![0f32; dirs.len() * self.channels];
@@ -954,7 +954,7 @@ impl<F: Fn([f64; 3]) -> [f64; 3] + Sync> crate::trace::generate::RaySource for C
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         let normals: Vec<[f64; 3]> = dirs
             .iter()
-            .map(|d| (self.normal)(brdf::normalize(d.map(|v| v as f64))))
+            .map(|d| (self.normal)(crate::base::vec::normalize(d.map(|v| v as f64))))
             .collect();
         let mut e = vec![[0.0; 3]; normals.len()];
         self.tree.irradiance(&normals, &mut e);
@@ -1070,7 +1070,7 @@ mod against_brute_force {
                     brute(&data, channels, &rot, n.map(|v| -v)),
                 );
                 for q in 0..channels {
-                    let m = brdf::dot(*n, t.moment[q]);
+                    let m = crate::base::vec::dot(*n, t.moment[q]);
                     assert!(
                         ((a[q] - b[q]) - m).abs() < 1e-9 * scale,
                         "{q}: {} {m}",
@@ -1125,7 +1125,7 @@ mod against_brute_force {
             let eval = |dirs: &[[f32; 3]]| -> Result<Vec<f32>> {
                 let ns: Vec<[f64; 3]> = dirs
                     .iter()
-                    .map(|d| brdf::normalize(d.map(|v| v as f64)))
+                    .map(|d| crate::base::vec::normalize(d.map(|v| v as f64)))
                     .collect();
                 let (_, k) = t.irradiance_shared(&ns);
                 *counts.lock().unwrap() = (ns.len(), k);
@@ -1233,7 +1233,7 @@ mod against_brute_force {
                 let d = ll
                     .uv_to_dir([(x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64])
                     .unwrap();
-                let t = brdf::dot(nm, d);
+                let t = crate::base::vec::dot(nm, d);
                 if t > 0.0 {
                     let dw = ll.texel_solid_angle(x, y, w, h);
                     for q in 0..c {
@@ -1311,7 +1311,7 @@ mod against_brute_force {
         let row: Vec<[f64; 3]> = (0..64)
             .map(|i| {
                 let a = i as f64 * 0.01;
-                brdf::normalize([a.cos(), 0.3, a.sin()])
+                crate::base::vec::normalize([a.cos(), 0.3, a.sin()])
             })
             .collect();
         let mut grouped = vec![[0.0; 3]; row.len()];

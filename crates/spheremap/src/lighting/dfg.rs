@@ -12,7 +12,7 @@
 //! vector).
 
 use super::brdf;
-use crate::base::error::{Error, Result};
+use crate::base::error::Result;
 use crate::images::Image;
 use rayon::prelude::*;
 
@@ -32,12 +32,12 @@ pub fn dfg(alpha: f64, mu: f64, m: usize) -> (f64, f64) {
 
 /// The N×N table (see the module's notes).
 pub fn table(size: usize) -> Result<Image> {
-    if !(2..=4096).contains(&size) {
-        return Err(Error::param(
-            "size",
-            format!("{size} is out of range 2..=4096"),
-        ));
-    }
+    crate::base::limits::check_range(
+        "size",
+        size,
+        crate::base::limits::DFG_MIN_SIZE,
+        crate::base::limits::DFG_SIZE,
+    )?;
     let mut img = Image::new(size, size, 3);
     img.data
         .par_chunks_mut(size * 3)

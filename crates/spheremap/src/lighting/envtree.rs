@@ -205,7 +205,7 @@ pub(crate) fn sum_points<T: Send>(
                         sampler.sample(d.map(|v| v as f32), &mut px);
                     }
                     // Map frame → world: the transpose of world → map.
-                    let d = brdf::normalize([
+                    let d = crate::base::vec::normalize([
                         r[0][0] * d[0] + r[1][0] * d[1] + r[2][0] * d[2],
                         r[0][1] * d[0] + r[1][1] * d[1] + r[2][1] * d[2],
                         r[0][2] * d[0] + r[1][2] * d[1] + r[2][2] * d[2],
@@ -278,7 +278,7 @@ impl EnvTree {
             ]
         });
         if !total.iter().all(|v| v.is_finite()) || !(total[3] > 0.0) {
-            return Err(crate::Error::param(
+            return Err(crate::base::error::Error::param(
                 "env",
                 "its radiance does not sum to a finite value (Inf or NaN in the map)",
             ));
@@ -397,7 +397,7 @@ impl EnvTree {
             let level = &self.levels[lv as usize];
             let node = &level.nodes[k as usize];
             let axis = node.axis.map(|v| v as f64);
-            let c = brdf::dot(axis, q.n);
+            let c = crate::base::vec::dot(axis, q.n);
             let (sin_r, rad) = (node.sin_r as f64, node.rad as f64);
             if node.rad < 1.5 && c <= -sin_r {
                 continue; // wholly below the horizon
@@ -408,13 +408,13 @@ impl EnvTree {
             // skipped, nodes across its edge opened, leaves in it by their centroid.
             let mut in_core = false;
             if q.core > 0.0 {
-                let t = brdf::dot(axis, q.peak).clamp(-1.0, 1.0).acos();
+                let t = crate::base::vec::dot(axis, q.peak).clamp(-1.0, 1.0).acos();
                 if t + rad <= q.core {
                     continue;
                 }
                 in_core = t - rad < q.core;
                 if in_core && !open {
-                    if brdf::dot(dir, q.peak) >= q.core.cos() {
+                    if crate::base::vec::dot(dir, q.peak) >= q.core.cos() {
                         continue;
                     }
                     in_core = false;
@@ -504,7 +504,7 @@ impl EnvTree {
             let level = &self.levels[lv as usize];
             let node = &level.nodes[k as usize];
             let axis = node.axis.map(|v| v as f64);
-            let c = brdf::dot(axis, q.n);
+            let c = crate::base::vec::dot(axis, q.n);
             let (sin_r, rad) = (node.sin_r as f64, node.rad as f64);
             // The node's cone widened by the group's normals, for the horizons: sin(rad +
             // spread), 1 from π/2 on.
@@ -589,7 +589,8 @@ impl EnvTree {
                 // Away from the peak the lobe varies on `far` × the angle to it (from the
                 // leaf's axis, its centre's direction).
                 let c = self.levels[0].nodes[k].axis.map(|v| v as f64);
-                let near = (acos_approx(brdf::dot(c, q.peak).clamp(-1.0, 1.0)) - leaf).max(0.0);
+                let near = (acos_approx(crate::base::vec::dot(c, q.peak).clamp(-1.0, 1.0)) - leaf)
+                    .max(0.0);
                 alpha.max(q.rule.far * near).min(q.rule.broad)
             }
         };
@@ -623,7 +624,7 @@ fn leaf_grid(cube: &Mapping, m: usize, k: usize, s: usize, points: &mut Vec<[f64
         let rb = [0, 1, 2].map(|c| o[c] + b as f64 * dt[c]);
         for a in 0..s {
             let p = [0, 1, 2].map(|c| rb[c] + a as f64 * ds[c]);
-            points.push(brdf::normalize(p));
+            points.push(crate::base::vec::normalize(p));
         }
     }
 }
@@ -711,11 +712,11 @@ impl EnvTree {
         let sum = ns
             .iter()
             .fold([0.0; 3], |a, n| [0, 1, 2].map(|k| a[k] + n[k]));
-        let len = brdf::dot(sum, sum).sqrt();
+        let len = crate::base::vec::dot(sum, sum).sqrt();
         let c = sum.map(|x| x / len.max(1e-300));
         let spread = ns
             .iter()
-            .map(|&n| brdf::dot(n, c))
+            .map(|&n| crate::base::vec::dot(n, c))
             .fold(1.0, f64::min)
             .clamp(-1.0, 1.0)
             .acos();
@@ -776,7 +777,7 @@ pub struct CutNodes {
 /// The unit half vector of unit `d` and the viewer `v`.
 fn half(d: [f32; 3], v: [f64; 3]) -> [f32; 3] {
     let s = [0, 1, 2].map(|k| d[k] as f64 + v[k]);
-    let len = brdf::dot(s, s).sqrt().max(1e-30);
+    let len = crate::base::vec::dot(s, s).sqrt().max(1e-30);
     s.map(|x| (x / len) as f32)
 }
 
@@ -848,7 +849,7 @@ impl CutNodes {
 /// [`Cut::integral`] takes it.  Vector code (f32 lanes; the half vectors' n·h by |n − h|², so
 /// that the peak keeps its precision).
 pub fn ggx_sums(nodes: &CutNodes, alpha: f64, n: [f64; 3], v: [f64; 3]) -> ([f64; 3], f64) {
-    let mu_v = brdf::dot(n, v).max(1e-9);
+    let mu_v = crate::base::vec::dot(n, v).max(1e-9);
     let (p, w) = crate::base::cpu::vectorized(
         #[inline(always)]
         || ggx_lanes(nodes, alpha as f32, n.map(|x| x as f32), mu_v as f32),
@@ -1049,13 +1050,13 @@ pub(crate) fn cone(cube: &Mapping, m: usize, k: usize) -> ([f64; 3], f64) {
     // On the face's own plane (angles do not change with the cube's frame): the centre and
     // the widest corner, that of the smallest cosine.
     let at = |a: f64, b: f64| {
-        brdf::normalize(crate::mappings::cube::face_st_to_point(f, a / mf, b / mf))
+        crate::base::vec::normalize(crate::mappings::cube::face_st_to_point(f, a / mf, b / mf))
     };
     let c = at(i as f64 + 0.5, j as f64 + 0.5);
     let mut cos_rad: f64 = 1.0;
     for (a, b) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
         let d = at(i as f64 + a, j as f64 + b);
-        cos_rad = cos_rad.min(brdf::dot(c, d));
+        cos_rad = cos_rad.min(crate::base::vec::dot(c, d));
     }
     (cube_to_world(cube, c), cos_rad.clamp(-1.0, 1.0).acos())
 }
@@ -1077,7 +1078,7 @@ fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
         .map(|(k, a)| {
             let (power, wd, od) = (&a.power, &a.wd, &a.od);
             let (axis, rad) = cone(cube, m, k);
-            let l = brdf::dot(*wd, *wd).sqrt();
+            let l = crate::base::vec::dot(*wd, *wd).sqrt();
             let dir = if l > 0.0 {
                 [wd[0] / l, wd[1] / l, wd[2] / l]
             } else {
@@ -1087,7 +1088,7 @@ fn finish(acc: &[Acc], m: usize, cube: &Mapping, mean_lum: f64) -> Vec<Node> {
                 power: power.map(|v| v as f32),
                 omega: a.omega as f32,
                 odir: {
-                    let l = brdf::dot(*od, *od).sqrt();
+                    let l = crate::base::vec::dot(*od, *od).sqrt();
                     if l > 0.0 {
                         [od[0] / l, od[1] / l, od[2] / l].map(|v| v as f32)
                     } else {
@@ -1143,7 +1144,7 @@ impl Lobe {
     /// `scale` is the size of the integral (L̄'s brightness × the lobe's albedo): nodes are
     /// opened while their error estimate exceeds `rule.tol` × it.
     pub fn new(material: Material, n: [f64; 3], v: [f64; 3], rule: CutRule, scale: f64) -> Lobe {
-        let nv = brdf::dot(n, v);
+        let nv = crate::base::vec::dot(n, v);
         let peak = match material {
             Material::Lambert => n,
             Material::Ggx { .. } => [0, 1, 2].map(|k| 2.0 * nv * n[k] - v[k]),
@@ -1179,18 +1180,18 @@ impl Lobe {
     fn eval_bound(&self, l: [f64; 3]) -> f64 {
         match (self.material, self.kernel) {
             (Material::Ggx { alpha }, Kernel::Brdf) if self.slack > 0.0 => {
-                let mu_l = brdf::dot(self.n, l) + self.slack;
+                let mu_l = crate::base::vec::dot(self.n, l) + self.slack;
                 if !(mu_l > 0.0) {
                     return 0.0;
                 }
-                let mu_v = (brdf::dot(self.n, self.v) - self.slack).max(1e-9);
-                let h = brdf::normalize([0, 1, 2].map(|k| l[k] + self.v[k]));
-                let nh = brdf::dot(self.n, h).min(1.0);
+                let mu_v = (crate::base::vec::dot(self.n, self.v) - self.slack).max(1e-9);
+                let h = crate::base::vec::normalize([0, 1, 2].map(|k| l[k] + self.v[k]));
+                let nh = crate::base::vec::dot(self.n, h).min(1.0);
                 brdf::ggx_d(alpha, nh) * brdf::ggx_visibility(alpha, mu_l.min(1.0), mu_v) * mu_l
             }
             (Material::Ggx { alpha }, Kernel::SplitSum) if self.slack > 0.0 => {
                 // D at the normal's own half vector, the cosine raised by the slack.
-                let c = brdf::dot(self.n, l);
+                let c = crate::base::vec::dot(self.n, l);
                 if !(c + self.slack > 0.0) {
                     return 0.0;
                 }
@@ -1224,7 +1225,7 @@ impl Lobe {
         let Material::Ggx { alpha } = self.material else {
             return 0.0;
         };
-        let c = brdf::dot(self.n, l);
+        let c = crate::base::vec::dot(self.n, l);
         if !(c > 0.0) {
             return 0.0;
         }
@@ -1250,7 +1251,7 @@ impl Lobe {
         g: f64,
         node: &Node,
     ) -> f64 {
-        let cos_t = brdf::dot(axis, self.peak).clamp(-1.0, 1.0);
+        let cos_t = crate::base::vec::dot(axis, self.peak).clamp(-1.0, 1.0);
         // The node's cone widened by the peak's: radius R = rad + spread (its sine and
         // cosine from the caller, the same for every node of a cut).
         let cos_r = (1.0 - sin_r * sin_r).max(0.0).sqrt();
@@ -1310,7 +1311,7 @@ mod tests {
                         (a / m as f64).clamp(1e-12, 1.0 - 1e-12),
                         (b / m as f64).clamp(1e-12, 1.0 - 1e-12),
                     );
-                    brdf::normalize(cube.uv_to_dir([u, (f as f64 + v) / 6.0]).unwrap())
+                    crate::base::vec::normalize(cube.uv_to_dir([u, (f as f64 + v) / 6.0]).unwrap())
                 };
                 let c = dir(i as f64 + 0.5, j as f64 + 0.5);
                 assert!(
@@ -1318,7 +1319,7 @@ mod tests {
                     "{preset} {m} {k}"
                 );
                 let far = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
-                    .map(|(a, b)| brdf::dot(c, dir(i as f64 + a, j as f64 + b)).acos())
+                    .map(|(a, b)| crate::base::vec::dot(c, dir(i as f64 + a, j as f64 + b)).acos())
                     .into_iter()
                     .fold(0.0, f64::max);
                 assert!((rad - far).abs() < 1e-9, "{preset} {m} {k}: {rad} vs {far}");
@@ -1347,7 +1348,7 @@ mod tests {
                         let u = (i as f64 + (a as f64 + 0.5) / s as f64) / m as f64;
                         let v =
                             (f as f64 + (j as f64 + (b as f64 + 0.5) / s as f64) / m as f64) / 6.0;
-                        let d = brdf::normalize(cube.uv_to_dir([u, v]).unwrap());
+                        let d = crate::base::vec::normalize(cube.uv_to_dir([u, v]).unwrap());
                         let got = pts[b * s + a];
                         let err = (0..3).map(|c| (got[c] - d[c]).abs()).fold(0.0, f64::max);
                         assert!(
@@ -1395,7 +1396,7 @@ mod tests {
                 let (mut pe, mut we) = ([0.0; 3], 0.0);
                 for &(d, power, omega) in &expect {
                     // The f32 direction the vector code reads.
-                    let d = brdf::normalize(d.map(|x| x as f32 as f64));
+                    let d = crate::base::vec::normalize(d.map(|x| x as f32 as f64));
                     let g = brdf::eval_cos(m, n, v, d);
                     for k in 0..3 {
                         pe[k] += g * power[k];
@@ -1419,7 +1420,7 @@ mod tests {
                 let (p, w) = split_sums(&nodes, alpha, n);
                 let (mut pe, mut we) = ([0.0; 3], 0.0);
                 for &(d, power, omega) in &expect {
-                    let g = q.eval(brdf::normalize(d.map(|x| x as f32 as f64)));
+                    let g = q.eval(crate::base::vec::normalize(d.map(|x| x as f32 as f64)));
                     for k in 0..3 {
                         pe[k] += g * power[k];
                     }

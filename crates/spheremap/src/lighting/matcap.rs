@@ -116,7 +116,7 @@ pub fn output_channels(c: usize, albedo: [f64; 3]) -> usize {
 
 /// Bakes the MatCap of `env` (see the module's notes).
 pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Image, BakeReport)> {
-    crate::base::error::check_map_size("size", b.size)?;
+    crate::base::limits::check_map_size("size", b.size)?;
     let sphere = Mapping::parse("sphere", None)?;
     let out_c = output_channels(env.channels, b.albedo);
     let gen = GenerateOptions {
@@ -175,7 +175,7 @@ pub fn bake(env: &EnvMap, b: &Bake, progress: Option<&Progress>) -> Result<(Imag
         return Ok((img, report(Method::Cosine, face, r)));
     }
     let (method, face) = plan(env, b.material);
-    crate::base::error::check_memory("env", envtree::EnvTree::bytes(face), b.max_memory)?;
+    crate::base::limits::check_memory("env", envtree::EnvTree::bytes(face), b.max_memory)?;
     let tree = EnvTree::build(env, b.world_to_env, face)?;
     let mut source = MatcapSource {
         tree: &tree,
@@ -433,7 +433,7 @@ fn report(method: Method, face: usize, r: crate::trace::generate::GenerateReport
 #[inline]
 pub fn normal_of(r: [f64; 3], v: [f64; 3]) -> [f64; 3] {
     let s = [r[0] + v[0], r[1] + v[1], r[2] + v[2]];
-    let l = brdf::dot(s, s).sqrt();
+    let l = crate::base::vec::dot(s, s).sqrt();
     if l > 1e-12 {
         [s[0] / l, s[1] / l, s[2] / l]
     } else {
@@ -476,7 +476,7 @@ impl MatcapSource<'_> {
         let each = || {
             ns.iter()
                 .map(|&n| {
-                    let nv = brdf::dot(n, self.v);
+                    let nv = crate::base::vec::dot(n, self.v);
                     let r = [0, 1, 2].map(|k| 2.0 * nv * n[k] - self.v[k]);
                     self.radiance(n, r)
                 })
@@ -495,23 +495,25 @@ impl MatcapSource<'_> {
             rule: self.rule,
         };
         self.tree.shared_integrals(&shared, ns, |n| {
-            self.albedo_table.at(brdf::dot(n, self.v).clamp(0.0, 1.0))
+            self.albedo_table
+                .at(crate::base::vec::dot(n, self.v).clamp(0.0, 1.0))
         })
     }
 
     /// L_o at normal `n` (before the albedo).
     fn radiance(&self, n: [f64; 3], r: [f64; 3]) -> [f64; 3] {
-        let mu = brdf::dot(n, self.v).clamp(0.0, 1.0);
+        let mu = crate::base::vec::dot(n, self.v).clamp(0.0, 1.0);
         let e = self.albedo_table.at(mu);
         match (&self.vndf, self.material) {
             (Some((sampler, rot)), Material::Ggx { alpha }) => {
                 // Each sample's weight G₂/G₁(v): the visible-normal pdf holds G₁(v).
-                let lambda_v = brdf::smith_lambda(alpha, brdf::dot(self.v, n).max(1e-6));
+                let lambda_v =
+                    brdf::smith_lambda(alpha, crate::base::vec::dot(self.v, n).max(1e-6));
                 let w =
                     |mu_l| (1.0 + lambda_v) / (1.0 + lambda_v + brdf::smith_lambda(alpha, mu_l));
                 // The lobe's core by samples, its tail on the tree, each over L itself; the
                 // tail is the lobe's albedo less the samples' share of it ([`EnvTree::tail`]).
-                let nv = brdf::dot(n, self.v);
+                let nv = crate::base::vec::dot(n, self.v);
                 let peak = [0, 1, 2].map(|k| 2.0 * nv * n[k] - self.v[k]);
                 let radius = envtree::core_radius(alpha, self.tree.face);
                 let core = Some((peak, radius.cos()));
@@ -545,7 +547,8 @@ impl RaySource for MatcapSource<'_> {
         4
     }
     fn trace(&self, _: &[[f32; 3]], dirs: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
-        let normal = |d: &[f32; 3]| normal_of(brdf::normalize(d.map(|v| v as f64)), self.v);
+        let normal =
+            |d: &[f32; 3]| normal_of(crate::base::vec::normalize(d.map(|v| v as f64)), self.v);
         if let Some(t) = &self.table {
             for (d, o) in dirs.iter().zip(out.chunks_exact_mut(self.channels)) {
                 let n = normal(d);
@@ -595,7 +598,11 @@ pub(super) fn vndf_residual(
     weight: impl Fn(f64) -> f64,
 ) -> ([f64; 3], f64) {
     let (t, b) = brdf::tangent_frame(n);
-    let vl = [brdf::dot(v, t), brdf::dot(v, b), brdf::dot(v, n).max(1e-6)];
+    let vl = [
+        crate::base::vec::dot(v, t),
+        crate::base::vec::dot(v, b),
+        crate::base::vec::dot(v, n).max(1e-6),
+    ];
     let lc = envtree::light_channels(sampler.channels());
     let h = key.iter().fold(0x9E37_79B9u32, |h, &k| {
         (h ^ (k as f32).to_bits()).wrapping_mul(0x85EB_CA6B)
@@ -608,7 +615,7 @@ pub(super) fn vndf_residual(
         let u1 = (i as f64 + 0.5) / VNDF_SAMPLES as f64;
         let u2 = ((i as u32).reverse_bits() as f64 / 4294967296.0 + shift).fract();
         let m = brdf::sample_vndf(alpha, vl, u1, u2);
-        let vh = brdf::dot(vl, m);
+        let vh = crate::base::vec::dot(vl, m);
         let ll = [0, 1, 2].map(|k| 2.0 * vh * m[k] - vl[k]);
         if !(ll[2] > 0.0) {
             continue;
@@ -616,7 +623,7 @@ pub(super) fn vndf_residual(
         let w = weight(ll[2]);
         let l = [0, 1, 2].map(|k| ll[0] * t[k] + ll[1] * b[k] + ll[2] * n[k]);
         if let Some((peak, cos_core)) = core {
-            if brdf::dot(l, peak) < cos_core {
+            if crate::base::vec::dot(l, peak) < cos_core {
                 continue;
             }
         }

@@ -21,7 +21,8 @@ pub mod matcap;
 pub mod prefilter;
 pub mod sh;
 
-use crate::base::error::{default_max_memory, Error, Result};
+use crate::base::error::{Error, Result};
+use crate::base::limits::default_max_memory;
 use crate::images::codec::ReadOptions;
 use crate::images::envmap::{
     check_nonfinite_env, read_env_layout, read_note, refuse_overwrite, EnvFiles,
@@ -252,15 +253,8 @@ impl MatcapRequest {
             ));
         }
         let albedo = matcap::check_albedo(self.albedo.unwrap_or(material.default_albedo()))?;
-        crate::base::error::check_map_size("size", self.size)?;
-        for (name, v) in [("samples", self.samples), ("max_samples", self.max_samples)] {
-            if v == 0 || v > crate::resample::SAMPLE_CAP {
-                return Err(Error::param(
-                    name,
-                    format!("{v} is out of range 1..={}", crate::resample::SAMPLE_CAP),
-                ));
-            }
-        }
+        crate::base::limits::check_map_size("size", self.size)?;
+        crate::base::limits::check_samples(self.samples, self.max_samples)?;
         let view = crate::frame::view::output_view(self.look, self.up, None)?;
         let world_to_env = r.world_to_env;
         Ok(ResolvedMatcap {
@@ -521,7 +515,7 @@ impl PrefilterRequest {
             ));
         }
         let size = self.size.unwrap_or(if self.irradiance { 32 } else { 256 });
-        crate::base::error::check_map_size("size", size)?;
+        crate::base::limits::check_map_size("size", size)?;
         let levels = match (self.levels, self.irradiance) {
             (Some(l), true) if l != 1 => {
                 return Err(Error::param(
@@ -542,22 +536,15 @@ impl PrefilterRequest {
                 ),
             ));
         }
-        for (name, v) in [("samples", self.samples), ("max_samples", self.max_samples)] {
-            if v == 0 || v > crate::resample::SAMPLE_CAP {
-                return Err(Error::param(
-                    name,
-                    format!("{v} is out of range 1..={}", crate::resample::SAMPLE_CAP),
-                ));
-            }
-        }
+        crate::base::limits::check_samples(self.samples, self.max_samples)?;
         let view = crate::frame::view::output_view(self.look, self.up, None)?;
         let tolerance = self.tolerance.unwrap_or(prefilter::DEFAULT_TOLERANCE);
-        if !(1..=65536).contains(&self.lobe_samples) {
-            return Err(Error::param(
-                "lobe_samples",
-                format!("{} is out of range 1..=65536", self.lobe_samples),
-            ));
-        }
+        crate::base::limits::check_range(
+            "lobe_samples",
+            self.lobe_samples,
+            1,
+            crate::base::limits::LOBE_SAMPLES,
+        )?;
         if !(tolerance > 0.0 && tolerance <= 0.1) {
             return Err(Error::param(
                 "tolerance",

@@ -288,7 +288,7 @@ pub fn prefilter(
     p: &Prefilter,
     progress: Option<&Progress>,
 ) -> Result<Vec<(Image, LevelReport)>> {
-    crate::base::error::check_map_size("size", p.size)?;
+    crate::base::limits::check_map_size("size", p.size)?;
     if p.levels == 0 || p.levels > max_levels(p.size) {
         return Err(Error::param(
             "levels",
@@ -404,7 +404,7 @@ pub fn prefilter(
             let (method, face) = matcap::plan(env, material);
             if tree.as_ref().map(|t| t.face) != Some(face) {
                 drop(tree.take()); // free the last one first
-                crate::base::error::check_memory("env", EnvTree::bytes(face), p.max_memory)?;
+                crate::base::limits::check_memory("env", EnvTree::bytes(face), p.max_memory)?;
                 tree = Some(EnvTree::build(env, p.world_to_env, face)?);
             }
             let source = LevelSource {
@@ -515,7 +515,7 @@ impl RaySource for LevelSource<'_> {
             };
             let rs: Vec<[f64; 3]> = dirs
                 .iter()
-                .map(|d| brdf::normalize(d.map(|v| v as f64)))
+                .map(|d| crate::base::vec::normalize(d.map(|v| v as f64)))
                 .collect();
             let order = envtree::spatial_order(&rs);
             for idx in order.chunks(GROUP_RAYS) {
@@ -530,7 +530,7 @@ impl RaySource for LevelSource<'_> {
             return Ok(());
         }
         for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
-            let r = brdf::normalize(d.map(|v| v as f64));
+            let r = crate::base::vec::normalize(d.map(|v| v as f64));
             let value = match (self.material, &self.vndf) {
                 (Material::Ggx { alpha }, Some((sampler, rot))) => {
                     // Samples from D(h)(n·h) about n = v = r have density D/4 in l: the
@@ -750,7 +750,7 @@ impl RaySource for SampledSource<'_> {
         let c = self.pyramid.channels;
         let set = &self.samples;
         for (d, o) in dirs.iter().zip(out.chunks_exact_mut(c)) {
-            let r = brdf::normalize(d.map(|v| v as f64));
+            let r = crate::base::vec::normalize(d.map(|v| v as f64));
             let (t, b) = brdf::tangent_frame(r);
             let (t, b, r) = (
                 t.map(|v| v as f32),

@@ -37,7 +37,6 @@
 //! (sin x / x)⁴ with x = πl/w; `w` is given, or found per channel (the largest w, by bisection,
 //! for which the windowed irradiance has no negative value on a dense set of directions).
 
-use super::brdf;
 use crate::base::error::{Error, Result};
 use crate::mappings::mapping::Mapping;
 use crate::resample::EnvMap;
@@ -638,18 +637,20 @@ impl Geometry {
 
     fn world(&self, d: [f64; 3]) -> [f64; 3] {
         let r = &self.map_to_world;
-        brdf::normalize([0, 1, 2].map(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]))
+        crate::base::vec::normalize(
+            [0, 1, 2].map(|i| r[i][0] * d[0] + r[i][1] * d[1] + r[i][2] * d[2]),
+        )
     }
 
     /// The lat-long's equator plane, when its columns lie in it (to 1e-9).
     fn plane(&self) -> Option<Plane> {
         let (p, q0) = (self.pole, *self.cols.first()?);
-        let along = brdf::dot(q0, p);
-        let e1 = brdf::normalize([0, 1, 2].map(|k| q0[k] - along * p[k]));
-        let e2 = brdf::cross(p, e1);
+        let along = crate::base::vec::dot(q0, p);
+        let e1 = crate::base::vec::normalize([0, 1, 2].map(|k| q0[k] - along * p[k]));
+        let e2 = crate::base::vec::cross(p, e1);
         let mut cols = Vec::with_capacity(self.cols.len());
         for q in &self.cols {
-            let (a, b) = (brdf::dot(*q, e1), brdf::dot(*q, e2));
+            let (a, b) = (crate::base::vec::dot(*q, e1), crate::base::vec::dot(*q, e2));
             if (0..3).any(|k| (a * e1[k] + b * e2[k] - q[k]).abs() > 1e-9) {
                 return None;
             }

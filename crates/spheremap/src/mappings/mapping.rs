@@ -240,8 +240,8 @@ impl Mapping {
             Mapping::Sphere(p) => {
                 let [s, t] = sphere::dir_to_st(mat3_mul(&p.frame, d), Default::default());
                 let t = match p.rows {
-                    crate::RowOrder::TopIsT1 => T::ONE - t,
-                    crate::RowOrder::TopIsT0 => t,
+                    crate::frame::conventions::RowOrder::TopIsT1 => T::ONE - t,
+                    crate::frame::conventions::RowOrder::TopIsT0 => t,
                 };
                 [s, t]
             }
@@ -264,8 +264,8 @@ impl Mapping {
         match self {
             Mapping::Sphere(p) => {
                 let t = match p.rows {
-                    crate::RowOrder::TopIsT1 => T::ONE - uv[1],
-                    crate::RowOrder::TopIsT0 => uv[1],
+                    crate::frame::conventions::RowOrder::TopIsT1 => T::ONE - uv[1],
+                    crate::frame::conventions::RowOrder::TopIsT0 => uv[1],
                 };
                 sphere::st_to_dir([uv[0], t]).map(|d| transpose_mul(&p.frame, d))
             }
@@ -453,7 +453,7 @@ mod tests {
 
     fn all() -> Vec<Mapping> {
         let mut v = vec![];
-        for p in crate::PRESETS {
+        for p in crate::frame::conventions::PRESETS {
             v.push(Mapping::Sphere(p));
         }
         for p in crate::mappings::latlong::LATLONG_PRESETS {

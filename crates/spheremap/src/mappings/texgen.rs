@@ -105,12 +105,7 @@ impl ModelviewState {
     }
 }
 
-const IDENTITY4: [[f64; 4]; 4] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
+use crate::base::vec::IDENTITY4;
 
 /// 4×4 inverse by Gaussian elimination with partial pivoting (as Mesa's
 /// `invert_matrix_general`/`util_invert_mat4x4`), in f64.  `None` when a pivot is exactly zero

@@ -228,7 +228,7 @@ pub struct ResampleOptions {
     pub seed: u64,
     pub precision: Precision,
     /// Refuse a job whose estimated allocation is over this many bytes
-    /// ([`crate::base::error::default_max_memory`]).
+    /// ([`crate::base::limits::default_max_memory`]).
     pub max_memory: u64,
     /// Keep the light: with `samples > 1`, texels far brighter than the map's mean are split
     /// off and integrated exactly over the output's texels ([`peaks`]), so the output's power
@@ -238,8 +238,6 @@ pub struct ResampleOptions {
 
 /// The default sample count (adaptive, at least 4 per texel).
 pub const DEFAULT_SAMPLES: u32 = 4;
-/// Upper bound on `samples` and `max_samples`.
-pub const SAMPLE_CAP: u32 = 65_536;
 
 impl Default for ResampleOptions {
     fn default() -> Self {
@@ -252,13 +250,14 @@ impl Default for ResampleOptions {
             rotation: IDENTITY,
             seed: 0,
             precision: Precision::F32,
-            max_memory: crate::base::error::default_max_memory(),
+            max_memory: crate::base::limits::default_max_memory(),
             conserve: true,
         }
     }
 }
 
-pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+/// The rotation that does nothing.
+pub use crate::base::vec::IDENTITY3 as IDENTITY;
 
 /// An environment map in memory: a mapping and its canvas.
 #[derive(Clone, Copy, Debug)]
@@ -467,21 +466,10 @@ fn check_job(
 ) -> Result<()> {
     dst.size_of(width, height, "size")
         .map_err(|e| Error::param("size", e.to_string()))?;
-    if opts.samples == 0 || opts.samples > SAMPLE_CAP {
-        return Err(Error::param(
-            "samples",
-            format!("{} is out of range 1..={SAMPLE_CAP}", opts.samples),
-        ));
-    }
-    if opts.max_samples == 0 || opts.max_samples > SAMPLE_CAP {
-        return Err(Error::param(
-            "max_samples",
-            format!("{} is out of range 1..={SAMPLE_CAP}", opts.max_samples),
-        ));
-    }
+    crate::base::limits::check_samples(opts.samples, opts.max_samples)?;
     check_rotation(&opts.rotation)?;
     // The output, and as much again for whoever encodes it.
-    crate::base::error::check_memory(
+    crate::base::limits::check_memory(
         "size",
         2 * (width as u128 * height as u128 * src.channels as u128 * 4),
         opts.max_memory,
@@ -895,7 +883,7 @@ const SMALL_PYRAMID: u128 = 32 << 20;
 /// The memory check of a filtered conversion: the output (and as much again for whoever
 /// encodes it), plus the levels.
 fn check_memory_filtered(out_values: usize, levels: u128, opts: &ResampleOptions) -> Result<()> {
-    crate::base::error::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
+    crate::base::limits::check_memory("size", 2 * out_values as u128 * 4 + levels, opts.max_memory)
 }
 
 /// The strata count's slack, in source texels: a footprint a thousandth of a texel over an

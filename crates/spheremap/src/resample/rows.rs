@@ -13,7 +13,7 @@ use super::*;
 pub(crate) use crate::base::cpu::vectorized;
 use crate::base::cpu::{simd, Simd};
 use crate::base::real::{atan2_poly, atan2_upper, floor_v, mad, vmax, vmin};
-use crate::RowOrder;
+use crate::frame::conventions::RowOrder;
 
 pub(crate) struct Scratch {
     pub(crate) d: [Lanes<f32>; 3],

@@ -53,9 +53,6 @@ pub struct Camera {
     pub height: usize,
 }
 
-/// The largest image side a camera renders.
-pub const MAX_SIDE: usize = 32768;
-
 impl Camera {
     /// A camera at `eye` looking at `target` with `up`, as `gluLookAt`.
     pub fn look_at(
@@ -82,12 +79,7 @@ impl Camera {
         width: usize,
         height: usize,
     ) -> Result<Camera> {
-        if !(1..=MAX_SIDE).contains(&width) || !(1..=MAX_SIDE).contains(&height) {
-            return Err(Error::param(
-                "size",
-                format!("{width}x{height}: each side must be 1..={MAX_SIDE}"),
-            ));
-        }
+        crate::base::limits::check_sides(width, height, crate::base::limits::CAMERA_SIDE)?;
         if let Projection::Perspective { hfov_deg } = projection {
             if !(hfov_deg > 0.0 && hfov_deg < 180.0) {
                 return Err(Error::param(
@@ -183,12 +175,7 @@ pub fn render(
     coverage_channel: bool,
     progress: Option<&Progress>,
 ) -> Result<Image> {
-    if samples == 0 || samples > 4096 {
-        return Err(Error::param(
-            "samples",
-            format!("{samples}: must be 1..=4096"),
-        ));
-    }
+    crate::base::limits::check_range("samples", samples, 1, crate::base::limits::PREVIEW_SAMPLES)?;
     let sc = source.channels();
     let oc = sc + coverage_channel as usize;
     let (w, h) = (camera.width, camera.height);

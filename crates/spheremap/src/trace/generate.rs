@@ -44,7 +44,7 @@ use crate::images::Image;
 use crate::mappings::mapping::Mapping;
 use crate::resample::{
     self, jitter, strata, Dst, EnvMap, Filter, Outside, Precision, Progress, Sampler,
-    DEFAULT_SAMPLES, IDENTITY, SAMPLE_CAP,
+    DEFAULT_SAMPLES, IDENTITY,
 };
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -160,7 +160,7 @@ impl Default for GenerateOptions {
             pos: [0.0; 3],
             seed: 0,
             precision: Precision::F32,
-            max_memory: crate::base::error::default_max_memory(),
+            max_memory: crate::base::limits::default_max_memory(),
         }
     }
 }
@@ -250,7 +250,7 @@ impl MapRequest {
             .as_deref()
             .map(crate::images::cube_layout::Layout::parse)
             .transpose()?;
-        crate::base::error::check_map_size("size", self.size)?;
+        crate::base::limits::check_map_size("size", self.size)?;
         let (width, height) = mapping.canvas(self.size);
         Ok(ResolvedMap {
             mapping,
@@ -271,7 +271,7 @@ impl MapRequest {
                 precision: Precision::parse(&self.precision)?,
                 max_memory: self
                     .max_memory
-                    .unwrap_or_else(crate::base::error::default_max_memory),
+                    .unwrap_or_else(crate::base::limits::default_max_memory),
             },
         })
     }
@@ -345,14 +345,7 @@ fn check_canvas(
     mapping
         .size_of(width, height, "size")
         .map_err(|e| Error::param("size", e.to_string()))?;
-    for (name, v) in [("samples", opts.samples), ("max_samples", opts.max_samples)] {
-        if v == 0 || v > SAMPLE_CAP {
-            return Err(Error::param(
-                name,
-                format!("{v} is out of range 1..={SAMPLE_CAP}"),
-            ));
-        }
-    }
+    crate::base::limits::check_samples(opts.samples, opts.max_samples)?;
     if !(1..=MAX_CHANNELS).contains(&c) {
         return Err(Error::param(
             "fire_ray",
@@ -364,7 +357,7 @@ fn check_canvas(
     }
     resample::check_rotation(&opts.rotation)?;
     // The output, its copy for the gutter, and an encoder's buffer.
-    crate::base::error::check_memory(
+    crate::base::limits::check_memory(
         "size",
         3 * (width as u128 * height as u128 * c as u128 * 4),
         opts.max_memory,
@@ -404,7 +397,7 @@ pub fn generate_all(
     check_canvas(mapping, width, height, channels, opts)?;
     let (w, h, c) = (width, height, channels);
     // Per ray its direction (twice: by rows, then listed), its values, what `eval` takes.
-    crate::base::error::check_memory(
+    crate::base::limits::check_memory(
         "size",
         (w as u128 * h as u128) * (24 + 4 * c as u128 + eval_bytes as u128),
         opts.max_memory,

@@ -40,6 +40,7 @@
 
 use super::circle::{solve3, Circle};
 use crate::base::error::{Error, Result};
+use crate::base::vec::dot;
 use crate::frame::view::{self, Mat3, IDENTITY};
 use crate::trace::camera::{Camera, Projection};
 
@@ -74,10 +75,6 @@ pub struct BallGeometry {
 pub struct Located {
     pub pixel: [f64; 2],
     pub quality: f64,
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn mat_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {

@@ -59,6 +59,7 @@
 //! a reflectance no chrome ball has (the caller refuses those).
 
 use super::circle::Plane;
+use crate::base::vec::{cross, dot, normalize};
 use crate::trace::camera::Camera;
 use rayon::prelude::*;
 
@@ -99,23 +100,6 @@ const SECTORS: usize = 32;
 const TRUST: f64 = 1.0;
 /// The factor on the formal standard deviation for residuals correlated along the rim.
 const CORRELATED: f64 = 3.0;
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    a.map(|v| v / l)
-}
 
 /// Two unit vectors completing `a` to an orthonormal frame.
 fn basis(a: [f64; 3]) -> ([f64; 3], [f64; 3]) {

@@ -51,6 +51,7 @@ pub use request::RenderRequest;
 pub use shade::{heat_colour, Texture, Wrap};
 
 use crate::base::error::{Error, Result};
+use crate::base::vec::{cross, dot, sub};
 use crate::frame::view::Mat3;
 use crate::images::Image;
 use crate::mappings::matcap::MatcapVariant;
@@ -77,22 +78,6 @@ pub struct GlCamera {
     pub far: f64,
 }
 
-/// The largest image side the rasterizer draws.
-pub const MAX_SIDE: usize = 16384;
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
     let l = dot(a, a).sqrt();
     (l > 0.0 && l.is_finite()).then(|| a.map(|v| v / l))
@@ -111,12 +96,7 @@ impl GlCamera {
         width: usize,
         height: usize,
     ) -> Result<GlCamera> {
-        if !(1..=MAX_SIDE).contains(&width) || !(1..=MAX_SIDE).contains(&height) {
-            return Err(Error::param(
-                "size",
-                format!("{width}x{height}: each side must be 1..={MAX_SIDE}"),
-            ));
-        }
+        crate::base::limits::check_sides(width, height, crate::base::limits::RENDER_SIDE)?;
         if !eye.iter().chain(&target).chain(&up).all(|v| v.is_finite()) {
             return Err(Error::param("eye", "eye, target and up must be finite"));
         }
@@ -322,18 +302,18 @@ pub enum Env<'a> {
 /// read as a GL one: mirrored or turned.
 pub fn gl_sphere_for(
     mode: Mode,
-    mapping: crate::Mapping,
+    mapping: crate::mappings::mapping::Mapping,
     image: &Image,
     what: &str,
 ) -> Result<Option<Image>> {
-    let crate::Mapping::Sphere(p) = mapping else {
+    let crate::mappings::mapping::Mapping::Sphere(p) = mapping else {
         return Ok(None);
     };
     if p.name == "gl" || !matches!(mode, Mode::PerVertex | Mode::PerPixel) {
         return Ok(None);
     }
     let src = EnvMap::new(mapping, image, what)?;
-    let gl = crate::Mapping::parse("sphere", None)?;
+    let gl = crate::mappings::mapping::Mapping::parse("sphere", None)?;
     let opts = crate::resample::ResampleOptions::default();
     let (out, _) = crate::resample::resample(&src, gl, image.width, image.height, &opts, None)?;
     Ok(Some(out))
@@ -349,12 +329,12 @@ pub struct EnvInput<'a> {
 impl<'a> EnvInput<'a> {
     /// `image` in `mapping` (none: nothing to look up); `what` names it in errors.
     pub fn new(
-        mapping: crate::Mapping,
+        mapping: crate::mappings::mapping::Mapping,
         image: Option<&'a Image>,
         wrap: Wrap,
         what: &str,
     ) -> Result<Self> {
-        let sphere = matches!(mapping, crate::Mapping::Sphere(_));
+        let sphere = matches!(mapping, crate::mappings::mapping::Mapping::Sphere(_));
         Ok(match image {
             None => EnvInput {
                 texture: None,
@@ -504,7 +484,7 @@ fn vertex_stage(mesh: &Mesh, cam: &GlCamera) -> Result<Vertices> {
         &mv,
         TexgenOptions {
             normalize: NormalMode::On,
-            singular: crate::Singular::Center,
+            singular: crate::frame::conventions::Singular::Center,
         },
         &mut st,
     )?;

@@ -260,11 +260,11 @@ pub(crate) fn draw(
     let ns = offs.len();
     // The image, and per band in flight a depth (8 bytes), a triangle id (4) and two
     // barycentrics (16) per sample.
-    crate::base::error::check_memory(
+    crate::base::limits::check_memory(
         "size",
         (width * height * c * 4) as u128
             + (width * BAND * ns * 28 * rayon::current_num_threads()) as u128,
-        crate::base::error::default_max_memory(),
+        crate::base::limits::default_max_memory(),
     )?;
     let bins = bin_triangles(tris, height);
     let mut img = Image::new(width, height, c);

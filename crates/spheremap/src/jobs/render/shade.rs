@@ -22,11 +22,11 @@ pub enum Wrap {
 }
 
 impl Wrap {
-    pub fn parse(name: &str) -> crate::Result<Wrap> {
+    pub fn parse(name: &str) -> crate::base::error::Result<Wrap> {
         match name {
             "clamp" | "clamp-to-edge" => Ok(Wrap::ClampToEdge),
             "repeat" => Ok(Wrap::Repeat),
-            _ => Err(crate::Error::param(
+            _ => Err(crate::base::error::Error::param(
                 "wrap",
                 format!("unknown wrap {name:?}; expected clamp-to-edge or repeat"),
             )),

@@ -159,8 +159,7 @@ struct Tri {
     n: Vec3A,
 }
 
-/// The largest vertex coordinate a scene may have.
-pub const MAX_COORDINATE: f32 = 1e15;
+use crate::base::limits::SCENE_COORDINATE as MAX_COORDINATE;
 
 /// Barycentric tolerance of the intersector: triangles overlap their neighbours by this much
 /// (relative) so rays through shared edges cannot slip between them.
