@@ -19,7 +19,7 @@
 //! addresses.  A constant environment of radiance 1 gives the GGX directional albedo E(n·v).
 //!
 //! A texel holds the lobe's mean over its footprint: where the texel is wider than the lobe
-//! (or than about 6°), the level is evaluated on a canvas m times finer and each texel is the
+//! (or than about 3°), the level is evaluated on a canvas m times finer and each texel is the
 //! solid-angle mean of its m×m children ([`fineness`], [`crate::resample::energy::reduce`]),
 //! so the level keeps the power a narrow lobe would otherwise hit or miss at the texel's
 //! centre.
@@ -450,20 +450,20 @@ pub fn prefilter(
 }
 
 /// How many times finer than a `w`×`h` level's canvas its lobes are evaluated, each texel then
-/// the solid-angle mean of its m×m children ([`reduce`]): m = the side of a texel of the
-/// canvas's mean solid angle over the smaller of the GGX lobe's α and [`FINE_TEXEL`], rounded.
+/// the solid-angle mean of its m×m children ([`reduce`]): m = the side of the canvas's largest
+/// texel (by solid angle: a cube face's centre, a lat-long's equator) over the smaller of the
+/// GGX lobe's α and [`FINE_TEXEL`], rounded, so no child anywhere is wider than either.
 /// A texel so holds the lobe's mean over its footprint: where a lobe is narrower than the
 /// texel, its value at the centre alone hits or misses a small bright source (and the level's
 /// power with it), and where the texel spans many degrees it misses the lobe's curvature
 /// across it.
 fn fineness(mapping: Mapping, w: usize, h: usize, material: Material) -> usize {
-    let disc = if mapping.has_outside() {
-        std::f64::consts::FRAC_PI_4
-    } else {
-        1.0
-    };
-    // The side of a texel of the mean solid angle.
-    let t = (4.0 * std::f64::consts::PI / (w as f64 * h as f64 * disc)).sqrt();
+    // The side of the canvas's largest texel (a cube face's centre, a lat-long's equator).
+    let t = mapping
+        .solid_angles(w, h)
+        .into_iter()
+        .fold(0.0f64, f64::max)
+        .sqrt();
     let child = match material {
         Material::Ggx { alpha } => alpha.min(FINE_TEXEL),
         Material::Lambert => FINE_TEXEL,
@@ -474,8 +474,8 @@ fn fineness(mapping: Mapping, w: usize, h: usize, material: Material) -> usize {
     ((t / child).round() as usize).clamp(1, FINE_MAX)
 }
 
-/// The widest child ([`fineness`]), in radians: about 6°.
-const FINE_TEXEL: f64 = 0.1;
+/// The widest child ([`fineness`]), in radians: about 3°.
+const FINE_TEXEL: f64 = 0.05;
 
 /// The most children per side of a level's texel ([`fineness`]).
 const FINE_MAX: usize = 64;
