@@ -138,15 +138,18 @@ fn paths_at(s: &[u8], i: usize, prefix: Vec<String>, out: &mut Vec<Vec<String>>)
     }
 }
 
-/// The modules `module` refers to, resolved to the longest known module prefix.
-fn references(module: &str, code: &str, known: &BTreeSet<String>) -> BTreeSet<String> {
+/// The paths in `module`'s code that start with `crate::` (true) or `super::` (false, resolved
+/// against `module`), group braces expanded.
+fn raw_paths(module: &str, code: &str) -> Vec<(bool, Vec<String>)> {
     let s = code.as_bytes();
     let mut raw = Vec::new();
     let mut i = 0;
     while i < s.len() {
         let word_start = i == 0 || !(s[i - 1].is_ascii_alphanumeric() || s[i - 1] == b'_');
-        if word_start && s[i..].starts_with(b"crate::") {
-            i = paths_at(s, i + 7, Vec::new(), &mut raw);
+        let mut found = Vec::new();
+        let from_crate = word_start && s[i..].starts_with(b"crate::");
+        if from_crate {
+            i = paths_at(s, i + 7, Vec::new(), &mut found);
         } else if word_start && s[i..].starts_with(b"super::") {
             let mut base: Vec<String> = module.split("::").map(String::from).collect();
             let mut j = i;
@@ -154,11 +157,18 @@ fn references(module: &str, code: &str, known: &BTreeSet<String>) -> BTreeSet<St
                 base.pop();
                 j += 7;
             }
-            i = paths_at(s, j, base, &mut raw);
+            i = paths_at(s, j, base, &mut found);
         } else {
             i += 1;
         }
+        raw.extend(found.into_iter().map(|p| (from_crate, p)));
     }
+    raw
+}
+
+/// The modules `module` refers to, resolved to the longest known module prefix.
+fn references(module: &str, code: &str, known: &BTreeSet<String>) -> BTreeSet<String> {
+    let raw = raw_paths(module, code).into_iter().map(|(_, p)| p);
     let mut out = BTreeSet::new();
     for path in raw {
         let mut best = None;
@@ -235,19 +245,10 @@ fn no_module_imports_from_a_layer_above_and_there_are_no_circles() {
 /// `crate::X` paths whose first step is not one of the crate's modules: the crate root's `pub use`
 /// shortcuts (`crate::Mapping`), which hide the layer they come from.
 fn root_shortcuts(code: &str, modules: &BTreeSet<String>) -> BTreeSet<String> {
-    let s = code.as_bytes();
-    let mut raw = Vec::new();
-    let mut i = 0;
-    while i < s.len() {
-        let word_start = i == 0 || !(s[i - 1].is_ascii_alphanumeric() || s[i - 1] == b'_');
-        if word_start && s[i..].starts_with(b"crate::") {
-            i = paths_at(s, i + 7, Vec::new(), &mut raw);
-        } else {
-            i += 1;
-        }
-    }
-    raw.into_iter()
-        .filter_map(|p| p.first().cloned())
+    raw_paths("", code)
+        .into_iter()
+        .filter(|(from_crate, _)| *from_crate)
+        .filter_map(|(_, p)| p.first().cloned())
         .filter(|first| !modules.contains(first))
         .collect()
 }
