@@ -62,6 +62,9 @@ pub struct Limit {
     pub what: &'static str,
     /// The environment variable that replaces the default, if any.
     pub env: Option<&'static str>,
+    /// The value in this process, where `env` can replace the default.
+    #[serde(skip)]
+    pub current: Option<fn() -> u64>,
 }
 
 const fn row(name: &'static str, value: u64, unit: &'static str, what: &'static str) -> Limit {
@@ -72,6 +75,7 @@ const fn row(name: &'static str, value: u64, unit: &'static str, what: &'static 
         unit,
         what,
         env: None,
+        current: None,
     }
 }
 
@@ -91,6 +95,7 @@ pub const TABLE: [Limit; 15] = [
     ),
     Limit {
         env: Some("SPHEREMAP_MAX_PIXELS"),
+        current: Some(|| max_pixels() as u64),
         ..row(
             "image_pixels",
             IMAGE_PIXELS as u64,
@@ -160,6 +165,7 @@ pub const TABLE: [Limit; 15] = [
     },
     Limit {
         env: Some("SPHEREMAP_MAX_MEMORY"),
+        current: Some(default_max_memory),
         ..row(
             "memory",
             MEMORY,
@@ -189,13 +195,9 @@ pub const TABLE: [Limit; 15] = [
 pub fn table() -> Vec<Limit> {
     TABLE
         .iter()
-        .map(|l| {
-            let value = match l.name {
-                "image_pixels" => max_pixels() as u64,
-                "memory" => default_max_memory(),
-                _ => l.value,
-            };
-            Limit { value, ..*l }
+        .map(|l| Limit {
+            value: l.current.map_or(l.value, |f| f()),
+            ..*l
         })
         .collect()
 }

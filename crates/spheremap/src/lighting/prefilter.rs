@@ -459,9 +459,13 @@ pub fn prefilter(
 /// across it.
 fn fineness(mapping: Mapping, w: usize, h: usize, material: Material) -> usize {
     // The side of the canvas's largest texel (a cube face's centre, a lat-long's equator).
-    let t = mapping
-        .solid_angles(w, h)
-        .into_iter()
+    let rows = mapping.texel_rows(w, h);
+    let mut row = Vec::with_capacity(w);
+    let t = (0..h)
+        .map(|y| {
+            rows.solid_angles(y, &mut row);
+            row.iter().copied().fold(0.0f64, f64::max)
+        })
         .fold(0.0f64, f64::max)
         .sqrt();
     let child = match material {
