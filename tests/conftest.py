@@ -1,3 +1,4 @@
+import json
 import math
 import os
 import subprocess
@@ -31,6 +32,22 @@ def cli(*args, cwd=None, env=None):
                           cwd=cwd, env=env)
 
 
+def write_recipe(tmp_path, output, hdri):
+    """A one-output batch recipe over a library holding `hdri` (a link): returns (library,
+    recipe path). `output` is the recipe's output table; a `convert` reads the map as a lat-long,
+    and the output is named after the input with the extension its op writes."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    os.symlink(os.path.abspath(hdri), lib / os.path.basename(hdri))
+    if output["op"] == "convert":
+        output = {"from": "latlong", **output}
+    suffix = ".ktx2" if output["op"] == "prefilter" else ".exr"
+    output = {"name": "{stem}" + suffix, **output}
+    rp = tmp_path / "recipe.toml"
+    rp.write_text("[[output]]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in output.items()))
+    return lib, rp
+
+
 def psnr(a, b, mask=None):
     """PSNR in dB of `a` against the reference `b` (over `mask` if given), the peak taken as the
     reference's 99.9th percentile and both clipped to [0, peak] (HDR-safe)."""
@@ -44,7 +61,6 @@ def psnr(a, b, mask=None):
 
 def write_glb(path, positions, normals, indices, nodes, scene_nodes):
     """A minimal glTF 2.0 binary: one mesh (one triangle primitive), the given nodes."""
-    import json
     import struct
 
     pos = np.asarray(positions, np.float32).tobytes()

@@ -11,6 +11,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import write_recipe
 
 import spheremap as sm
 
@@ -124,14 +125,7 @@ def test_one_over_a_limit_is_refused_alike_everywhere(case, hdri, tmp_path):
         call(n, hdri)
     assert str(e.value) == expect
 
-    lib = tmp_path / "lib"
-    lib.mkdir()
-    os.symlink(os.path.abspath(HDRI), lib / "apartment.exr")
-    output = {"name": "{stem}" + out.suffix, "from": "latlong", **recipe(n)}
-    if output["op"] != "convert":
-        del output["from"]
-    rp = tmp_path / "recipe.toml"
-    rp.write_text("[[output]]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in output.items()))
+    lib, rp = write_recipe(tmp_path, recipe(n), HDRI)
     r = cli("batch", lib, "--recipe", rp, "--out", tmp_path / "made")
     assert r.returncode == 2, r.stderr
     assert r.stderr.strip() == f"spheremap: {rp}: output 1: {expect}", r.stderr

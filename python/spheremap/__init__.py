@@ -24,6 +24,7 @@ from .names import (
     RENDER_MODES,
     SINGULAR_MODES,
     TAPS,
+    WRAPS,
     limits,
 )
 from .texgen import (
@@ -93,6 +94,7 @@ __all__ = [
     "MATCAP_VARIANTS",
     "LENS_MODELS",
     "PHOTO_FILLS",
+    "WRAPS",
     "find_ball",
     "from_mirror_ball",
     "from_fisheye",

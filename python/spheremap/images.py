@@ -10,8 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _choice, _floats, _size_any, _vec3
-from .names import ENCODINGS, MAPPINGS
+from ._args import _ArrayLike, _choice, _floats, _name, _size_any, _vec3
+from .names import MAPPINGS
 
 
 def read_image(
@@ -102,7 +102,7 @@ def write_image(
         raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
-    _choice(encode, "encode", ENCODINGS)
+    _name("encode", encode, "encode")
     clipped, clamped = _ext.write_image(
         path=os.fspath(path),
         array=np.ascontiguousarray(a, dtype=np.float32),
@@ -182,7 +182,7 @@ def write_texture(
         raise ValueError("levels: a texture needs at least one level")
     if clamp_half and not half:
         raise ValueError("clamp_half: applies to half=True")
-    _choice(encode, "encode", ENCODINGS)
+    _name("encode", encode, "encode")
     if zstd is not None and (isinstance(zstd, bool) or not isinstance(zstd, int) or not 1 <= zstd <= 22):
         raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
     note = None

@@ -14,7 +14,8 @@ MATCAP_VARIANTS = tuple(_ext.names("matcap"))
 MAPPINGS = tuple(_ext.names("mapping"))
 #: KTX2/DDS texel encodings (write_texture's encode, the CLI's --encode).
 ENCODINGS = tuple(_ext.names("encode"))
-#: Cube-map file layouts (see the README's diagram); "dice" = "hcross".
+#: Cube-map file layouts (see the README's diagram); "dice" (py360convert's name) is accepted
+#: for "hcross".
 CUBE_LAYOUTS = tuple(_ext.names("layout"))
 #: Reconstruction filters of convert.
 FILTERS = tuple(_ext.names("filter"))
@@ -26,6 +27,8 @@ LENS_MODELS = tuple(_ext.names("lens"))
 RENDER_MODES = tuple(_ext.names("render"))
 #: What from_mirror_ball / from_fisheye put where no photo sees.
 PHOTO_FILLS = tuple(_ext.names("fill"))
+#: Texture wrap of render's sphere map or MatCap.
+WRAPS = tuple(_ext.names("wrap"))
 
 
 def limits() -> dict[str, dict[str, Any]]:

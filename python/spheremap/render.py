@@ -8,10 +8,10 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _choice, _finite, _floats, _size_any, _vec3
+from ._args import _Photo, _choice, _finite, _floats, _name, _size_any, _vec3
 from .convert import _env_array
 from .images import read_image
-from .names import MAPPINGS, MATCAP_VARIANTS, RENDER_MODES
+from .names import MAPPINGS, RENDER_MODES
 
 
 def load_mesh(
@@ -99,8 +99,8 @@ def render(
         env_layout = env_layout if env_layout is not None else noted_layout
     elif env_format is None:
         env_format = "sphere"
-    _choice(matcap_variant, "matcap_variant", MATCAP_VARIANTS)
-    _choice(wrap, "wrap", ("clamp-to-edge", "repeat"))
+    _name("matcap", matcap_variant, "matcap_variant")
+    _name("wrap", wrap, "wrap")
     p, n, t = _mesh_arrays(mesh)
     if mode in ("per-vertex", "matcap") and env_format != "sphere":
         raise ValueError(

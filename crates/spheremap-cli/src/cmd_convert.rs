@@ -58,13 +58,13 @@ pub struct Args {
     #[arg(long, value_parser = crate::names::core("layout"))]
     from_layout: Option<String>,
     /// f32 (fast, default) or f64 (reference) arithmetic.
-    #[arg(long, default_value = "f32", value_parser = crate::names::core("precision"))]
-    precision: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Precision>())]
+    precision: spheremap::resample::Precision,
     /// How each sample reads the input's texels: bilinear (default: 2×2) or bicubic (4×4
     /// Catmull-Rom, clamped to the nearest 2×2's range: sharper where output texels are as
     /// small as the input's or smaller; slower).
-    #[arg(long, default_value = "bilinear", value_parser = crate::names::core("taps"))]
-    taps: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Taps>())]
+    taps: spheremap::resample::Taps,
     /// Read/write LDR files as linear values (no sRGB transfer).
     #[arg(long)]
     linear: bool,
@@ -103,7 +103,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         precision: a.precision,
         conserve: !a.no_conserve,
         max_memory: Some(a.job.max_memory()?),
-        nonfinite: a.job.nonfinite.clone(),
+        nonfinite: a.job.nonfinite,
         linear: a.linear,
         png16: a.job.png16,
         half: a.job.half,

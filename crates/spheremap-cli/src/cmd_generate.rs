@@ -38,8 +38,8 @@ pub struct Args {
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,
     /// f32 (default) or f64 arithmetic for the ray directions.
-    #[arg(long, default_value = "f32", value_parser = crate::names::core("precision"))]
-    precision: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Precision>())]
+    precision: spheremap::resample::Precision,
     /// Also ray-trace the six cube faces at --pos into this folder (px nx py ny pz nz .exr):
     /// the first step of the two-step route (then `spheremap convert 'DIR/{face}.exr' ...`).
     #[arg(long)]
@@ -65,10 +65,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         up: a.view.get().1,
         samples: a.sampling.samples,
         max_samples: a.sampling.max_samples,
-        filter: a.sampling.filter.clone(),
-        outside: a.sampling.outside.clone(),
+        filter: a.sampling.filter,
+        outside: a.sampling.outside,
         seed: a.sampling.seed,
-        precision: a.precision.clone(),
+        precision: a.precision,
         max_memory: Some(a.job.max_memory()?),
     };
     let map = request.resolve().map_err(crate::flag_error)?;
@@ -142,8 +142,8 @@ fn summary(
             width: w,
             height: h,
             samples: a.sampling.samples,
-            filter: a.sampling.filter()?.name(),
-            outside: a.sampling.outside()?.name(),
+            filter: a.sampling.filter.name(),
+            outside: a.sampling.outside.name(),
             triangles: scene.map(|s| s.triangle_count()),
             degenerate_triangles: scene.map(|s| s.degenerate_count()),
             lights: scene.map(|s| s.lights.len()),

@@ -42,14 +42,17 @@ pub struct EnvFlags {
 
 impl EnvFlags {
     /// The core's request for these flags.
-    pub fn request(&self, nonfinite: &str) -> spheremap::lighting::EnvRequest {
+    pub fn request(
+        &self,
+        nonfinite: spheremap::images::codec::NonFinite,
+    ) -> spheremap::lighting::EnvRequest {
         spheremap::lighting::EnvRequest {
             env_format: self.env_format.clone(),
             env_preset: self.env_preset.clone(),
             env_layout: self.env_layout.clone(),
             env_look: vec3(&self.env_look),
             env_up: vec3(&self.env_up),
-            nonfinite: nonfinite.to_string(),
+            nonfinite,
         }
     }
 }
@@ -83,8 +86,8 @@ pub struct BakeArgs {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Outside the disc: gutter (default) or black.
-    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
-    outside: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
+    outside: spheremap::resample::Outside,
     /// Output file (.exr .hdr .pfm .png .jpg).
     #[arg(short = 'o', long)]
     output: String,
@@ -103,13 +106,13 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
         samples: a.samples,
         max_samples: a.max_samples,
         seed: a.seed,
-        outside: a.outside.clone(),
+        outside: a.outside,
         env_format: a.env.flags.env_format.clone(),
         env_preset: a.env.flags.env_preset.clone(),
         env_layout: a.env.flags.env_layout.clone(),
         env_look: vec3(&a.env.flags.env_look),
         env_up: vec3(&a.env.flags.env_up),
-        nonfinite: a.job.nonfinite.clone(),
+        nonfinite: a.job.nonfinite,
         max_memory: Some(a.job.max_memory()?),
     };
     let wopts = a.job.write_options(false);
@@ -169,8 +172,8 @@ pub struct IrradianceArgs {
     #[arg(long, default_value_t = 1)]
     samples: u32,
     /// NaN/Inf in the map: error (default), zero or keep.
-    #[arg(long, default_value = "error", value_parser = crate::names::core("nonfinite"))]
-    nonfinite: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::codec::NonFinite>())]
+    nonfinite: spheremap::images::codec::NonFinite,
     /// Allow an output to overwrite the input.
     #[arg(long)]
     force: bool,
@@ -189,7 +192,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
         env_layout: a.env.flags.env_layout.clone(),
         env_look: vec3(&a.env.flags.env_look),
         env_up: vec3(&a.env.flags.env_up),
-        nonfinite: a.nonfinite.clone(),
+        nonfinite: a.nonfinite,
     };
     let r = job
         .resolve(note.as_ref(), &a.env.env)
@@ -322,8 +325,8 @@ pub struct PrefilterArgs {
     /// Level -> roughness: filament (r(2-r) = level/(L-1); also three.js from r187),
     /// threejs (three.js up to r186: its cube-UV PMREM's roughnessToMip at log2 of the
     /// level's size) or linear.
-    #[arg(long, default_value = "filament", value_parser = crate::names::core("roughness_map"))]
-    roughness_map: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::lighting::prefilter::RoughnessMap>())]
+    roughness_map: spheremap::lighting::prefilter::RoughnessMap,
     /// One level of the cosine-convolved map ((1/pi) times the irradiance) instead.
     #[arg(long)]
     irradiance: bool,
@@ -341,8 +344,8 @@ pub struct PrefilterArgs {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Outside a sphere map's disc: gutter (default) or black.
-    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
-    outside: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
+    outside: spheremap::resample::Outside,
     /// The error each integral may leave, relative to the map's mean radiance (default 1e-4;
     /// 1e-5 is three times slower, 1e-3 three times faster; with --irradiance, 2e-3 or more
     /// sums the map on a coarser cube, about twice as fast, and under 5e-5 on a finer one).
@@ -351,8 +354,8 @@ pub struct PrefilterArgs {
     /// tree: exact integrals on the environment's tree (default; with --irradiance, the cosine
     /// integral by the map's moments); sampled: filtered importance sampling from a cube mip
     /// pyramid, as Filament's cmgen (fast, approximate).
-    #[arg(long, default_value = "tree", value_parser = crate::names::core("prefilter_method"))]
-    method: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::lighting::prefilter::PrefilterMethod>())]
+    method: spheremap::lighting::prefilter::PrefilterMethod,
     /// GGX samples per texel with --method sampled (Filament's default).
     #[arg(long, default_value_t = 1024)]
     lobe_samples: usize,
@@ -371,23 +374,23 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
         layout: a.layout.clone(),
         size: a.size,
         levels: a.levels,
-        roughness_map: a.roughness_map.clone(),
+        roughness_map: a.roughness_map,
         irradiance: a.irradiance,
         look: a.view.get().0,
         up: a.view.get().1,
         samples: a.samples,
         max_samples: a.max_samples,
         seed: a.seed,
-        outside: a.outside.clone(),
+        outside: a.outside,
         tolerance: a.tolerance,
-        method: a.method.clone(),
+        method: a.method,
         lobe_samples: a.lobe_samples,
         env_format: a.env.flags.env_format.clone(),
         env_preset: a.env.flags.env_preset.clone(),
         env_layout: a.env.flags.env_layout.clone(),
         env_look: vec3(&a.env.flags.env_look),
         env_up: vec3(&a.env.flags.env_up),
-        nonfinite: a.job.nonfinite.clone(),
+        nonfinite: a.job.nonfinite,
         max_memory: Some(a.job.max_memory()?),
     };
     let wopts = a.job.write_options(false);

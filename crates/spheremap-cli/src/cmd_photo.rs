@@ -34,8 +34,8 @@ pub struct MapOut {
     view: crate::view_args::ViewArgs,
     /// What to put where no photo sees: none (0, default), smooth (pull-push interpolation
     /// from the seen texels), mean (their mean colour).
-    #[arg(long, default_value = "none", value_parser = crate::names::core("fill"))]
-    fill: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::photo::Fill>())]
+    fill: spheremap::jobs::photo::Fill,
     /// Write the confidence mask here (one channel, 0 = unseen, 1 = best sampled).
     #[arg(long)]
     mask: Option<String>,
@@ -61,8 +61,8 @@ impl MapOut {
             up: self.view.get().1,
             samples: self.sampling.samples,
             max_samples: self.sampling.max_samples,
-            filter: self.sampling.filter.clone(),
-            outside: self.sampling.outside.clone(),
+            filter: self.sampling.filter,
+            outside: self.sampling.outside,
             seed: self.sampling.seed,
             max_memory: Some(self.job.max_memory()?),
             ..Default::default()
@@ -78,7 +78,7 @@ impl MapOut {
                 width: map.width,
                 height: map.height,
                 generate: map.options,
-                fill: Fill::parse(&self.fill)?,
+                fill: self.fill,
                 ..Default::default()
             },
             map.mapping,
@@ -383,7 +383,7 @@ fn summary(
                 eprintln!("{}: {m}", inputs[0]);
             }
         }
-        let unseen = if r.seen_fraction < 1.0 && out.fill == "none" {
+        let unseen = if r.seen_fraction < 1.0 && out.fill == Fill::None {
             " (unseen texels are 0; --fill smooth fills them)"
         } else {
             ""

@@ -38,8 +38,8 @@ pub struct Args {
     #[arg(long, default_value = "per-pixel", value_parser = crate::names::core("render"))]
     mode: String,
     /// MatCap variant for --mode matcap: classic, threejs, perspective.
-    #[arg(long, default_value = "classic", value_parser = crate::names::core("matcap"))]
-    matcap_variant: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::mappings::matcap::MatcapVariant>())]
+    matcap_variant: spheremap::mappings::matcap::MatcapVariant,
     #[command(flatten)]
     camera: CameraArgs,
     /// Image size in pixels.
@@ -57,14 +57,14 @@ pub struct Args {
     #[arg(long, default_value_t = 8)]
     subpixel_bits: u32,
     /// Texture wrap of a sphere map or MatCap: clamp-to-edge (default) or repeat.
-    #[arg(long, default_value = "clamp-to-edge")]
-    wrap: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::render::Wrap>())]
+    wrap: spheremap::jobs::render::Wrap,
     /// Exposure in stops for PNG/JPEG outputs (EXR/HDR/PFM stay linear and untouched).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
     /// Tone-mapping operator for PNG/JPEG outputs: clamp (default), reinhard, aces.
-    #[arg(long, default_value = "clamp", value_parser = crate::names::core("tonemap"))]
-    tonemap: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::tonemap::ToneMap>())]
+    tonemap: spheremap::images::tonemap::ToneMap,
     /// Error mode: the angle (degrees) shown as the hottest colour in PNG/JPEG outputs
     /// (EXR holds the degrees themselves).
     #[arg(long, default_value_t = 5.0)]
@@ -89,16 +89,16 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let request = RenderRequest {
         mode: a.mode.clone(),
-        matcap_variant: a.matcap_variant.clone(),
+        matcap_variant: a.matcap_variant,
         background: [a.background[0], a.background[1], a.background[2]],
         aa: a.aa,
         subpixel_bits: a.subpixel_bits,
-        wrap: a.wrap.clone(),
+        wrap: a.wrap,
         ..a.camera.request((a.size[0], a.size[1]))
     };
     let mode = request.mode().map_err(crate::flag_error)?;
-    let wrap = request.wrap().map_err(crate::flag_error)?;
-    let op = ToneMap::parse(&a.tonemap)?;
+    let wrap = request.wrap;
+    let op = a.tonemap;
     if !(a.error_max > 0.0 && a.error_max.is_finite()) {
         bail!("error-max: must be a positive number of degrees");
     }

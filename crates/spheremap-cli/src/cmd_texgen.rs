@@ -1,8 +1,8 @@
 use anyhow::{bail, Context};
 use spheremap::base::{files, parse};
-use spheremap::mappings::texgen::{sphere_texgen, ModelviewState, NormalMode, TexgenOptions};
+use spheremap::mappings::texgen::{sphere_texgen, ModelviewState, TexgenOptions};
+use spheremap::mesh;
 use spheremap::mesh::write::write_obj_with_uv;
-use spheremap::{mesh, Singular};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -20,11 +20,11 @@ pub struct Args {
     column_major: bool,
     /// GL normal state: on = GL_NORMALIZE, off = neither (normal NOT normalized, as GL),
     /// rescale = GL_RESCALE_NORMAL.
-    #[arg(long, default_value = "on", value_parser = crate::names::core("normalize"))]
-    normalize: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::mappings::texgen::NormalMode>())]
+    normalize: spheremap::mappings::texgen::NormalMode,
     /// Result where r = (0,0,-1): nan (current Mesa) or center (legacy Mesa, Blender Cycles).
-    #[arg(long, default_value = "nan", value_parser = crate::names::core("singular"))]
-    singular: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::frame::conventions::Singular>())]
+    singular: spheremap::frame::conventions::Singular,
     /// Output: .csv (s,t per vertex), .npy (N,2 float32) or .obj (the mesh with vt = (s,t)).
     #[arg(short, long)]
     output: PathBuf,
@@ -57,8 +57,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let m = parse::parse_matrix4(&spec, a.column_major, "--modelview")?;
     let mv = ModelviewState::new(m)?;
     let opts = TexgenOptions {
-        normalize: NormalMode::parse(&a.normalize, "--normalize")?,
-        singular: Singular::parse(&a.singular, "--singular")?,
+        normalize: a.normalize,
+        singular: a.singular,
     };
     let mesh = mesh::load_mesh(&mesh_path)?;
     let pos: Vec<f32> = mesh.positions.iter().flatten().copied().collect();

@@ -37,8 +37,8 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
     /// NaN or Inf in the environment: error (default), zero, clamp.
-    #[arg(long, default_value = "error", value_parser = crate::names::core("nonfinite"))]
-    nonfinite: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::codec::NonFinite>())]
+    nonfinite: spheremap::images::codec::NonFinite,
 }
 
 /// `512M`, `2G`, `1048576`, by the core's reading of sizes.
@@ -49,7 +49,7 @@ fn parse_bytes(s: &str) -> Result<u64, String> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let req = a.env_flags.request(&a.nonfinite);
+    let req = a.env_flags.request(a.nonfinite);
     let data = spheremap::view::ViewData::load(
         a.mesh.as_deref(),
         a.env.as_deref(),

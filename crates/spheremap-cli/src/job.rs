@@ -27,8 +27,8 @@ pub struct JobFlags {
     /// 0..65504, rgb9e5 0..65408, uastc-hdr-4x4 and astc-hdr-6x6 0..65216; rgbd and rgbm: below
     /// 0) are clamped with their light moved into the texels around them, and a warning naming
     /// the power that still changes; rgbd and rgbm clamp values above their range.
-    #[arg(long, default_value = "float", value_parser = crate::names::core("encode"))]
-    pub encode: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::compress::Encoding>())]
+    pub encode: spheremap::images::compress::Encoding,
     /// KTX2: supercompress each level with Zstandard at this level (1-22).
     #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(i32).range(1..=22))]
     pub zstd: Option<i32>,
@@ -38,8 +38,8 @@ pub struct JobFlags {
     pub max_memory: Option<String>,
     /// NaN/Inf values in input images: error (default; names the count and the first pixel),
     /// zero (replace them with 0) or keep.
-    #[arg(long, default_value = "error", value_parser = crate::names::core("nonfinite"))]
-    pub nonfinite: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::codec::NonFinite>())]
+    pub nonfinite: spheremap::images::codec::NonFinite,
     /// Allow the output to overwrite an input file.
     #[arg(long)]
     pub force: bool,
@@ -85,10 +85,9 @@ impl JobFlags {
         }
     }
 
-    /// The `--encode` value (checked by its value parser).
+    /// The `--encode` value.
     pub fn encoding(&self) -> spheremap::images::compress::Encoding {
-        spheremap::images::compress::Encoding::parse("--encode", &self.encode)
-            .expect("checked by the value parser")
+        self.encode
     }
 
     /// Adds what writing `img` to `path` lost ([`spheremap::images::codec::Losses`]) to a `--json`
@@ -129,7 +128,7 @@ impl JobFlags {
     }
 
     pub fn nonfinite(&self) -> anyhow::Result<NonFinite> {
-        Ok(NonFinite::parse(&self.nonfinite)?)
+        Ok(self.nonfinite)
     }
 
     /// Whether to show a progress bar.

@@ -4,6 +4,7 @@
 
 use clap::builder::{PossibleValue, TypedValueParser};
 use clap::error::ErrorKind;
+use spheremap::base::named::Named;
 
 /// A value checked by `spheremap::names::check(kind, …)`.
 #[derive(Clone, Copy, Debug)]
@@ -48,6 +49,42 @@ impl TypedValueParser for CoreName {
     }
 }
 
+/// The value parser of a flag taking a [`Named`] enum: the enum itself, its names in the help,
+/// the core's error for any other text.
+#[derive(Clone, Copy, Debug)]
+pub struct Typed<T>(std::marker::PhantomData<T>);
+
+/// The value parser of a flag taking a `T` (`value_parser = names::typed::<Filter>()`).
+pub fn typed<T: Named>() -> Typed<T> {
+    Typed(std::marker::PhantomData)
+}
+
+impl<T: Named> TypedValueParser for Typed<T> {
+    type Value = T;
+
+    fn parse_ref(
+        &self,
+        _cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<T, clap::Error> {
+        let flag = arg
+            .and_then(|a| a.get_long())
+            .map_or_else(String::new, |l| format!("--{l}"));
+        let v = value.to_str().unwrap_or("\u{fffd}");
+        T::lookup(v).ok_or_else(|| {
+            clap::Error::raw(
+                ErrorKind::ValueValidation,
+                format!("{flag}: {}\n", T::unknown(v)),
+            )
+        })
+    }
+
+    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
+        Some(Box::new(T::names().iter().map(|n| PossibleValue::new(*n))))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -57,6 +94,41 @@ mod tests {
     struct T {
         #[arg(long, value_parser = core("filter"), default_value = "box")]
         filter: String,
+    }
+
+    #[derive(Parser, Debug)]
+    struct U {
+        #[arg(long, value_parser = typed::<Filter>(), default_value_t)]
+        filter: Filter,
+    }
+
+    use spheremap::resample::Filter;
+
+    #[test]
+    fn typed_names_give_the_enum_its_default_and_the_cores_error() {
+        assert_eq!(U::try_parse_from(["u"]).unwrap().filter, Filter::default());
+        assert_eq!(
+            U::try_parse_from(["u", "--filter", "triangle"])
+                .unwrap()
+                .filter,
+            Filter::Tent
+        );
+        let e = U::try_parse_from(["u", "--filter", "lanczos"]).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::ValueValidation);
+        let text = e.to_string();
+        assert!(
+            text.contains(
+                "--filter: unknown filter \"lanczos\"; expected one of: box, tent, gaussian"
+            ),
+            "{text}"
+        );
+        let help = <U as clap::CommandFactory>::command()
+            .render_long_help()
+            .to_string();
+        assert!(
+            help.contains("gaussian") && help.contains("[default: box]"),
+            "{help}"
+        );
     }
 
     #[test]

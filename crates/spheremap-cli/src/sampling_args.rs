@@ -1,7 +1,7 @@
 //! The filtering flags of every command that fills texels from samples — `convert`,
 //! `generate`, `from-photo`, `from-fisheye`: one place for their names, defaults and help.
 
-use spheremap::resample::{Filter, Outside, DEFAULT_SAMPLES};
+use spheremap::resample::DEFAULT_SAMPLES;
 
 #[derive(clap::Args, Debug)]
 pub struct SamplingArgs {
@@ -15,22 +15,13 @@ pub struct SamplingArgs {
     #[arg(long, default_value_t = 1024)]
     pub max_samples: u32,
     /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
-    #[arg(long, default_value = "box", value_parser = crate::names::core("filter"))]
-    pub filter: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Filter>())]
+    pub filter: spheremap::resample::Filter,
     /// Outside a sphere/angular/paraboloid disc: gutter (mirror across the rim, no dark fringe
     /// under GPU filtering; default) or black.
-    #[arg(long, default_value = "gutter", value_parser = crate::names::core("outside"))]
-    pub outside: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
+    pub outside: spheremap::resample::Outside,
     /// Seed of the sample jitter (results are deterministic for a seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-}
-
-impl SamplingArgs {
-    pub fn filter(&self) -> spheremap::Result<Filter> {
-        Filter::parse(&self.filter)
-    }
-    pub fn outside(&self) -> spheremap::Result<Outside> {
-        Outside::parse(&self.outside)
-    }
 }

@@ -184,8 +184,8 @@ fn sphere_texgen<'py>(
     out: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = TexgenOptions {
-        normalize: NormalMode::parse(normalize, "normalize").map_err(to_py)?,
-        singular: Singular::parse(singular, "singular").map_err(to_py)?,
+        normalize: NormalMode::parse_as(normalize, "normalize").map_err(to_py)?,
+        singular: Singular::parse_as(singular, "singular").map_err(to_py)?,
     };
     let m = modelview.as_array();
     if m.shape() != [4, 4] {
@@ -316,7 +316,7 @@ fn dir_to_sphere<'py>(
     dirs: &Bound<'py, PyAny>,
     singular: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let sg = Singular::parse(singular, "singular").map_err(to_py)?;
+    let sg = Singular::parse_as(singular, "singular").map_err(to_py)?;
     Ok(rowwise!(py, dirs, "dirs", 3 -> 2, |r: T| spheremap::dir_to_st::<T>(r, sg)))
 }
 
@@ -341,7 +341,7 @@ fn matcap_uv<'py>(
     variant: &str,
     scale: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let v = MatcapVariant::parse(variant, "variant").map_err(to_py)?;
+    let v = MatcapVariant::parse_as(variant, "variant").map_err(to_py)?;
     let sc = scale.unwrap_or(v.default_scale());
     if !sc.is_finite() {
         return Err(PyValueError::new_err("scale: must be finite"));
@@ -376,7 +376,7 @@ fn dir_to_pixel<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let size = image_side("size", size)?;
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
-    let sg = Singular::parse(singular, "singular").map_err(to_py)?;
+    let sg = Singular::parse_as(singular, "singular").map_err(to_py)?;
     map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| {
         let (x, y) = p.dir_to_pixel(d, size, sg);
         [x, y]
@@ -722,7 +722,8 @@ fn write_texture<'py>(
         .map(|(i, a)| image_of(a, &format!("levels[{i}]")))
         .collect::<PyResult<Vec<_>>>()?;
     let tex = spheremap::images::container::Texture { cube, levels };
-    let encode = spheremap::images::compress::Encoding::parse("encode", &encode).map_err(to_py)?;
+    let encode =
+        spheremap::images::compress::Encoding::parse_as(&encode, "encode").map_err(to_py)?;
     let opts = WriteOptions {
         half,
         clamp_half,
@@ -977,7 +978,8 @@ fn write_image(
     use spheremap::images::codec::{Losses, WriteOptions};
     use spheremap::images::format::Format;
     let img = image_of(&array, "array")?;
-    let encode = spheremap::images::compress::Encoding::parse("encode", &encode).map_err(to_py)?;
+    let encode =
+        spheremap::images::compress::Encoding::parse_as(&encode, "encode").map_err(to_py)?;
     let opts = WriteOptions {
         linear,
         png16,

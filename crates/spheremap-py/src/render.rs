@@ -103,7 +103,7 @@ pub fn render<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let request = render_request(request)?;
     let mode = request.mode().map_err(to_py)?;
-    let wrap = request.wrap().map_err(to_py)?;
+    let wrap = request.wrap;
     let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
     let cam = request.camera(&mesh.positions).map_err(to_py)?;
     let img = env

@@ -51,7 +51,7 @@ fn main() {
             .to_string_lossy();
         for e in encodings.split(',') {
             let opts = WriteOptions {
-                encode: Encoding::parse("ENCODE", e).unwrap(),
+                encode: Encoding::parse_as(e, "ENCODE").unwrap(),
                 ..Default::default()
             };
             let t0 = std::time::Instant::now();

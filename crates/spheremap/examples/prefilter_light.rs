@@ -30,7 +30,11 @@ fn main() {
             size: Some(size),
             levels,
             samples: samples as u32,
-            roughness_map: std::env::var("RMAP").unwrap_or("filament".into()),
+            roughness_map: spheremap::lighting::prefilter::RoughnessMap::parse_as(
+                &std::env::var("RMAP").unwrap_or("filament".into()),
+                "RMAP",
+            )
+            .unwrap(),
             to: std::env::var("TO").unwrap_or("cube".into()),
             ..Default::default()
         };

@@ -86,7 +86,7 @@ pub struct IrradianceJob {
     pub env_layout: Option<String>,
     pub env_look: Option<[f64; 3]>,
     pub env_up: Option<[f64; 3]>,
-    pub nonfinite: Option<String>,
+    pub nonfinite: Option<crate::images::codec::NonFinite>,
 }
 
 /// A window as a recipe spells it: `"auto"` or a number.
@@ -105,7 +105,7 @@ impl IrradianceJob {
             env_layout: self.env_layout.clone(),
             env_look: self.env_look,
             env_up: self.env_up,
-            nonfinite: self.nonfinite.clone().unwrap_or_else(|| "error".into()),
+            nonfinite: self.nonfinite.unwrap_or_default(),
         }
     }
 
@@ -335,6 +335,8 @@ impl Recipe {
                     })
                     .map(|(k, _)| k.clone())
                     .unwrap_or_else(|| "value".into());
+                // A name's message names its field already (`base::named`).
+                let m = m.strip_prefix(&format!("{key}: ")).map_or(m.clone(), str::to_string);
                 Error::param(key, m)
             })
         }

@@ -16,7 +16,7 @@ use crate::mappings::texgen::NormalMode;
 use crate::resample::{Filter, Outside, Precision, Taps};
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
-pub const KINDS: [&str; 18] = [
+pub const KINDS: [&str; 19] = [
     "mapping",
     "filter",
     "taps",
@@ -35,6 +35,7 @@ pub const KINDS: [&str; 18] = [
     "roughness_map",
     "prefilter_method",
     "encode",
+    "wrap",
 ];
 
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
@@ -59,7 +60,8 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "material" => &crate::lighting::brdf::Material::NAMES,
         "roughness_map" => &crate::lighting::prefilter::RoughnessMap::NAMES,
         "prefilter_method" => &crate::lighting::prefilter::PrefilterMethod::NAMES,
-        "encode" => &crate::images::compress::ENCODING_NAMES,
+        "encode" => &crate::images::compress::Encoding::NAMES,
+        "wrap" => &render::Wrap::NAMES,
         _ => return None,
     })
 }
@@ -70,24 +72,27 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
     let named = |r: Result<()>| r.map_err(|e| e.named(arg));
     named(match kind {
         "mapping" => crate::mappings::mapping::Mapping::parse(value, None).map(drop),
-        "filter" => Filter::parse(value).map(drop),
-        "taps" => Taps::parse(value).map(drop),
-        "outside" => Outside::parse(value).map(drop),
-        "precision" => Precision::parse(value).map(drop),
-        "layout" => Layout::parse(value).map(drop),
+        "filter" => Filter::parse_as(value, arg).map(drop),
+        "taps" => Taps::parse_as(value, arg).map(drop),
+        "outside" => Outside::parse_as(value, arg).map(drop),
+        "precision" => Precision::parse_as(value, arg).map(drop),
+        "layout" => Layout::parse_as(value, arg).map(drop),
         #[cfg(feature = "photo")]
-        "fill" => photo::Fill::parse(value).map(drop),
+        "fill" => photo::Fill::parse_as(value, arg).map(drop),
         "lens" => LensModel::parse(value, [0.0; 4]).map(drop),
         "render" => render::Mode::parse(value, MatcapVariant::default()).map(drop),
-        "normalize" => NormalMode::parse(value, arg).map(drop),
-        "singular" => Singular::parse(value, arg).map(drop),
-        "matcap" => MatcapVariant::parse(value, arg).map(drop),
-        "nonfinite" => NonFinite::parse(value).map(drop),
-        "tonemap" => ToneMap::parse(value).map(drop),
+        "normalize" => NormalMode::parse_as(value, arg).map(drop),
+        "singular" => Singular::parse_as(value, arg).map(drop),
+        "matcap" => MatcapVariant::parse_as(value, arg).map(drop),
+        "nonfinite" => NonFinite::parse_as(value, arg).map(drop),
+        "tonemap" => ToneMap::parse_as(value, arg).map(drop),
         "material" => crate::lighting::brdf::Material::parse(value, 0.5).map(drop),
-        "roughness_map" => crate::lighting::prefilter::RoughnessMap::parse(value).map(drop),
-        "prefilter_method" => crate::lighting::prefilter::PrefilterMethod::parse(value).map(drop),
-        "encode" => crate::images::compress::Encoding::parse(arg, value).map(drop),
+        "roughness_map" => crate::lighting::prefilter::RoughnessMap::parse_as(value, arg).map(drop),
+        "prefilter_method" => {
+            crate::lighting::prefilter::PrefilterMethod::parse_as(value, arg).map(drop)
+        }
+        "encode" => crate::images::compress::Encoding::parse_as(value, arg).map(drop),
+        "wrap" => render::Wrap::parse_as(value, arg).map(drop),
         _ => Err(Error::param(
             "kind",
             format!(

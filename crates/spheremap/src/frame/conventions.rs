@@ -62,37 +62,19 @@
 use crate::base::error::{Error, Result};
 use crate::base::real::Real;
 
-/// What to return where the mapping is singular: the sphere map's rim, where r = (0,0,−1) has no
-/// unique (s,t), and — in mesh texgen — zero-length vectors that GL normalizes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Singular {
-    /// NaN, as current Mesa computes (`rsq(0) = inf`, `0·inf = NaN`).  The honest answer: there
-    /// is no single texel for the direction straight ahead.  **The default.**
-    #[default]
-    Nan,
-    /// The centre (½,½), as legacy Mesa's fixed-function `tnl` path and Blender Cycles'
-    /// `direction_to_mirrorball` return.  In texgen this also follows legacy Mesa in normalizing
-    /// a zero-length vector to zero instead of NaN.
-    Center,
-}
-
-impl Singular {
-    pub const NAMES: [&'static str; 2] = ["nan", "center"];
-    pub fn parse(name: &str, param: &str) -> Result<Self> {
-        match name {
-            "nan" => Ok(Singular::Nan),
-            "center" | "centre" => Ok(Singular::Center),
-            other => Err(Error::param(
-                param,
-                format!("unknown value {other:?}; expected one of: nan, center"),
-            )),
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            Singular::Nan => "nan",
-            Singular::Center => "center",
-        }
+crate::base::named::named_enum! {
+    /// What to return where the mapping is singular: the sphere map's rim, where r = (0,0,−1)
+    /// has no unique (s,t), and — in mesh texgen — zero-length vectors that GL normalizes.
+    #[derive(Default)]
+    pub enum Singular: "value" as "singular" {
+        /// NaN, as current Mesa computes (`rsq(0) = inf`, `0·inf = NaN`).  The honest answer:
+        /// there is no single texel for the direction straight ahead.  **The default.**
+        #[default]
+        Nan = "nan",
+        /// The centre (½,½), as legacy Mesa's fixed-function `tnl` path and Blender Cycles'
+        /// `direction_to_mirrorball` return.  In texgen this also follows legacy Mesa in
+        /// normalizing a zero-length vector to zero instead of NaN.
+        Center = "center" | "centre",
     }
 }
 

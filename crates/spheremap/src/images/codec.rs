@@ -1117,31 +1117,18 @@ fn is_rim_gutter(img: &Image) -> bool {
     count > 0 && mag > 0.0 && diff <= 0.08 * mag
 }
 
-/// What to do with NaN/Inf pixel values in an input.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum NonFinite {
-    /// Refuse the input, naming the count and the first location (default: a NaN spreads
-    /// through every filter that touches it).
-    #[default]
-    Error,
-    /// Replace them with 0.
-    Zero,
-    /// Keep them as they are.
-    Keep,
-}
-
-impl NonFinite {
-    pub const NAMES: [&'static str; 3] = ["error", "zero", "keep"];
-    pub fn parse(name: &str) -> Result<NonFinite> {
-        match name {
-            "error" => Ok(NonFinite::Error),
-            "zero" => Ok(NonFinite::Zero),
-            "keep" => Ok(NonFinite::Keep),
-            other => Err(Error::param(
-                "nonfinite",
-                format!("unknown value {other:?}; expected error, zero or keep"),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// What to do with NaN/Inf pixel values in an input.
+    #[derive(Default)]
+    pub enum NonFinite: "value" as "nonfinite" {
+        /// Refuse the input, naming the count and the first location (default: a NaN spreads
+        /// through every filter that touches it).
+        #[default]
+        Error = "error",
+        /// Replace them with 0.
+        Zero = "zero",
+        /// Keep them as they are.
+        Keep = "keep",
     }
 }
 

@@ -83,36 +83,29 @@ use crate::mappings::mapping::Mapping;
 use rayon::prelude::*;
 use serde::Serialize;
 
-/// How a texture's texels are encoded.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Encoding {
-    /// Half or 32-bit floats, uncompressed.
-    #[default]
-    Float,
-    /// BC6H, unsigned (`BC6H_UF16` / `BC6H_UFLOAT_BLOCK`).
-    Bc6h,
-    /// RGB9E5, shared exponent (`R9G9B9E5_SHAREDEXP` / `E5B9G9R9_UFLOAT_PACK32`).
-    Rgb9e5,
-    /// RGBD in an 8-bit RGBA PNG, as Babylon.js's `toRGBD` / `fromRGBD` define it.
-    Rgbd,
-    /// RGBM in an 8-bit RGBA PNG, as three.js's `RGBMLoader` reads it (range [`RGBM_RANGE`]).
-    Rgbm,
-    /// UASTC HDR 4x4 (Basis Universal; KTX2 `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK`, DFD model 167).
-    UastcHdr4x4,
-    /// ASTC HDR 6x6 (Basis Universal's encoder; KTX2 `VK_FORMAT_ASTC_6x6_SFLOAT_BLOCK`).
-    AstcHdr6x6,
+crate::base::named::named_enum! {
+    /// How a texture's texels are encoded (the names `--encode` and Python's `encode=` take).
+    #[derive(Default)]
+    pub enum Encoding: "encoding" as "encode" {
+        /// Half or 32-bit floats, uncompressed.
+        #[default]
+        Float = "float",
+        /// BC6H, unsigned (`BC6H_UF16` / `BC6H_UFLOAT_BLOCK`).
+        Bc6h = "bc6h",
+        /// RGB9E5, shared exponent (`R9G9B9E5_SHAREDEXP` / `E5B9G9R9_UFLOAT_PACK32`).
+        Rgb9e5 = "rgb9e5",
+        /// RGBD in an 8-bit RGBA PNG, as Babylon.js's `toRGBD` / `fromRGBD` define it.
+        Rgbd = "rgbd",
+        /// RGBM in an 8-bit RGBA PNG, as three.js's `RGBMLoader` reads it (range
+        /// [`RGBM_RANGE`]).
+        Rgbm = "rgbm",
+        /// UASTC HDR 4x4 (Basis Universal; KTX2 `VK_FORMAT_ASTC_4x4_SFLOAT_BLOCK`, DFD model
+        /// 167).
+        UastcHdr4x4 = "uastc-hdr-4x4",
+        /// ASTC HDR 6x6 (Basis Universal's encoder; KTX2 `VK_FORMAT_ASTC_6x6_SFLOAT_BLOCK`).
+        AstcHdr6x6 = "astc-hdr-6x6",
+    }
 }
-
-/// The encodings' names, as `--encode` and Python's `encode=` take them.
-pub const ENCODING_NAMES: [&str; 7] = [
-    "float",
-    "bc6h",
-    "rgb9e5",
-    "rgbd",
-    "rgbm",
-    "uastc-hdr-4x4",
-    "astc-hdr-6x6",
-];
 
 /// A block whose power differs from its source's by more than this (relative, per channel) is
 /// encoded again.
@@ -127,16 +120,6 @@ pub const RGB9E5_MAX: f32 = 65408.0;
 pub const ASTC_HDR_MAX: f32 = 65216.0;
 
 impl Encoding {
-    pub const ALL: [Encoding; 7] = [
-        Encoding::Float,
-        Encoding::Bc6h,
-        Encoding::Rgb9e5,
-        Encoding::Rgbd,
-        Encoding::Rgbm,
-        Encoding::UastcHdr4x4,
-        Encoding::AstcHdr6x6,
-    ];
-
     /// Basis Universal's HDR formats (KTX2 only).
     pub fn is_basis(self) -> bool {
         matches!(self, Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6)
@@ -145,30 +128,6 @@ impl Encoding {
     /// An HDR packing into an 8-bit RGBA PNG (RGBD, RGBM).
     pub fn is_packing(self) -> bool {
         matches!(self, Encoding::Rgbd | Encoding::Rgbm)
-    }
-
-    pub fn name(self) -> &'static str {
-        ENCODING_NAMES[Encoding::ALL
-            .iter()
-            .position(|e| *e == self)
-            .expect("listed")]
-    }
-
-    /// The encoding named `name`; errors name `what`.
-    pub fn parse(what: &str, name: &str) -> Result<Encoding> {
-        ENCODING_NAMES
-            .iter()
-            .position(|n| *n == name)
-            .map(|i| Encoding::ALL[i])
-            .ok_or_else(|| {
-                Error::param(
-                    what,
-                    format!(
-                        "unknown encoding {name:?}; the encodings are {}",
-                        ENCODING_NAMES.join(", ")
-                    ),
-                )
-            })
     }
 
     /// The largest value the encoding holds (`None`: float, whose range the half/float
@@ -182,19 +141,6 @@ impl Encoding {
             Encoding::Rgbm => Some(RGBM_RANGE),
             Encoding::UastcHdr4x4 | Encoding::AstcHdr6x6 => Some(ASTC_HDR_MAX),
         }
-    }
-}
-
-impl Serialize for Encoding {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Encoding {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        let name = String::deserialize(d)?;
-        Encoding::parse("encode", &name).map_err(serde::de::Error::custom)
     }
 }
 
@@ -470,7 +416,11 @@ pub fn packing_of_note(text: &str) -> Option<(Encoding, f32)> {
     let mut range = RGBM_RANGE;
     for kv in text.split_whitespace() {
         match kv.split_once('=') {
-            Some(("encode", v)) => e = Encoding::parse("encode", v).ok().filter(|e| e.is_packing()),
+            Some(("encode", v)) => {
+                e = Encoding::parse_as(v, "encode")
+                    .ok()
+                    .filter(|e| e.is_packing())
+            }
             Some(("rgbm_range", v)) => {
                 range = v.parse().ok().filter(|r: &f32| r.is_finite() && *r > 0.0)?
             }
@@ -2135,9 +2085,9 @@ mod tests {
     #[test]
     fn names_round_trip() {
         for e in Encoding::ALL {
-            assert_eq!(Encoding::parse("encode", e.name()).unwrap(), e);
+            assert_eq!(Encoding::parse_as(e.name(), "encode").unwrap(), e);
         }
-        assert!(Encoding::parse("--encode", "bc7")
+        assert!(Encoding::parse_as("bc7", "--encode")
             .unwrap_err()
             .to_string()
             .contains("float, bc6h, rgb9e5"));

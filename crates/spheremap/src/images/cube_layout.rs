@@ -34,19 +34,21 @@ use crate::base::error::{Error, Result};
 use crate::images::Image;
 use crate::mappings::cube::FACE_NAMES;
 
-/// How the six faces sit in a file.  See the module diagram.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Layout {
-    /// F × 6F, GL faces top to bottom (the internal stack).
-    VStrip,
-    /// 6F × F, GL faces left to right.
-    HStrip,
-    /// 4F × 3F cross of inside views around −Z (= py360convert `dice`).
-    HCross,
-    /// 3F × 4F cross of inside views, +Z at the bottom rotated 180°.
-    VCross,
-    /// 6F × F, inside views −Z +X +Z −X +Y −Y (py360convert `horizon`).
-    Horizon,
+crate::base::named::named_enum! {
+    /// How the six faces sit in a file.  See the module diagram.
+    pub enum Layout: "cube layout" as "layout" {
+        /// F × 6F, GL faces top to bottom (the internal stack).
+        VStrip = "vstrip" | "stack",
+        /// 6F × F, GL faces left to right.
+        HStrip = "hstrip",
+        /// 4F × 3F cross of inside views around −Z (= py360convert `dice`).
+        HCross = "hcross" | "cross" | "dice",
+        /// 3F × 4F cross of inside views, +Z at the bottom rotated 180°.
+        VCross = "vcross",
+        /// 6F × F, inside views −Z +X +Z −X +Y −Y (py360convert `horizon`).
+        Horizon = "horizon",
+    }
+    hint = ", or six files (named, or a {face} pattern)"
 }
 
 /// A face image's orientation in a layout slot, relative to the GL face image.
@@ -58,39 +60,6 @@ enum Orient {
 }
 
 impl Layout {
-    pub const NAMES: [&'static str; 6] =
-        ["vstrip", "hstrip", "hcross", "vcross", "dice", "horizon"];
-
-    pub fn parse(name: &str) -> Result<Layout> {
-        Ok(match name {
-            "vstrip" | "stack" => Layout::VStrip,
-            "hstrip" => Layout::HStrip,
-            "hcross" | "cross" | "dice" => Layout::HCross,
-            "vcross" => Layout::VCross,
-            "horizon" => Layout::Horizon,
-            other => {
-                return Err(Error::param(
-                    "layout",
-                    format!(
-                        "unknown cube layout {other:?}; expected one of: {}, or six files (named, or a \
-                         {{face}} pattern)",
-                        Self::NAMES.join(", ")
-                    ),
-                ))
-            }
-        })
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Layout::VStrip => "vstrip",
-            Layout::HStrip => "hstrip",
-            Layout::HCross => "hcross",
-            Layout::VCross => "vcross",
-            Layout::Horizon => "horizon",
-        }
-    }
-
     /// The layout an image of `w`×`h` must be, judged by shape alone, when it is unambiguous:
     /// 1:6 vstrip, 4:3 hcross, 3:4 vcross.  6:1 is hstrip or horizon: the caller must say.
     pub fn from_shape(w: usize, h: usize) -> Result<Layout> {

@@ -10,32 +10,20 @@
 //!
 //! The result is still linear; the image writer applies the sRGB transfer for 8/16-bit files.
 
-use crate::base::error::{Error, Result};
 use crate::images::Image;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum ToneMap {
-    #[default]
-    Clamp,
-    Reinhard,
-    Aces,
+crate::base::named::named_enum! {
+    /// A tone-mapping operator (the module's list).
+    #[derive(Default)]
+    pub enum ToneMap: "operator" as "tonemap" {
+        #[default]
+        Clamp = "clamp",
+        Reinhard = "reinhard",
+        Aces = "aces",
+    }
 }
 
 impl ToneMap {
-    pub const NAMES: [&'static str; 3] = ["clamp", "reinhard", "aces"];
-
-    pub fn parse(name: &str) -> Result<ToneMap> {
-        match name {
-            "clamp" => Ok(ToneMap::Clamp),
-            "reinhard" => Ok(ToneMap::Reinhard),
-            "aces" => Ok(ToneMap::Aces),
-            _ => Err(Error::param(
-                "tonemap",
-                format!("unknown operator {name:?}; expected clamp, reinhard or aces"),
-            )),
-        }
-    }
-
     /// One value, after the exposure scale.
     pub fn map(self, x: f32) -> f32 {
         let x = x.max(0.0);

@@ -83,15 +83,15 @@ pub struct ConvertJob {
     /// The most samples a texel may take adapting to its footprint.
     pub max_samples: u32,
     /// Reconstruction filter: box, tent, gaussian.
-    pub filter: String,
+    pub filter: Filter,
     /// How each sample reads the source: bilinear or bicubic.
-    pub taps: String,
+    pub taps: Taps,
     /// Outside a destination disc: gutter or black.
-    pub outside: String,
+    pub outside: Outside,
     /// Seed of the sample jitter.
     pub seed: u64,
     /// f32 (fast) or f64 (reference) arithmetic.
-    pub precision: String,
+    pub precision: Precision,
     /// Keep the light: with samples > 1, the source's brightest texels are integrated exactly
     /// (`resample::peaks`); false leaves the sampled filter alone.
     pub conserve: bool,
@@ -99,7 +99,7 @@ pub struct ConvertJob {
     /// `$SPHEREMAP_MAX_MEMORY` or 16 GiB).
     pub max_memory: Option<u64>,
     /// NaN/Inf in the source: error, zero or keep.
-    pub nonfinite: String,
+    pub nonfinite: NonFinite,
     /// LDR files as linear values (no sRGB transfer), read and written.
     pub linear: bool,
     /// 16-bit PNG output.
@@ -134,14 +134,14 @@ impl Default for ConvertJob {
             roll: None,
             samples: DEFAULT_SAMPLES,
             max_samples: 1024,
-            filter: "box".into(),
-            taps: "bilinear".into(),
-            outside: "gutter".into(),
+            filter: Filter::default(),
+            taps: Taps::default(),
+            outside: Outside::default(),
             seed: 0,
-            precision: "f32".into(),
+            precision: Precision::default(),
             conserve: true,
             max_memory: None,
-            nonfinite: "error".into(),
+            nonfinite: NonFinite::default(),
             linear: false,
             png16: false,
             half: false,
@@ -286,12 +286,12 @@ impl ConvertJob {
         let options = ResampleOptions {
             samples: self.samples,
             max_samples: self.max_samples,
-            filter: Filter::parse(&self.filter)?,
-            taps: Taps::parse(&self.taps)?,
-            outside: Outside::parse(&self.outside)?,
+            filter: self.filter,
+            taps: self.taps,
+            outside: self.outside,
             rotation,
             seed: self.seed,
-            precision: Precision::parse(&self.precision)?,
+            precision: self.precision,
             max_memory: self.max_memory.unwrap_or_else(default_max_memory),
             conserve: self.conserve,
         };
@@ -306,7 +306,7 @@ impl ConvertJob {
             rotation,
             out_view,
             options,
-            nonfinite: NonFinite::parse(&self.nonfinite)?,
+            nonfinite: self.nonfinite,
             notice,
         })
     }

@@ -14,10 +14,10 @@
 //! The tests compile every snippet (naga for GLSL and WGSL, glslang for HLSL) and execute the
 //! GLSL in Mesa against the core on a grid of directions.
 
-use crate::base::error::{Error, Result};
+use crate::base::error::Result;
 
 pub const LANGS: [&str; 3] = ["glsl", "wgsl", "hlsl"];
-pub const WHATS: [&str; 3] = ["texgen", "lookup", "matcap"];
+pub const WHATS: [&str; 3] = Snippet::NAMES;
 
 const GLSL_TEXGEN: &str = r#"// GL_SPHERE_MAP texgen (spheremap): OpenGL's per-vertex formula.
 // eye_pos: the vertex in eye space (modelview * position); eye_normal: the unit eye-space
@@ -183,24 +183,38 @@ float2 matcap_perspective(float3 n, float3 p) {
 }
 "#;
 
+crate::base::named::named_enum! {
+    /// A shading language of the snippets.
+    #[derive(Default)]
+    pub enum Language: "language" as "lang" {
+        #[default]
+        Glsl = "glsl",
+        Wgsl = "wgsl",
+        Hlsl = "hlsl",
+    }
+}
+
+crate::base::named::named_enum! {
+    /// What a snippet computes: per-vertex GL_SPHERE_MAP texgen, the per-pixel sphere-map
+    /// lookup, the MatCap lookup.
+    pub enum Snippet: "snippet" as "what" {
+        Texgen = "texgen",
+        Lookup = "lookup",
+        Matcap = "matcap",
+    }
+}
+
 /// The snippet for `lang` (glsl, wgsl, hlsl) and `what` (texgen, lookup, matcap).
 pub fn snippet(lang: &str, what: &str) -> Result<&'static str> {
+    Ok(source(Language::parse(lang)?, Snippet::parse(what)?))
+}
+
+/// The snippet `what` in `lang`.
+pub fn source(lang: Language, what: Snippet) -> &'static str {
     let table = match lang {
-        "glsl" => [GLSL_TEXGEN, GLSL_LOOKUP, GLSL_MATCAP],
-        "wgsl" => [WGSL_TEXGEN, WGSL_LOOKUP, WGSL_MATCAP],
-        "hlsl" => [HLSL_TEXGEN, HLSL_LOOKUP, HLSL_MATCAP],
-        _ => {
-            return Err(Error::param(
-                "lang",
-                format!("unknown language {lang:?}; expected glsl, wgsl or hlsl"),
-            ))
-        }
+        Language::Glsl => [GLSL_TEXGEN, GLSL_LOOKUP, GLSL_MATCAP],
+        Language::Wgsl => [WGSL_TEXGEN, WGSL_LOOKUP, WGSL_MATCAP],
+        Language::Hlsl => [HLSL_TEXGEN, HLSL_LOOKUP, HLSL_MATCAP],
     };
-    let i = WHATS.iter().position(|w| *w == what).ok_or_else(|| {
-        Error::param(
-            "what",
-            format!("unknown snippet {what:?}; expected texgen, lookup or matcap"),
-        )
-    })?;
-    Ok(table[i])
+    table[what as usize]
 }

@@ -19,6 +19,14 @@
 use crate::base::vec::{cross, dot, normalize};
 use std::f64::consts::PI;
 
+crate::base::named::named_enum! {
+    /// The names of [`Material`].
+    pub enum MaterialName: "material" as "material" {
+        Lambert = "lambert" | "diffuse",
+        Ggx = "ggx",
+    }
+}
+
 /// A material: what `bake-matcap --material` and `prefilter` name.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
@@ -30,13 +38,13 @@ pub enum Material {
 
 impl Material {
     /// The names `--material` takes.
-    pub const NAMES: [&'static str; 2] = ["lambert", "ggx"];
+    pub const NAMES: [&'static str; 2] = MaterialName::NAMES;
 
     /// The material from its name and perceptual roughness (ignored for `lambert`).
     pub fn parse(name: &str, roughness: f64) -> crate::base::error::Result<Material> {
-        match name {
-            "lambert" | "diffuse" => Ok(Material::Lambert),
-            "ggx" => {
+        match MaterialName::parse(name)? {
+            MaterialName::Lambert => Ok(Material::Lambert),
+            MaterialName::Ggx => {
                 if !(0.0..=1.0).contains(&roughness) {
                     return Err(crate::base::error::Error::param(
                         "roughness",
@@ -47,10 +55,6 @@ impl Material {
                     alpha: roughness * roughness,
                 })
             }
-            other => Err(crate::base::error::Error::param(
-                "material",
-                format!("unknown material {other:?}; expected lambert or ggx"),
-            )),
         }
     }
 

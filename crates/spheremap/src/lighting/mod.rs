@@ -45,7 +45,7 @@ pub struct EnvRequest {
     pub env_layout: Option<String>,
     pub env_look: Option<[f64; 3]>,
     pub env_up: Option<[f64; 3]>,
-    pub nonfinite: String,
+    pub nonfinite: crate::images::codec::NonFinite,
 }
 
 /// An [`EnvRequest`] checked against its file.
@@ -75,11 +75,7 @@ impl EnvRequest {
             from_look: self.env_look,
             from_up: self.env_up,
             to: Some("sphere".into()),
-            nonfinite: if self.nonfinite.is_empty() {
-                "error".into()
-            } else {
-                self.nonfinite.clone()
-            },
+            nonfinite: self.nonfinite,
             ..Default::default()
         };
         let r = job.resolve(note, input).map_err(rename_env_fields)?;
@@ -158,7 +154,7 @@ pub struct MatcapRequest {
     pub samples: u32,
     pub max_samples: u32,
     pub seed: u64,
-    pub outside: String,
+    pub outside: Outside,
     /// The environment's mapping, preset and cube layout (default: its note, else lat-long),
     /// and its view when it is not the world's (default: its note's).
     pub env_format: Option<String>,
@@ -167,7 +163,7 @@ pub struct MatcapRequest {
     pub env_look: Option<[f64; 3]>,
     pub env_up: Option<[f64; 3]>,
     /// NaN/Inf in the environment: error, zero or keep.
-    pub nonfinite: String,
+    pub nonfinite: crate::images::codec::NonFinite,
     /// Refuse a job needing more bytes than this (`None`: the default limit).
     pub max_memory: Option<u64>,
 }
@@ -184,13 +180,13 @@ impl Default for MatcapRequest {
             samples: DEFAULT_SAMPLES,
             max_samples: 1024,
             seed: 0,
-            outside: "gutter".into(),
+            outside: Outside::default(),
             env_format: None,
             env_preset: None,
             env_layout: None,
             env_look: None,
             env_up: None,
-            nonfinite: "error".into(),
+            nonfinite: Default::default(),
             max_memory: None,
         }
     }
@@ -237,7 +233,7 @@ impl MatcapRequest {
             env_layout: self.env_layout.clone(),
             env_look: self.env_look,
             env_up: self.env_up,
-            nonfinite: self.nonfinite.clone(),
+            nonfinite: self.nonfinite,
         }
     }
 
@@ -269,7 +265,7 @@ impl MatcapRequest {
                 samples: self.samples,
                 max_samples: self.max_samples,
                 seed: self.seed,
-                outside: Outside::parse(&self.outside)?,
+                outside: self.outside,
                 max_memory: self.max_memory.unwrap_or_else(default_max_memory),
                 rule: envtree::CutRule::default(),
                 normal_table: None,
@@ -386,7 +382,7 @@ pub struct PrefilterRequest {
     /// irradiance.
     pub levels: Option<usize>,
     /// Level → roughness: `filament`, `threejs` or `linear` ([`prefilter::RoughnessMap`]).
-    pub roughness_map: String,
+    pub roughness_map: prefilter::RoughnessMap,
     /// One cosine-convolved (Lambert) level instead of the GGX chain.
     pub irradiance: bool,
     /// The output's view: world directions of its −Z and +Y (a sphere map's eye).
@@ -400,13 +396,13 @@ pub struct PrefilterRequest {
     pub samples: u32,
     pub max_samples: u32,
     pub seed: u64,
-    pub outside: String,
+    pub outside: Outside,
     /// The error each integral may leave, relative to the map's mean radiance (default
     /// [`prefilter::DEFAULT_TOLERANCE`]): the tree is cut no finer than that.
     pub tolerance: Option<f64>,
     /// `tree` (exact, the default) or `sampled` (filtered importance sampling as Filament's
     /// `cmgen`: fast, approximate) ([`prefilter::PrefilterMethod`]).
-    pub method: String,
+    pub method: prefilter::PrefilterMethod,
     /// GGX samples per texel with `sampled` (Filament's default, 1024).
     pub lobe_samples: usize,
     pub env_format: Option<String>,
@@ -414,7 +410,7 @@ pub struct PrefilterRequest {
     pub env_layout: Option<String>,
     pub env_look: Option<[f64; 3]>,
     pub env_up: Option<[f64; 3]>,
-    pub nonfinite: String,
+    pub nonfinite: crate::images::codec::NonFinite,
     pub max_memory: Option<u64>,
 }
 
@@ -426,23 +422,23 @@ impl Default for PrefilterRequest {
             layout: None,
             size: None,
             levels: None,
-            roughness_map: "filament".into(),
+            roughness_map: prefilter::RoughnessMap::Filament,
             irradiance: false,
             look: None,
             up: None,
             samples: 1,
             max_samples: 1024,
             seed: 0,
-            outside: "gutter".into(),
+            outside: Outside::default(),
             tolerance: None,
-            method: "tree".into(),
+            method: prefilter::PrefilterMethod::Tree,
             lobe_samples: 1024,
             env_format: None,
             env_preset: None,
             env_layout: None,
             env_look: None,
             env_up: None,
-            nonfinite: "error".into(),
+            nonfinite: Default::default(),
             max_memory: None,
         }
     }
@@ -489,7 +485,7 @@ impl PrefilterRequest {
             env_layout: self.env_layout.clone(),
             env_look: self.env_look,
             env_up: self.env_up,
-            nonfinite: self.nonfinite.clone(),
+            nonfinite: self.nonfinite,
         }
     }
 
@@ -559,20 +555,20 @@ impl PrefilterRequest {
                 mapping,
                 size,
                 levels,
-                map: prefilter::RoughnessMap::parse(&self.roughness_map)?,
+                map: self.roughness_map,
                 irradiance: self.irradiance,
                 view,
                 world_to_env: r.world_to_env,
                 samples: self.samples,
                 max_samples: self.max_samples,
                 seed: self.seed,
-                outside: Outside::parse(&self.outside)?,
+                outside: self.outside,
                 max_memory: self.max_memory.unwrap_or_else(default_max_memory),
                 rule: envtree::CutRule {
                     tol: tolerance,
                     ..Default::default()
                 },
-                method: prefilter::PrefilterMethod::parse(&self.method)?,
+                method: self.method,
                 lobe_samples: self.lobe_samples,
                 footprint: true,
             },

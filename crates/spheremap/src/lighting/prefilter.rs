@@ -62,82 +62,42 @@ use crate::trace::generate::{generate, GenerateOptions, RaySource};
 /// default: a 256² chain of `park.exr` within 55 dB of 1e-5's in a third of the time.
 pub const DEFAULT_TOLERANCE: f64 = 1e-4;
 
-/// How the levels' integrals are computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PrefilterMethod {
-    /// On the environment's tree, to the tolerance (exact; the default).
-    Tree,
-    /// Filtered importance sampling as Filament's `cmgen` does it (Křivánek and Colbert 2008):
-    /// `lobe_samples` GGX samples per texel, each read from the mip of a world-frame cube whose
-    /// texel covers the sample's share of the lobe.  Fast and approximate.
-    Sampled,
-}
-
-impl PrefilterMethod {
-    /// The names `--method` takes.
-    pub const NAMES: [&'static str; 2] = ["tree", "sampled"];
-
-    pub fn parse(name: &str) -> Result<PrefilterMethod> {
-        match name {
-            "tree" | "exact" => Ok(PrefilterMethod::Tree),
-            "sampled" | "fis" => Ok(PrefilterMethod::Sampled),
-            other => Err(Error::param(
-                "method",
-                format!(
-                    "unknown method {other:?}; expected one of: {}",
-                    Self::NAMES.join(", ")
-                ),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// How the levels' integrals are computed (the names `--method` takes).
+    #[derive(Default)]
+    pub enum PrefilterMethod: "method" as "method" {
+        /// On the environment's tree, to the tolerance (exact; the default).
+        #[default]
+        Tree = "tree" | "exact",
+        /// Filtered importance sampling as Filament's `cmgen` does it (Křivánek and Colbert
+        /// 2008): `lobe_samples` GGX samples per texel, each read from the mip of a
+        /// world-frame cube whose texel covers the sample's share of the lobe.  Fast and
+        /// approximate.
+        Sampled = "sampled" | "fis",
     }
 }
 
 pub use super::envtree::MIN_LEAVES_PER_ALPHA;
 
-/// How level i of L is given its roughness.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RoughnessMap {
-    /// Filament (`cmgen`, and its shader's `perceptualRoughnessToLod`): lod = i/(L − 1),
-    /// r = 1 − √(1 − lod), the inverse of lod = r(2 − r); three.js from r187 too
-    /// (`PMREMGenerator.lodToRoughness`).
-    Filament,
-    /// three.js up to r186 (`roughnessToMip` of its cube-UV PMREM shader): the roughness
-    /// three.js reads from a face of 2^m texels, m = log₂ of the level's size; level 0 is the
-    /// mirror.
-    Threejs,
-    /// r = i/(L − 1).
-    Linear,
+crate::base::named::named_enum! {
+    /// How level i of L is given its roughness (the names `--roughness-map` takes).
+    #[derive(Default)]
+    pub enum RoughnessMap: "roughness map" as "roughness_map" {
+        /// Filament (`cmgen`, and its shader's `perceptualRoughnessToLod`; the default):
+        /// lod = i/(L − 1), r = 1 − √(1 − lod), the inverse of lod = r(2 − r); three.js from
+        /// r187 too (`PMREMGenerator.lodToRoughness`).
+        #[default]
+        Filament = "filament",
+        /// three.js up to r186 (`roughnessToMip` of its cube-UV PMREM shader): the roughness
+        /// three.js reads from a face of 2^m texels, m = log₂ of the level's size; level 0 is
+        /// the mirror.
+        Threejs = "threejs" | "three",
+        /// r = i/(L − 1).
+        Linear = "linear",
+    }
 }
 
 impl RoughnessMap {
-    /// The names `--roughness-map` takes.
-    pub const NAMES: [&'static str; 3] = ["filament", "threejs", "linear"];
-
-    pub fn parse(name: &str) -> Result<RoughnessMap> {
-        Ok(match name {
-            "filament" => RoughnessMap::Filament,
-            "threejs" | "three" => RoughnessMap::Threejs,
-            "linear" => RoughnessMap::Linear,
-            other => {
-                return Err(Error::param(
-                    "roughness_map",
-                    format!(
-                        "unknown roughness map {other:?}; expected one of: {}",
-                        Self::NAMES.join(", ")
-                    ),
-                ))
-            }
-        })
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            RoughnessMap::Filament => "filament",
-            RoughnessMap::Threejs => "threejs",
-            RoughnessMap::Linear => "linear",
-        }
-    }
-
     /// The perceptual roughness of level `i` of `levels`, whose size (a cube's face, a
     /// lat-long's height) is `size` texels.
     pub fn roughness(self, i: usize, levels: usize, size: usize) -> f64 {

@@ -18,6 +18,17 @@
 
 use crate::base::error::{Error, Result};
 
+crate::base::named::named_enum! {
+    /// The names of [`LensModel`].
+    pub enum LensName: "lens model" as "model" {
+        Equidistant = "equidistant",
+        Equisolid = "equisolid",
+        Stereographic = "stereographic",
+        Orthographic = "orthographic",
+        Polynomial = "polynomial",
+    }
+}
+
 /// How a lens maps the off-axis angle to the image radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LensModel {
@@ -30,31 +41,16 @@ pub enum LensModel {
 }
 
 impl LensModel {
-    pub const NAMES: [&'static str; 5] = [
-        "equidistant",
-        "equisolid",
-        "stereographic",
-        "orthographic",
-        "polynomial",
-    ];
+    pub const NAMES: [&'static str; 5] = LensName::NAMES;
 
     /// A model by name (`polynomial` takes `k`).
     pub fn parse(name: &str, k: [f64; 4]) -> Result<LensModel> {
-        Ok(match name {
-            "equidistant" => LensModel::Equidistant,
-            "equisolid" => LensModel::Equisolid,
-            "stereographic" => LensModel::Stereographic,
-            "orthographic" => LensModel::Orthographic,
-            "polynomial" => LensModel::Polynomial(k),
-            other => {
-                return Err(Error::param(
-                    "model",
-                    format!(
-                        "unknown lens model {other:?}; expected one of: {}",
-                        Self::NAMES.join(", ")
-                    ),
-                ))
-            }
+        Ok(match LensName::parse(name)? {
+            LensName::Equidistant => LensModel::Equidistant,
+            LensName::Equisolid => LensModel::Equisolid,
+            LensName::Stereographic => LensModel::Stereographic,
+            LensName::Orthographic => LensModel::Orthographic,
+            LensName::Polynomial => LensModel::Polynomial(k),
         })
     }
 

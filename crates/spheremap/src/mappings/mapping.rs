@@ -79,15 +79,20 @@ impl TexelRows<'_> {
     }
 }
 
+crate::base::named::named_enum! {
+    /// The names of [`Mapping`] (without their presets).
+    pub enum MappingName: "mapping" as "mapping" {
+        Sphere = "sphere",
+        LatLong = "latlong" | "equirect" | "equirectangular",
+        Cube = "cube" | "cubemap",
+        Angular = "angular" | "lightprobe",
+        Paraboloid = "paraboloid" | "dual-paraboloid",
+        Octahedral = "octahedral",
+    }
+}
+
 /// Names accepted by [`Mapping::parse`].
-pub const MAPPING_NAMES: [&str; 6] = [
-    "sphere",
-    "latlong",
-    "cube",
-    "angular",
-    "paraboloid",
-    "octahedral",
-];
+pub const MAPPING_NAMES: [&str; 6] = MappingName::NAMES;
 
 fn only_preset(mapping: &str, preset: Option<&str>, names: &[&str]) -> Result<()> {
     match preset {
@@ -101,35 +106,26 @@ fn only_preset(mapping: &str, preset: Option<&str>, names: &[&str]) -> Result<()
 }
 
 impl Mapping {
-    /// `name` (see [`MAPPING_NAMES`]; `equirect` is an alias of `latlong`) with an optional
+    /// `name` (see [`MappingName`]: `equirect` is an alias of `latlong`, …) with an optional
     /// preset name (the default preset when `None`).
     pub fn parse(name: &str, preset: Option<&str>) -> Result<Mapping> {
-        Ok(match name {
-            "sphere" => Mapping::Sphere(SpherePreset::by_name(preset.unwrap_or("gl"))?),
-            "latlong" | "equirect" | "equirectangular" => {
+        Ok(match MappingName::parse(name)? {
+            MappingName::Sphere => Mapping::Sphere(SpherePreset::by_name(preset.unwrap_or("gl"))?),
+            MappingName::LatLong => {
                 Mapping::LatLong(LatLongPreset::by_name(preset.unwrap_or("blender"))?)
             }
-            "cube" | "cubemap" => Mapping::Cube(CubePreset::by_name(preset.unwrap_or("gl"))?),
-            "angular" | "lightprobe" => {
+            MappingName::Cube => Mapping::Cube(CubePreset::by_name(preset.unwrap_or("gl"))?),
+            MappingName::Angular => {
                 only_preset(name, preset, &["debevec"])?;
                 Mapping::Angular
             }
-            "paraboloid" | "dual-paraboloid" => {
+            MappingName::Paraboloid => {
                 only_preset(name, preset, &["heidrich-seidel"])?;
                 Mapping::Paraboloid
             }
-            "octahedral" => {
+            MappingName::Octahedral => {
                 only_preset(name, preset, &["pbrt"])?;
                 Mapping::Octahedral
-            }
-            other => {
-                return Err(Error::param(
-                    "mapping",
-                    format!(
-                        "unknown mapping {other:?}; expected one of: {}",
-                        MAPPING_NAMES.join(", ")
-                    ),
-                ))
             }
         })
     }

@@ -26,30 +26,20 @@
 //!   rays; only `p` on the +Z axis behind the viewer (`d = (0,0,1)`) is undefined (NaN).
 //!   `R v = c v + k×v + k (k·v)/(1 + c)` with `k = d × (0,0,−1) = (−d_y, d_x, 0)`, `c = −d_z`.
 
-use crate::base::error::{Error, Result};
 use crate::base::real::{dot3, Real};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum MatcapVariant {
-    #[default]
-    Classic,
-    ThreeJs,
-    Perspective,
+crate::base::named::named_enum! {
+    /// How a MatCap is looked up (the module's list).
+    #[derive(Default)]
+    pub enum MatcapVariant: "MatCap variant" as "matcap_variant" {
+        #[default]
+        Classic = "classic",
+        ThreeJs = "threejs" | "three",
+        Perspective = "perspective",
+    }
 }
 
 impl MatcapVariant {
-    pub const NAMES: [&'static str; 3] = ["classic", "threejs", "perspective"];
-    pub fn parse(name: &str, param: &str) -> Result<Self> {
-        match name {
-            "classic" => Ok(Self::Classic),
-            "threejs" | "three" => Ok(Self::ThreeJs),
-            "perspective" => Ok(Self::Perspective),
-            other => Err(Error::param(
-                param,
-                format!("unknown MatCap variant {other:?}; expected one of: classic, threejs, perspective"),
-            )),
-        }
-    }
     /// The scale applied to the basis coordinates: ½ (the full disc) except three.js's 0.495.
     pub fn default_scale(self) -> f64 {
         match self {

@@ -30,31 +30,18 @@ use crate::base::error::{Error, Result};
 use crate::frame::conventions::Singular;
 use rayon::prelude::*;
 
-/// GL's normal-vector state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum NormalMode {
-    /// `glEnable(GL_NORMALIZE)`: normals normalized after the transform.  The default: what a
-    /// user of sphere maps wants.
-    #[default]
-    On,
-    /// Neither GL_NORMALIZE nor GL_RESCALE_NORMAL: the transformed normal is used as is.
-    Off,
-    /// `glEnable(GL_RESCALE_NORMAL)` only.
-    Rescale,
-}
-
-impl NormalMode {
-    pub const NAMES: [&'static str; 3] = ["on", "off", "rescale"];
-    pub fn parse(name: &str, param: &str) -> Result<Self> {
-        match name {
-            "on" => Ok(Self::On),
-            "off" => Ok(Self::Off),
-            "rescale" => Ok(Self::Rescale),
-            other => Err(Error::param(
-                param,
-                format!("unknown value {other:?}; expected one of: on, off, rescale"),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// GL's normal-vector state.
+    #[derive(Default)]
+    pub enum NormalMode: "value" as "normalize" {
+        /// `glEnable(GL_NORMALIZE)`: normals normalized after the transform.  The default:
+        /// what a user of sphere maps wants.
+        #[default]
+        On = "on",
+        /// Neither GL_NORMALIZE nor GL_RESCALE_NORMAL: the transformed normal is used as is.
+        Off = "off",
+        /// `glEnable(GL_RESCALE_NORMAL)` only.
+        Rescale = "rescale",
     }
 }
 

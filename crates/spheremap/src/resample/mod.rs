@@ -72,38 +72,21 @@ pub(crate) use dest::Dst;
 use pyramid::{Level, NO_ROW};
 use source::Src;
 
-/// Reconstruction filter over the output texel's footprint.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Filter {
-    /// The 1-texel box: the plain (solid-angle weighted) average over the texel. Default.
-    #[default]
-    Box,
-    /// Tent, radius 1 texel.
-    Tent,
-    /// Gaussian, σ = ½ texel, truncated at 1.5 texels.
-    Gaussian,
+crate::base::named::named_enum! {
+    /// Reconstruction filter over the output texel's footprint.
+    #[derive(Default)]
+    pub enum Filter: "filter" as "filter" {
+        /// The 1-texel box: the plain (solid-angle weighted) average over the texel. Default.
+        #[default]
+        Box = "box",
+        /// Tent, radius 1 texel.
+        Tent = "tent" | "triangle",
+        /// Gaussian, σ = ½ texel, truncated at 1.5 texels.
+        Gaussian = "gaussian" | "gauss",
+    }
 }
 
 impl Filter {
-    pub const NAMES: [&'static str; 3] = ["box", "tent", "gaussian"];
-    pub fn parse(name: &str) -> Result<Filter> {
-        match name {
-            "box" => Ok(Filter::Box),
-            "tent" | "triangle" => Ok(Filter::Tent),
-            "gaussian" | "gauss" => Ok(Filter::Gaussian),
-            other => Err(Error::param(
-                "filter",
-                format!("unknown filter {other:?}; expected one of: box, tent, gaussian"),
-            )),
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            Filter::Box => "box",
-            Filter::Tent => "tent",
-            Filter::Gaussian => "gaussian",
-        }
-    }
     /// Half-width of the support, in output texels.
     pub(crate) fn radius(self) -> f64 {
         match self {
@@ -122,91 +105,45 @@ impl Filter {
     }
 }
 
-/// How each sample reads the source's texels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Taps {
-    /// The 2×2 texels round the sample, bilinearly. Default.
-    #[default]
-    Bilinear,
-    /// The 4×4 texels round the sample, Catmull–Rom bicubic (interpolating: a sample on a
-    /// texel centre reads that texel alone), its result clamped per channel to the range of
-    /// the 2×2 nearest texels (no ringing, no negative values from positive ones).  Sharper
-    /// where destination texels are as small as the source's or smaller; read from the source
-    /// itself (a footprint wide enough to read a prefiltered level reads it bilinearly), and
-    /// bilinearly where the 4×4 texels are not all on the map (a disc's rim).  It runs on the
-    /// generic scalar path: 15–30× slower than bilinear's vectorised one.
-    Bicubic,
-}
-
-impl Taps {
-    pub const NAMES: [&'static str; 2] = ["bilinear", "bicubic"];
-    pub fn parse(name: &str) -> Result<Taps> {
-        match name {
-            "bilinear" => Ok(Taps::Bilinear),
-            "bicubic" | "catmull-rom" => Ok(Taps::Bicubic),
-            other => Err(Error::param(
-                "taps",
-                format!("unknown taps {other:?}; expected one of: bilinear, bicubic"),
-            )),
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            Taps::Bilinear => "bilinear",
-            Taps::Bicubic => "bicubic",
-        }
+crate::base::named::named_enum! {
+    /// How each sample reads the source's texels.
+    #[derive(Default)]
+    pub enum Taps: "taps" as "taps" {
+        /// The 2×2 texels round the sample, bilinearly. Default.
+        #[default]
+        Bilinear = "bilinear",
+        /// The 4×4 texels round the sample, Catmull–Rom bicubic (interpolating: a sample on a
+        /// texel centre reads that texel alone), its result clamped per channel to the range of
+        /// the 2×2 nearest texels (no ringing, no negative values from positive ones).  Sharper
+        /// where destination texels are as small as the source's or smaller; read from the
+        /// source itself (a footprint wide enough to read a prefiltered level reads it
+        /// bilinearly), and bilinearly where the 4×4 texels are not all on the map (a disc's
+        /// rim).  It runs on the generic scalar path: 15–30× slower than bilinear's vectorised
+        /// one.
+        Bicubic = "bicubic" | "catmull-rom",
     }
 }
 
-/// What to write where a destination disc mapping has no direction.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Outside {
-    /// The radial mirror image across the rim (no dark fringe under GPU filtering). Default.
-    #[default]
-    Gutter,
-    /// Zero; rim texels hold their covered fraction.
-    Black,
-}
-
-impl Outside {
-    pub const NAMES: [&'static str; 2] = ["gutter", "black"];
-    pub fn parse(name: &str) -> Result<Outside> {
-        match name {
-            "gutter" => Ok(Outside::Gutter),
-            "black" => Ok(Outside::Black),
-            other => Err(Error::param(
-                "outside",
-                format!("unknown fill {other:?}; expected gutter or black"),
-            )),
-        }
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            Outside::Gutter => "gutter",
-            Outside::Black => "black",
-        }
+crate::base::named::named_enum! {
+    /// What to write where a destination disc mapping has no direction.
+    #[derive(Default)]
+    pub enum Outside: "fill" as "outside" {
+        /// The radial mirror image across the rim (no dark fringe under GPU filtering).
+        /// Default.
+        #[default]
+        Gutter = "gutter",
+        /// Zero; rim texels hold their covered fraction.
+        Black = "black",
     }
 }
 
-/// Arithmetic of the direction computations.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Precision {
-    #[default]
-    F32,
-    F64,
-}
-
-impl Precision {
-    pub const NAMES: [&'static str; 2] = ["f32", "f64"];
-    pub fn parse(name: &str) -> Result<Precision> {
-        match name {
-            "f32" => Ok(Precision::F32),
-            "f64" => Ok(Precision::F64),
-            other => Err(Error::param(
-                "precision",
-                format!("unknown value {other:?}; expected f32 or f64"),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// Arithmetic of the direction computations.
+    #[derive(Default)]
+    pub enum Precision: "precision" as "precision" {
+        #[default]
+        F32 = "f32",
+        F64 = "f64",
     }
 }
 

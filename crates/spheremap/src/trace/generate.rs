@@ -199,10 +199,10 @@ pub struct MapRequest {
     /// footprint, what goes outside a disc, the jitter's seed, the directions' arithmetic.
     pub samples: u32,
     pub max_samples: u32,
-    pub filter: String,
-    pub outside: String,
+    pub filter: Filter,
+    pub outside: Outside,
     pub seed: u64,
-    pub precision: String,
+    pub precision: Precision,
     /// Refuse a job needing more bytes than this (`None`: the default limit).
     pub max_memory: Option<u64>,
 }
@@ -219,10 +219,10 @@ impl Default for MapRequest {
             up: None,
             samples: DEFAULT_SAMPLES,
             max_samples: 1024,
-            filter: "box".into(),
-            outside: "gutter".into(),
+            filter: Filter::default(),
+            outside: Outside::default(),
             seed: 0,
-            precision: "f32".into(),
+            precision: Precision::default(),
             max_memory: None,
         }
     }
@@ -261,14 +261,14 @@ impl MapRequest {
             options: GenerateOptions {
                 samples: self.samples,
                 max_samples: self.max_samples,
-                filter: Filter::parse(&self.filter)?,
-                outside: Outside::parse(&self.outside)?,
+                filter: self.filter,
+                outside: self.outside,
                 rotation: crate::frame::view::conversion_rotation(
                     self.look, self.up, None, None, None,
                 )?,
                 pos: self.pos,
                 seed: self.seed,
-                precision: Precision::parse(&self.precision)?,
+                precision: self.precision,
                 max_memory: self
                     .max_memory
                     .unwrap_or_else(crate::base::limits::default_max_memory),

@@ -57,30 +57,17 @@ use crate::trace::generate::{
     centre_on_map, fill_outside, generate, GenerateOptions, RaySource, MAX_CHANNELS,
 };
 
-/// What to put where no photo sees.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Fill {
-    /// 0, with mask 0.
-    #[default]
-    None,
-    /// Pull-push interpolation from the seen texels.
-    Smooth,
-    /// The mean colour of the seen texels.
-    Mean,
-}
-
-impl Fill {
-    pub const NAMES: [&'static str; 3] = ["none", "smooth", "mean"];
-    pub fn parse(name: &str) -> Result<Fill> {
-        match name {
-            "none" => Ok(Fill::None),
-            "smooth" => Ok(Fill::Smooth),
-            "mean" => Ok(Fill::Mean),
-            _ => Err(Error::param(
-                "fill",
-                format!("unknown fill {name:?}; expected none, smooth or mean"),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// What to put where no photo sees.
+    #[derive(Default)]
+    pub enum Fill: "fill" as "fill" {
+        /// 0, with mask 0.
+        #[default]
+        None = "none",
+        /// Pull-push interpolation from the seen texels.
+        Smooth = "smooth",
+        /// The mean colour of the seen texels.
+        Mean = "mean",
     }
 }
 

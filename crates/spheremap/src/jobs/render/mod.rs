@@ -241,6 +241,17 @@ pub fn orbit_eye(eye: [f64; 3], target: [f64; 3], up: [f64; 3], angle_deg: f64) 
     std::array::from_fn(|i| target[i] + v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
 }
 
+crate::base::named::named_enum! {
+    /// The names of [`Mode`] (`--mode`, `mode=`).
+    pub enum ModeName: "mode" as "mode" {
+        PerVertex = "per-vertex",
+        PerPixel = "per-pixel",
+        Matcap = "matcap",
+        Normals = "normals",
+        Error = "error",
+    }
+}
+
 /// What to draw.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -252,26 +263,22 @@ pub enum Mode {
 }
 
 impl Mode {
-    pub const NAMES: [&'static str; 5] = ["per-vertex", "per-pixel", "matcap", "normals", "error"];
+    pub const NAMES: [&'static str; 5] = ModeName::NAMES;
 
     /// `matcap` takes its variant separately.
     pub fn parse(name: &str, matcap: MatcapVariant) -> Result<Mode> {
-        Ok(match name {
-            "per-vertex" => Mode::PerVertex,
-            "per-pixel" => Mode::PerPixel,
-            "matcap" => Mode::Matcap(matcap),
-            "normals" => Mode::Normals,
-            "error" => Mode::Error,
-            _ => {
-                return Err(Error::param(
-                    "mode",
-                    format!(
-                        "unknown mode {name:?}; expected one of: {}",
-                        Mode::NAMES.join(", ")
-                    ),
-                ))
-            }
-        })
+        Ok(Mode::of(ModeName::parse(name)?, matcap))
+    }
+
+    /// The mode of a name (`matcap` with its variant).
+    pub fn of(name: ModeName, matcap: MatcapVariant) -> Mode {
+        match name {
+            ModeName::PerVertex => Mode::PerVertex,
+            ModeName::PerPixel => Mode::PerPixel,
+            ModeName::Matcap => Mode::Matcap(matcap),
+            ModeName::Normals => Mode::Normals,
+            ModeName::Error => Mode::Error,
+        }
     }
 
     /// Output channels: 2 for `Error` (degrees, coverage), 3 otherwise.

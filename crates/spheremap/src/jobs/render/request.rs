@@ -17,7 +17,7 @@ pub struct RenderRequest {
     /// per-vertex, per-pixel, matcap, normals or error.
     pub mode: String,
     /// The MatCap lookup of `matcap` mode: classic, threejs or perspective.
-    pub matcap_variant: String,
+    pub matcap_variant: MatcapVariant,
     /// The camera as `gluLookAt` takes it (each defaulting to a framing of the mesh), or the
     /// three at once as `lookat:EX,EY,EZ,TX,TY,TZ,UX,UY,UZ`.
     pub eye: Option<[f64; 3]>,
@@ -39,14 +39,14 @@ pub struct RenderRequest {
     /// Sub-pixel bits of the rasterizer's vertex snapping: 8 (llvmpipe) or down to 1.
     pub subpixel_bits: u32,
     /// Texture wrap of a sphere map or MatCap: clamp-to-edge or repeat.
-    pub wrap: String,
+    pub wrap: Wrap,
 }
 
 impl Default for RenderRequest {
     fn default() -> Self {
         RenderRequest {
             mode: "per-pixel".into(),
-            matcap_variant: "classic".into(),
+            matcap_variant: MatcapVariant::Classic,
             eye: None,
             target: None,
             up: None,
@@ -59,7 +59,7 @@ impl Default for RenderRequest {
             background: [0.0; 3],
             aa: 1,
             subpixel_bits: super::raster::SUB_BITS,
-            wrap: "clamp-to-edge".into(),
+            wrap: Wrap::ClampToEdge,
         }
     }
 }
@@ -67,12 +67,7 @@ impl Default for RenderRequest {
 impl RenderRequest {
     /// The shading mode (a MatCap mode with its variant).
     pub fn mode(&self) -> Result<Mode> {
-        let variant = MatcapVariant::parse(&self.matcap_variant, "matcap_variant")?;
-        Mode::parse(&self.mode, variant)
-    }
-
-    pub fn wrap(&self) -> Result<Wrap> {
-        Wrap::parse(&self.wrap)
+        Mode::parse(&self.mode, self.matcap_variant)
     }
 
     /// The rasterizer's options (mode, background, anti-aliasing).

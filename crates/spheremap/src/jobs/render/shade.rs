@@ -11,26 +11,16 @@ use crate::resample::Sampler;
 /// Interpolated attributes: eye position (3), eye normal (3), (s, t) (2).
 pub(crate) const NA: usize = 8;
 
-/// GL texture wrap modes (for s and t alike).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Wrap {
-    /// GL_CLAMP_TO_EDGE (the default here: a sphere map has no neighbour across its border).
-    #[default]
-    ClampToEdge,
-    /// GL_REPEAT (OpenGL's own default).
-    Repeat,
-}
-
-impl Wrap {
-    pub fn parse(name: &str) -> crate::base::error::Result<Wrap> {
-        match name {
-            "clamp" | "clamp-to-edge" => Ok(Wrap::ClampToEdge),
-            "repeat" => Ok(Wrap::Repeat),
-            _ => Err(crate::base::error::Error::param(
-                "wrap",
-                format!("unknown wrap {name:?}; expected clamp-to-edge or repeat"),
-            )),
-        }
+crate::base::named::named_enum! {
+    /// GL texture wrap modes (for s and t alike).
+    #[derive(Default)]
+    pub enum Wrap: "wrap" as "wrap" {
+        /// GL_CLAMP_TO_EDGE (the default here: a sphere map has no neighbour across its
+        /// border).
+        #[default]
+        ClampToEdge = "clamp-to-edge" | "clamp",
+        /// GL_REPEAT (OpenGL's own default).
+        Repeat = "repeat",
     }
 }
 
