@@ -62,8 +62,8 @@ pub struct BakeArgs {
     #[command(flatten)]
     env: EnvArgs,
     /// The material: lambert (albedo/π) or ggx (GGX, height-correlated Smith, Fresnel 1).
-    #[arg(long, default_value = "ggx", value_parser = crate::names::core("material"))]
-    material: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::lighting::brdf::MaterialName>())]
+    material: spheremap::lighting::brdf::MaterialName,
     /// GGX perceptual roughness 0..1 (α = roughness², as glTF, Blender and Filament); 0 is the
     /// mirror (the sphere map of the view).
     #[arg(long, default_value_t = 0.5)]
@@ -97,7 +97,7 @@ pub struct BakeArgs {
 
 pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
     let request = MatcapRequest {
-        material: a.material.clone(),
+        material: a.material,
         roughness: a.roughness,
         albedo: vec3(&a.albedo),
         size: a.size,

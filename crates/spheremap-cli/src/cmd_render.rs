@@ -35,8 +35,8 @@ pub struct Args {
     #[arg(long, value_parser = crate::names::core("layout"))]
     env_layout: Option<String>,
     /// per-vertex (GL_SPHERE_MAP texgen, as OpenGL), per-pixel, matcap, normals, error.
-    #[arg(long, default_value = "per-pixel", value_parser = crate::names::core("render"))]
-    mode: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::render::ModeName>())]
+    mode: spheremap::jobs::render::ModeName,
     /// MatCap variant for --mode matcap: classic, threejs, perspective.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::mappings::matcap::MatcapVariant>())]
     matcap_variant: spheremap::mappings::matcap::MatcapVariant,
@@ -88,7 +88,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let request = RenderRequest {
-        mode: a.mode.clone(),
+        mode: a.mode,
         matcap_variant: a.matcap_variant,
         background: [a.background[0], a.background[1], a.background[2]],
         aa: a.aa,
@@ -96,7 +96,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         wrap: a.wrap,
         ..a.camera.request((a.size[0], a.size[1]))
     };
-    let mode = request.mode().map_err(crate::flag_error)?;
+    let mode = request.mode();
     let wrap = request.wrap;
     let op = a.tonemap;
     if !(a.error_max > 0.0 && a.error_max.is_finite()) {
@@ -149,7 +149,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let losses = a.job.losses(&out, &a.output, false);
         let v = RenderSummary {
             output: a.output.clone(),
-            mode: a.mode.clone(),
+            mode: a.mode.to_string(),
             width: cam.width,
             height: cam.height,
             triangles_drawn: stats.triangles,

@@ -102,7 +102,7 @@ pub fn render<'py>(
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let request = render_request(request)?;
-    let mode = request.mode().map_err(to_py)?;
+    let mode = request.mode();
     let wrap = request.wrap;
     let mesh = mesh_of(&positions, normals.as_ref(), &triangles)?;
     let cam = request.camera(&mesh.positions).map_err(to_py)?;

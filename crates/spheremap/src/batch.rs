@@ -336,7 +336,9 @@ impl Recipe {
                     .map(|(k, _)| k.clone())
                     .unwrap_or_else(|| "value".into());
                 // A name's message names its field already (`base::named`).
-                let m = m.strip_prefix(&format!("{key}: ")).map_or(m.clone(), str::to_string);
+                let m = m
+                    .strip_prefix(&format!("{key}: "))
+                    .map_or(m.clone(), str::to_string);
                 Error::param(key, m)
             })
         }

@@ -29,7 +29,7 @@ fn white_furnace_every_texel_is_the_albedo() {
     let n = 24;
     for (material, roughness) in [("ggx", 0.5), ("ggx", 0.3), ("ggx", 1.0), ("lambert", 0.5)] {
         let req = MatcapRequest {
-            material: material.into(),
+            material: spheremap::lighting::brdf::MaterialName::parse(material).unwrap(),
             roughness,
             size: n,
             samples: 1,
@@ -116,13 +116,6 @@ fn bad_requests_name_their_field() {
         ),
         (
             MatcapRequest {
-                material: "chrome".into(),
-                ..Default::default()
-            },
-            "material",
-        ),
-        (
-            MatcapRequest {
                 albedo: Some([1.0, -1.0, 0.0]),
                 ..Default::default()
             },
@@ -153,6 +146,14 @@ fn bad_requests_name_their_field() {
         let e = req.run_image(&env, None).unwrap_err().to_string();
         assert!(e.starts_with(field), "{field}: {e}");
     }
+    // A name is refused as the request is read.
+    let e = serde_json::from_str::<MatcapRequest>(r#"{"material": "chrome"}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("material: unknown material \"chrome\"; expected one of: lambert, ggx"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -524,7 +525,7 @@ mod prefilter {
             env.data[(sy * w + sx) * 3 + q] = bright;
         }
         let req = MatcapRequest {
-            material: "ggx".into(),
+            material: spheremap::lighting::brdf::MaterialName::Ggx,
             roughness: 0.05,
             size: n,
             samples: 1,
@@ -575,7 +576,7 @@ mod prefilter {
         for roughness in [0.12, 0.08, 0.065, 0.05] {
             let alpha: f64 = roughness * roughness;
             let req = MatcapRequest {
-                material: "ggx".into(),
+                material: spheremap::lighting::brdf::MaterialName::Ggx,
                 roughness,
                 size: n,
                 samples: 1,

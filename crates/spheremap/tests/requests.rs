@@ -48,7 +48,7 @@ fn a_render_request_reads_from_json_and_names_its_fields() {
         r#"{"mode": "matcap", "matcap_variant": "perspective", "width": 64, "height": 32}"#,
     )
     .unwrap();
-    assert!(matches!(r.mode().unwrap(), Mode::Matcap(_)));
+    assert!(matches!(r.mode(), Mode::Matcap(_)));
     let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
     let cam = r.camera(&tri).unwrap();
     assert_eq!((cam.width, cam.height), (64, 32));

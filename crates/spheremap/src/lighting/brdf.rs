@@ -21,8 +21,10 @@ use std::f64::consts::PI;
 
 crate::base::named::named_enum! {
     /// The names of [`Material`].
+    #[derive(Default)]
     pub enum MaterialName: "material" as "material" {
         Lambert = "lambert" | "diffuse",
+        #[default]
         Ggx = "ggx",
     }
 }
@@ -42,7 +44,13 @@ impl Material {
 
     /// The material from its name and perceptual roughness (ignored for `lambert`).
     pub fn parse(name: &str, roughness: f64) -> crate::base::error::Result<Material> {
-        match MaterialName::parse(name)? {
+        Material::of(MaterialName::parse(name)?, roughness)
+    }
+
+    /// The material named `name`, of perceptual roughness `roughness` (ignored for
+    /// `lambert`).
+    pub fn of(name: MaterialName, roughness: f64) -> crate::base::error::Result<Material> {
+        match name {
             MaterialName::Lambert => Ok(Material::Lambert),
             MaterialName::Ggx => {
                 if !(0.0..=1.0).contains(&roughness) {

@@ -139,7 +139,7 @@ pub fn irradiance_map(
 #[serde(default, deny_unknown_fields)]
 pub struct MatcapRequest {
     /// `lambert` or `ggx`.
-    pub material: String,
+    pub material: brdf::MaterialName,
     /// GGX perceptual roughness in 0..=1 (α = roughness²); 0 is the mirror.
     pub roughness: f64,
     /// Linear RGB albedo; default 0.8 grey for Lambert, white for GGX.
@@ -171,7 +171,7 @@ pub struct MatcapRequest {
 impl Default for MatcapRequest {
     fn default() -> Self {
         MatcapRequest {
-            material: "ggx".into(),
+            material: brdf::MaterialName::Ggx,
             roughness: 0.5,
             albedo: None,
             size: 256,
@@ -241,7 +241,7 @@ impl MatcapRequest {
     /// records (`None` for an array), `input` names it.
     pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<ResolvedMatcap> {
         let r = self.env_request().resolve(note, input)?;
-        let material = Material::parse(&self.material, self.roughness)?;
+        let material = Material::of(self.material, self.roughness)?;
         if material == Material::Lambert && !(0.0..=1.0).contains(&self.roughness) {
             return Err(Error::param(
                 "roughness",

@@ -243,8 +243,10 @@ pub fn orbit_eye(eye: [f64; 3], target: [f64; 3], up: [f64; 3], angle_deg: f64) 
 
 crate::base::named::named_enum! {
     /// The names of [`Mode`] (`--mode`, `mode=`).
+    #[derive(Default)]
     pub enum ModeName: "mode" as "mode" {
         PerVertex = "per-vertex",
+        #[default]
         PerPixel = "per-pixel",
         Matcap = "matcap",
         Normals = "normals",

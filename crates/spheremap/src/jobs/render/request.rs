@@ -3,7 +3,7 @@
 //! it (serde-readable, unknown keys refused) — and turns it into the rasterizer's camera and
 //! options with the core's parsers and defaults.
 
-use super::{gl_sphere_for, GlCamera, Mode, RenderOptions, Wrap};
+use super::{gl_sphere_for, GlCamera, Mode, ModeName, RenderOptions, Wrap};
 use crate::base::error::{Error, Result};
 use crate::images::Image;
 use crate::mappings::mapping::Mapping;
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 #[serde(default, deny_unknown_fields)]
 pub struct RenderRequest {
     /// per-vertex, per-pixel, matcap, normals or error.
-    pub mode: String,
+    pub mode: ModeName,
     /// The MatCap lookup of `matcap` mode: classic, threejs or perspective.
     pub matcap_variant: MatcapVariant,
     /// The camera as `gluLookAt` takes it (each defaulting to a framing of the mesh), or the
@@ -45,7 +45,7 @@ pub struct RenderRequest {
 impl Default for RenderRequest {
     fn default() -> Self {
         RenderRequest {
-            mode: "per-pixel".into(),
+            mode: ModeName::PerPixel,
             matcap_variant: MatcapVariant::Classic,
             eye: None,
             target: None,
@@ -66,14 +66,14 @@ impl Default for RenderRequest {
 
 impl RenderRequest {
     /// The shading mode (a MatCap mode with its variant).
-    pub fn mode(&self) -> Result<Mode> {
-        Mode::parse(&self.mode, self.matcap_variant)
+    pub fn mode(&self) -> Mode {
+        Mode::of(self.mode, self.matcap_variant)
     }
 
     /// The rasterizer's options (mode, background, anti-aliasing).
     pub fn options(&self) -> Result<RenderOptions> {
         Ok(RenderOptions {
-            mode: self.mode()?,
+            mode: self.mode(),
             background: self.background,
             aa: self.aa,
             subpixel_bits: self.subpixel_bits,
@@ -133,7 +133,7 @@ impl RenderRequest {
         let Some(img) = image else {
             return Ok((mapping, None));
         };
-        Ok(match gl_sphere_for(self.mode()?, mapping, &img, what)? {
+        Ok(match gl_sphere_for(self.mode(), mapping, &img, what)? {
             Some(gl) => (Mapping::parse("sphere", None)?, Some(gl)),
             None => (mapping, Some(img)),
         })
@@ -147,7 +147,7 @@ mod tests {
     #[test]
     fn defaults_names_and_the_camera_spec() {
         let r = RenderRequest::default();
-        assert_eq!(r.mode().unwrap(), Mode::PerPixel);
+        assert_eq!(r.mode(), Mode::PerPixel);
         assert_eq!(r.options().unwrap().aa, 1);
         let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let spec = RenderRequest {
@@ -173,10 +173,9 @@ mod tests {
             .unwrap_err()
             .to_string()
             .starts_with("camera: "));
-        let bad = RenderRequest {
-            mode: "wireframe".into(),
-            ..Default::default()
-        };
-        assert!(bad.mode().unwrap_err().to_string().starts_with("mode: "));
+        let e = serde_json::from_str::<RenderRequest>(r#"{"mode": "wireframe"}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("mode: unknown mode \"wireframe\""), "{e}");
     }
 }
