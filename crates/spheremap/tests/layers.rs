@@ -332,11 +332,6 @@ fn parent_ties(code: &BTreeMap<String, String>) -> BTreeSet<String> {
 const KNOWN_TIES: &[&str] = &[
     "jobs::render::raster <-> jobs::render",
     "jobs::render::shade <-> jobs::render",
-    "resample::filtered <-> resample",
-    "resample::peaks <-> resample",
-    "resample::pyramid <-> resample",
-    "resample::rows <-> resample",
-    "resample::source <-> resample",
     "trace::scene::load <-> trace::scene",
 ];
 

@@ -1,6 +1,8 @@
 //! The destination side of a conversion: canvas point → direction, with the gutter.
 
-use super::*;
+use super::options::Outside;
+use crate::base::real::Real;
+use crate::mappings::mapping::Mapping;
 
 /// The destination side: canvas point → direction (in the source's frame), with the gutter.
 pub(crate) struct Dst<T: Real> {

@@ -16,13 +16,19 @@
 //! its images in the right half and in row h − 1 − y (their taps and gathers are their own).
 //! A quarter of the samples go through the passes.
 
+use super::dest::Dst;
 use super::gather::{self, gather0, level_lookup, sum_level, Acc};
+use super::jitter::{hash32, hash32_mixed, mirror, HK, HX, HY};
+use super::kernels::texel;
 use super::lanes::Lanes;
+use super::options::{Filter, Outside, ResampleOptions};
+use super::plan::Sampling;
 use super::rows::{
     fold_lanes, passes, positions, prefetch, retap, taps_level, vectorized, Fold, LevelTab, Plan,
     Points, Scratch, Taps, SLOW,
 };
-use super::*;
+use super::source::Src;
+use crate::mappings::mapping::Mapping;
 
 /// `FScratch::l1` of a texel that reads one level.
 const NONE: u8 = u8::MAX;
@@ -1080,6 +1086,8 @@ fn jitter_f32(h: u32) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::resample::env::EnvMap;
+    use crate::resample::jitter::{jitter32, jitter_at};
 
     /// A row's footprints are the same whether its top edge points are its own or the
     /// previous row's bottom ones (lat-long: positions; cube: directions too).

@@ -35,7 +35,12 @@
 //! their mirror image lies in (as the gutter shows the map mirrored across the rim);
 //! [`Outside::Black`] rim texels hold their covered fraction, as the sampled path's do.
 
-use super::*;
+use super::dest::Dst;
+use super::env::EnvMap;
+use super::options::Outside;
+use crate::base::vec::IDENTITY3 as IDENTITY;
+use crate::mappings::mapping::Mapping;
+use rayon::prelude::*;
 
 /// Peaks start at this multiple of the map's mean radiance.
 pub const PEAK_RATIO: f64 = 8.0;

@@ -20,7 +20,10 @@
 //! smaller sphere map does not allocate a third of the input again for the few texels that
 //! read the coarse levels.  `Level::rowmap` says where each held canvas row lies in `data`.
 
-use super::*;
+use super::env::EnvMap;
+use crate::mappings::mapping::Mapping;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One level: a canvas of `w`×`h` of which the rows with `rowmap[y] != NO_ROW` are held, row
 /// y at `data[rowmap[y]·w·C ..]`, in canvas order.
@@ -297,6 +300,7 @@ fn halve_row(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::images::Image;
 
     fn env(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Image {
         let mut img = Image::new(w, h, 1);

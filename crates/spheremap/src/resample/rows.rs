@@ -8,12 +8,16 @@
 //! run on half of each row and half of the rows, and the mirrored texels' positions are
 //! their partners' folded.
 
+use super::dest::Dst;
 use super::lanes::Lanes;
-use super::*;
+use super::options::Outside;
+use super::source::Src;
 pub(crate) use crate::base::cpu::vectorized;
 use crate::base::cpu::{simd, Simd};
 use crate::base::real::{atan2_poly, atan2_upper, floor_v, mad, vmax, vmin};
+use crate::base::vec::IDENTITY3 as IDENTITY;
 use crate::frame::conventions::RowOrder;
+use crate::mappings::mapping::Mapping;
 
 pub(crate) struct Scratch {
     pub(crate) d: [Lanes<f32>; 3],
@@ -1230,6 +1234,7 @@ pub(crate) fn bilerp4<const C: usize>(
 mod tests {
     use super::*;
     use crate::images::Image;
+    use crate::resample::env::EnvMap;
 
     /// The AVX2 pairs give the one-by-one lookups' values bit for bit, whatever mix of
     /// plain and general (`SLOW`) lookups a row holds, for 3 and 4 channels, odd and even

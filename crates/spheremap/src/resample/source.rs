@@ -1,6 +1,12 @@
 //! The source side of a conversion: a canvas, its wrap rules and bilinear lookups.
 
-use super::*;
+use super::env::EnvMap;
+use super::options::Taps;
+use super::pyramid::{Level, NO_ROW};
+use crate::base::real::Real;
+use crate::frame::conventions::mat3_mul;
+use crate::mappings::cube;
+use crate::mappings::mapping::Mapping;
 
 /// The source side: canvas, wrap rules, bilinear lookups.
 pub(super) struct Src<'a, T: Real> {
@@ -414,5 +420,49 @@ impl<T: Real> Src<'_, T> {
             _ => {}
         }
         (dx * dx + dy * dy).sqrt()
+    }
+}
+
+/// Bilinear lookups of directions in an environment map, with the map's wrap rules — what the
+/// conversion engine does for each sample, for callers with their own directions (a scene's
+/// environment, the generator's environment-map ray source).
+pub struct Sampler<'a> {
+    src: Src<'a, f32>,
+    channels: usize,
+}
+
+impl<'a> Sampler<'a> {
+    pub fn new(env: &EnvMap<'a>) -> Self {
+        Sampler {
+            src: Src::new(env),
+            channels: env.channels,
+        }
+    }
+
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The map's value in direction `d` (any length but 0) into `out[..channels]`.
+    #[inline]
+    pub fn sample(&self, d: [f32; 3], out: &mut [f32]) {
+        let p = self.src.position(d);
+        match self.channels {
+            1 => self.put::<1>(p, out),
+            2 => self.put::<2>(p, out),
+            3 => self.put::<3>(p, out),
+            4 => self.put::<4>(p, out),
+            5 => self.put::<5>(p, out),
+            6 => self.put::<6>(p, out),
+            7 => self.put::<7>(p, out),
+            _ => self.put::<8>(p, out),
+        }
+    }
+
+    #[inline]
+    fn put<const C: usize>(&self, p: [f32; 2], out: &mut [f32]) {
+        let mut acc = [0f32; C];
+        self.src.lookup(p, 1.0, &mut acc);
+        out[..C].copy_from_slice(&acc);
     }
 }
