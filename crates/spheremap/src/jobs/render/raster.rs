@@ -2,14 +2,12 @@
 //! docs of `render` for the rules).
 
 use super::shade::{Shader, NA};
-use super::{RenderOptions, Vertices};
+use super::{RenderOptions, Vertices, SUB_BITS};
 use crate::base::error::{Error, Result};
 use crate::images::Image;
 use rayon::prelude::*;
 
-/// Sub-pixel bits of the fixed-point window coordinates (1/256 pixel), and the default of the
-/// vertex snapping (llvmpipe's); coarser snapping rounds to a multiple of 2^(8 − bits) units.
-pub(crate) const SUB_BITS: u32 = 8;
+/// Units of the fixed-point window coordinates per pixel.
 const SUB: f64 = (1 << SUB_BITS) as f64;
 
 /// Refuses a snapping precision outside 1..=8 bits.

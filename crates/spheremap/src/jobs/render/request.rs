@@ -58,7 +58,7 @@ impl Default for RenderRequest {
             height: 512,
             background: [0.0; 3],
             aa: 1,
-            subpixel_bits: super::raster::SUB_BITS,
+            subpixel_bits: super::SUB_BITS,
             wrap: Wrap::ClampToEdge,
         }
     }

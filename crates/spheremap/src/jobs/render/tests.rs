@@ -1,5 +1,6 @@
 use super::*;
 use crate::mappings::matcap::MatcapVariant;
+use crate::mesh::Mesh;
 
 /// A quad in the plane z = 0 spanning [-1, 1]², two triangles, normals +Z.
 fn quad() -> Mesh {

@@ -31,6 +31,25 @@ use crate::images::Image;
 use crate::mesh::precheck_gltf;
 use std::path::Path;
 
+impl Scene {
+    /// Loads an OBJ (+MTL) or glTF 2.0 (.gltf/.glb) file (chosen by content, else extension);
+    /// the environment is black until set.
+    pub fn load(path: &Path) -> Result<Scene> {
+        load(path)
+    }
+
+    /// A scene from bytes: glTF JSON (buffers as data: URIs), GLB, or OBJ (no MTL); `name`
+    /// is used in messages.
+    pub fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
+        load_bytes(name, bytes)
+    }
+
+    /// A scene from OBJ text in memory and, optionally, the text of its MTL file.
+    pub fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Result<Scene> {
+        load_obj_bytes(name, obj, mtl)
+    }
+}
+
 pub(super) fn load(path: &Path) -> Result<Scene> {
     let bytes = crate::base::files::read_file(path)?;
     let b =

@@ -57,7 +57,6 @@ use crate::trace::generate::RaySource;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
-use std::path::Path;
 
 /// A surface's response (see the module docs for how each term enters).
 #[derive(Clone, Debug, PartialEq)]
@@ -511,23 +510,6 @@ struct Hit {
 }
 
 impl Scene {
-    /// Loads an OBJ (+MTL) or glTF 2.0 (.gltf/.glb) file (chosen by content, else extension);
-    /// the environment is black until set.
-    pub fn load(path: &Path) -> Result<Scene> {
-        load::load(path)
-    }
-
-    /// A scene from bytes: glTF JSON (buffers as data: URIs), GLB, or OBJ (no MTL); `name`
-    /// is used in messages.
-    pub fn load_bytes(name: &str, bytes: &[u8]) -> Result<Scene> {
-        load::load_bytes(name, bytes)
-    }
-
-    /// A scene from OBJ text in memory and, optionally, the text of its MTL file.
-    pub fn load_obj_bytes(name: &str, obj: &[u8], mtl: Option<&[u8]>) -> Result<Scene> {
-        load::load_obj_bytes(name, obj, mtl)
-    }
-
     pub fn triangle_count(&self) -> usize {
         self.info.len()
     }
