@@ -120,3 +120,22 @@ def test_every_list_is_the_cores_and_aliases_are_not_listed():
     # py360convert's name for the horizontal cross is taken.
     cube = sm.convert(sm.read_image(HDRI), "latlong", "cube", size=4)
     assert sm.cube_to_layout(cube, "dice").shape == sm.cube_to_layout(cube, "hcross").shape
+
+
+def test_the_built_in_scenes_and_shadings_are_the_cores_names(tmp_path):
+    cause = 'unknown built-in scene "nope"; expected one of: demo, octants, mirror-ball'
+    out = tmp_path / "m.exr"
+    r = cli("generate", "--scene", "builtin:nope", "-o", out, "--size", 8)
+    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: --scene: {cause}", r.stderr
+    with pytest.raises(ValueError) as e:
+        sm.Scene.builtin("nope")
+    assert str(e.value) == f"name: {cause}"
+    cause = 'unknown shading "flat"; expected one of: full, emission'
+    r = cli("generate", "--scene", "builtin:octants", "-o", out, "--size", 8, "--shading", "flat")
+    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: --shading: {cause}", r.stderr
+    with pytest.raises(ValueError) as e:
+        sm.Scene.builtin("octants", shading="flat")
+    assert str(e.value) == f"shading: {cause}"
+    assert not out.exists()
+    r = cli("generate", "--scene", "builtin:octants", "-o", out, "--size", 8, "--shading", "emission")
+    assert r.returncode == 0 and out.exists(), r.stderr

@@ -64,7 +64,7 @@ class Scene:
         "octants" (inside a sphere whose octants glow in 8 colours) or "mirror-ball" (a chrome
         ball of radius 1 at the origin, `reflectance` 0.75 by default, to photograph inside an
         environment). Other keyword arguments as load."""
-        _choice(name, "name", ("demo", "octants", "mirror-ball"))
+        _name("scene", name, "name")
         reflectance = _finite(reflectance, "reflectance")
         if not 0 <= reflectance <= 1:
             raise ValueError(f"reflectance: expected a number in [0, 1], got {reflectance!r}")
@@ -98,7 +98,7 @@ class Scene:
         indirect_samples,
         seed,
     ):
-        _choice(shading, "shading", ("full", "emission"))
+        _name("shading", shading, "shading")
         if background is not None and environment is not None:
             raise ValueError("environment: give background or environment, not both")
         if background is not None:

@@ -46,8 +46,8 @@ pub struct SceneArgs {
     sun: Vec<f32>,
     /// full (emission, lights with shadows, environment light, mirrors; default) or emission
     /// (the emitted colour of the first surface hit only).
-    #[arg(long, default_value = "full")]
-    shading: String,
+    #[arg(long, default_value_t, value_parser = crate::names::typed::<Shading>())]
+    shading: Shading,
     /// Mirror bounces followed at most.
     #[arg(long, default_value_t = 8)]
     max_depth: u32,
@@ -100,26 +100,16 @@ impl RaySource for SceneRef<'_> {
 
 /// Loads --scene (a file or builtin:NAME).
 fn load_scene(name: &str) -> anyhow::Result<Scene> {
-    Ok(match name {
-        "builtin:demo" => scene::demo_scene(),
-        "builtin:octants" => scene::octant_sphere_scene(10.0, 16),
-        "builtin:mirror-ball" => scene::mirror_ball_scene(0.75),
-        n if n.starts_with("builtin:") => bail!(
-            "--scene: unknown built-in scene {n:?}; expected builtin:demo, builtin:octants or \
-             builtin:mirror-ball"
-        ),
-        path => Scene::load(Path::new(path))?,
+    Ok(match name.strip_prefix("builtin:") {
+        Some(b) => scene::Builtin::parse_as(b, "--scene")?.scene(0.75),
+        None => Scene::load(Path::new(name))?,
     })
 }
 
 impl SceneArgs {
     /// Loads the scene and/or the environment map; refuses outputs that would overwrite them.
     pub fn load(&self, job: &JobFlags, seed: u64, outputs: &[String]) -> anyhow::Result<World> {
-        let shading = match self.shading.as_str() {
-            "full" => Shading::Full,
-            "emission" => Shading::Emission,
-            s => bail!("shading: unknown value {s:?}; expected full or emission"),
-        };
+        let shading = self.shading;
         if self.scene.is_none() && self.env.is_none() {
             bail!("give --scene FILE (or builtin:demo) and/or --env MAP to fire rays into");
         }

@@ -50,16 +50,9 @@ impl Scene {
     #[staticmethod]
     #[pyo3(signature = (name, reflectance = 0.75))]
     fn builtin(name: &str, reflectance: f32) -> PyResult<Scene> {
-        let inner = match name {
-            "demo" => scene::demo_scene(),
-            "octants" => scene::octant_sphere_scene(10.0, 16),
-            "mirror-ball" => scene::mirror_ball_scene(reflectance),
-            _ => {
-                return Err(PyValueError::new_err(format!(
-                    "name: unknown built-in scene {name:?}; expected 'demo', 'octants' or 'mirror-ball'"
-                )))
-            }
-        };
+        let inner = scene::Builtin::parse(name)
+            .map_err(to_py)?
+            .scene(reflectance);
         Ok(Scene { inner })
     }
 
@@ -129,15 +122,7 @@ impl Scene {
         indirect_samples: u32,
         seed: u64,
     ) -> PyResult<()> {
-        self.inner.options.shading = match shading {
-            "full" => Shading::Full,
-            "emission" => Shading::Emission,
-            s => {
-                return Err(PyValueError::new_err(format!(
-                    "shading: unknown value {s:?}; expected 'full' or 'emission'"
-                )))
-            }
-        };
+        self.inner.options.shading = Shading::parse(shading).map_err(to_py)?;
         self.inner.options.max_depth = max_depth;
         self.inner.options.indirect_samples = indirect_samples;
         self.inner.options.seed = seed;

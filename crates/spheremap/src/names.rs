@@ -15,8 +15,9 @@ use crate::mappings::matcap::MatcapVariant;
 use crate::mappings::texgen::NormalMode;
 use crate::resample::{Filter, Outside, Precision, Taps};
 
-/// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature).
-pub const KINDS: [&str; 19] = [
+/// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature,
+/// `scene` (the built-in scenes) and `shading` with the `scene` feature).
+pub const KINDS: [&str; 21] = [
     "mapping",
     "filter",
     "taps",
@@ -36,6 +37,8 @@ pub const KINDS: [&str; 19] = [
     "prefilter_method",
     "encode",
     "wrap",
+    "scene",
+    "shading",
 ];
 
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
@@ -62,6 +65,10 @@ pub fn list(kind: &str) -> Option<&'static [&'static str]> {
         "prefilter_method" => &crate::lighting::prefilter::PrefilterMethod::NAMES,
         "encode" => &crate::images::compress::Encoding::NAMES,
         "wrap" => &render::Wrap::NAMES,
+        #[cfg(feature = "scene")]
+        "scene" => &crate::trace::scene::Builtin::NAMES,
+        #[cfg(feature = "scene")]
+        "shading" => &crate::trace::scene::Shading::NAMES,
         _ => return None,
     })
 }
@@ -93,6 +100,10 @@ pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
         }
         "encode" => crate::images::compress::Encoding::parse_as(value, arg).map(drop),
         "wrap" => render::Wrap::parse_as(value, arg).map(drop),
+        #[cfg(feature = "scene")]
+        "scene" => crate::trace::scene::Builtin::parse_as(value, arg).map(drop),
+        #[cfg(feature = "scene")]
+        "shading" => crate::trace::scene::Shading::parse_as(value, arg).map(drop),
         _ => Err(Error::param(
             "kind",
             format!(
@@ -110,7 +121,9 @@ mod tests {
     #[test]
     fn every_listed_name_parses_and_others_are_refused() {
         for kind in KINDS {
-            if cfg!(not(feature = "photo")) && kind == "fill" {
+            if (cfg!(not(feature = "photo")) && kind == "fill")
+                || (cfg!(not(feature = "scene")) && matches!(kind, "scene" | "shading"))
+            {
                 continue;
             }
             let names = list(kind).unwrap_or_else(|| panic!("{kind} has no list"));

@@ -4,6 +4,29 @@
 use super::{Environment, Light, Material, Scene, SceneBuilder, TriangleInput};
 use crate::images::Image;
 
+crate::base::named::named_enum! {
+    /// The built-in scenes (`--scene builtin:NAME`, Python's `Scene.builtin`).
+    pub enum Builtin: "built-in scene" as "name" {
+        /// The demo: a room with a window, a lamp and coloured walls ([`demo_scene`]).
+        Demo = "demo",
+        /// Inside a sphere whose octants glow in 8 colours ([`octant_sphere_scene`]).
+        Octants = "octants",
+        /// A chrome ball of radius 1 at the origin ([`mirror_ball_scene`]).
+        MirrorBall = "mirror-ball",
+    }
+}
+
+impl Builtin {
+    /// The scene (`reflectance`: the mirror ball's).
+    pub fn scene(self, reflectance: f32) -> Scene {
+        match self {
+            Builtin::Demo => demo_scene(),
+            Builtin::Octants => octant_sphere_scene(10.0, 16),
+            Builtin::MirrorBall => mirror_ball_scene(reflectance),
+        }
+    }
+}
+
 /// The emission of the octant that direction `d` points into (used by
 /// [`octant_sphere_scene`]): each channel is 1 on the positive side of its axis, ¼ on the
 /// negative side, so the eight octants are eight different colours.

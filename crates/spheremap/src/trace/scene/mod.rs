@@ -47,7 +47,9 @@
 mod builtin;
 mod load;
 
-pub use builtin::{demo_scene, floor_scene, mirror_ball_scene, octant_colour, octant_sphere_scene};
+pub use builtin::{
+    demo_scene, floor_scene, mirror_ball_scene, octant_colour, octant_sphere_scene, Builtin,
+};
 
 use crate::base::error::{Error, Result};
 use crate::images::Image;
@@ -118,14 +120,16 @@ pub enum Environment {
     },
 }
 
-/// How rays are shaded.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Shading {
-    /// Emission, direct light, environment light, mirrors (module docs).
-    #[default]
-    Full,
-    /// Only the emission of the first surface hit (the environment on a miss).
-    Emission,
+crate::base::named::named_enum! {
+    /// How rays are shaded.
+    #[derive(Default)]
+    pub enum Shading: "shading" as "shading" {
+        /// Emission, direct light, environment light, mirrors (module docs).
+        #[default]
+        Full = "full",
+        /// Only the emission of the first surface hit (the environment on a miss).
+        Emission = "emission",
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
