@@ -289,14 +289,13 @@ fn parent_uses_child(parent_code: &str, parent: &str, child: &str) -> bool {
     }
     code.push_str(rest);
     let s = code.as_bytes();
-    let needle = format!("{child}::");
-    let full = format!("crate::{parent}::{child}::");
-    code.match_indices(&needle).any(|(i, _)| {
+    let through_crate = format!("crate::{parent}::");
+    code.match_indices(&format!("{child}::")).any(|(i, _)| {
+        let before = &s[..i];
         let word_start = i == 0 || !(s[i - 1].is_ascii_alphanumeric() || s[i - 1] == b'_');
-        let after_colons = i >= 2 && &code[i - 2..i] == "::";
-        (word_start && !after_colons)
-            || code[..i].ends_with("self::")
-            || code[i.saturating_sub(full.len() - needle.len())..].starts_with(&full)
+        (word_start && !before.ends_with(b"::"))
+            || before.ends_with(b"self::")
+            || before.ends_with(through_crate.as_bytes())
     })
 }
 
