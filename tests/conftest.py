@@ -48,6 +48,29 @@ def write_recipe(tmp_path, output, hdri):
     return lib, rp
 
 
+def refused_alike(run_cli, tmp_path, hdri, image, value, arg, cause, cli_args, call, recipe):
+    """Checks that `value` is refused by the CLI (`run_cli(*cli_args(value, out))`), by Python
+    (`call(value, image)`) and by a batch recipe over `hdri` (`recipe(value)`, its one output)
+    with the same message `arg: cause`, each naming the argument as it is spelled there, and
+    that nothing is written. Returns the recipe's (library, path)."""
+    out = tmp_path / ("out.ktx2" if recipe(value)["op"] == "prefilter" else "out.exr")
+    r = run_cli(*cli_args(value, out))
+    flag = "--" + arg.replace("_", "-")
+    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: {flag}: {cause}", r.stderr
+    assert not out.exists()
+
+    with pytest.raises(ValueError) as e:
+        call(value, image)
+    assert str(e.value) == f"{arg}: {cause}"
+
+    lib, rp = write_recipe(tmp_path, recipe(value), hdri)
+    r = run_cli("batch", lib, "--recipe", rp, "--out", tmp_path / "made")
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip() == f"spheremap: {rp}: output 1: {arg}: {cause}", r.stderr
+    assert not (tmp_path / "made").exists()
+    return lib, rp
+
+
 def psnr(a, b, mask=None):
     """PSNR in dB of `a` against the reference `b` (over `mask` if given), the peak taken as the
     reference's 99.9th percentile and both clipped to [0, peak] (HDR-safe)."""

@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import write_recipe
+from conftest import refused_alike
 
 import spheremap as sm
 
@@ -114,22 +114,7 @@ def test_one_over_a_limit_is_refused_alike_everywhere(case, hdri, tmp_path):
     n = over(name)
     arg, cause = message(n)
     expect = f"{arg}: {cause}"
-    out = tmp_path / ("out.ktx2" if recipe(n)["op"] == "prefilter" else "out.exr")
-
-    r = cli(*cli_args(n, out))
-    flag = "--" + arg.replace("_", "-")
-    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: {flag}: {cause}", r.stderr
-    assert not out.exists()
-
-    with pytest.raises(ValueError) as e:
-        call(n, hdri)
-    assert str(e.value) == expect
-
-    lib, rp = write_recipe(tmp_path, recipe(n), HDRI)
-    r = cli("batch", lib, "--recipe", rp, "--out", tmp_path / "made")
-    assert r.returncode == 2, r.stderr
-    assert r.stderr.strip() == f"spheremap: {rp}: output 1: {expect}", r.stderr
-    assert not (tmp_path / "made").exists()
+    lib, rp = refused_alike(cli, tmp_path, HDRI, hdri, n, arg, cause, cli_args, call, recipe)
     with pytest.raises(ValueError) as e:
         sm.batch.run(lib, rp, tmp_path / "made")
     assert str(e.value).endswith(f"output 1: {expect}")

@@ -5,7 +5,7 @@ argument as it is spelled there (`--roughness-map`, `roughness_map`)."""
 import os
 
 import pytest
-from conftest import cli, write_recipe
+from conftest import cli, refused_alike, write_recipe
 
 import spheremap as sm
 
@@ -84,21 +84,7 @@ def hdri():
 @pytest.mark.parametrize("case", range(len(CASES)))
 def test_a_name_not_in_the_list_is_refused_alike_everywhere(case, hdri, tmp_path):
     arg, bad, cause, cli_args, call, recipe = CASES[case]
-    out = tmp_path / ("out.ktx2" if recipe(bad)["op"] == "prefilter" else "out.exr")
-    r = cli(*cli_args(bad, out))
-    flag = "--" + arg.replace("_", "-")
-    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: {flag}: {cause}", r.stderr
-    assert not out.exists()
-
-    with pytest.raises(ValueError) as e:
-        call(bad, hdri)
-    assert str(e.value) == f"{arg}: {cause}"
-
-    lib, rp = write_recipe(tmp_path, recipe(bad), HDRI)
-    r = cli("batch", lib, "--recipe", rp, "--out", tmp_path / "made")
-    assert r.returncode == 2, r.stderr
-    assert r.stderr.strip() == f"spheremap: {rp}: output 1: {arg}: {cause}", r.stderr
-    assert not (tmp_path / "made").exists()
+    refused_alike(cli, tmp_path, HDRI, hdri, bad, arg, cause, cli_args, call, recipe)
 
 
 @pytest.mark.parametrize("case", range(len(ALIASES)))

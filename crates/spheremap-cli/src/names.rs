@@ -6,6 +6,21 @@ use clap::builder::{PossibleValue, TypedValueParser};
 use clap::error::ErrorKind;
 use spheremap::base::named::Named;
 
+/// The flag as users type it (`--filter`), where the argument has a long name.
+fn flag(arg: Option<&clap::Arg>) -> Option<String> {
+    arg.and_then(|a| a.get_long()).map(|l| format!("--{l}"))
+}
+
+/// A bad value: the one-line message, as clap prints a validation error.
+fn invalid(message: String) -> clap::Error {
+    clap::Error::raw(ErrorKind::ValueValidation, format!("{message}\n"))
+}
+
+/// The names the help, the man pages and the completions list.
+fn possible(names: &'static [&'static str]) -> Box<dyn Iterator<Item = PossibleValue>> {
+    Box::new(names.iter().map(|n| PossibleValue::new(*n)))
+}
+
 /// A value checked by `spheremap::names::check(kind, …)`.
 #[derive(Clone, Copy, Debug)]
 pub struct CoreName(pub &'static str);
@@ -25,27 +40,17 @@ impl TypedValueParser for CoreName {
         arg: Option<&clap::Arg>,
         value: &std::ffi::OsStr,
     ) -> Result<String, clap::Error> {
-        let flag = arg
-            .and_then(|a| a.get_long())
-            .map_or_else(|| self.0.to_string(), |l| format!("--{l}"));
-        let v = value.to_str().ok_or_else(|| {
-            clap::Error::raw(
-                ErrorKind::ValueValidation,
-                format!("{flag}: not valid UTF-8\n"),
-            )
-        })?;
+        let flag = flag(arg).unwrap_or_else(|| self.0.to_string());
+        let v = value
+            .to_str()
+            .ok_or_else(|| invalid(format!("{flag}: not valid UTF-8")))?;
         spheremap::names::check(self.0, v, &flag)
             .map(|()| v.to_string())
-            .map_err(|e| clap::Error::raw(ErrorKind::ValueValidation, format!("{e}\n")))
+            .map_err(|e| invalid(e.to_string()))
     }
 
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
-        Some(Box::new(
-            spheremap::names::list(self.0)
-                .unwrap_or(&[])
-                .iter()
-                .map(|n| PossibleValue::new(*n)),
-        ))
+        Some(possible(spheremap::names::list(self.0).unwrap_or(&[])))
     }
 }
 
@@ -68,20 +73,13 @@ impl<T: Named> TypedValueParser for Typed<T> {
         arg: Option<&clap::Arg>,
         value: &std::ffi::OsStr,
     ) -> Result<T, clap::Error> {
-        let flag = arg
-            .and_then(|a| a.get_long())
-            .map_or_else(String::new, |l| format!("--{l}"));
+        let flag = flag(arg).unwrap_or_default();
         let v = value.to_str().unwrap_or("\u{fffd}");
-        T::lookup(v).ok_or_else(|| {
-            clap::Error::raw(
-                ErrorKind::ValueValidation,
-                format!("{flag}: {}\n", T::unknown(v)),
-            )
-        })
+        T::lookup(v).ok_or_else(|| invalid(format!("{flag}: {}", T::unknown(v))))
     }
 
     fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
-        Some(Box::new(T::names().iter().map(|n| PossibleValue::new(*n))))
+        Some(possible(T::names()))
     }
 }
 

@@ -2,18 +2,7 @@
 //! the Python package's name lists and its argument checks are these, and so are the CLI's.
 
 use crate::base::error::{Error, Result};
-use crate::frame::conventions::Singular;
-use crate::images::codec::NonFinite;
-use crate::images::cube_layout::Layout;
-use crate::images::tonemap::ToneMap;
-#[cfg(feature = "photo")]
-use crate::jobs::photo;
-use crate::jobs::render;
-use crate::mappings::fisheye::LensModel;
-use crate::mappings::mapping::MAPPING_NAMES;
-use crate::mappings::matcap::MatcapVariant;
-use crate::mappings::texgen::NormalMode;
-use crate::resample::{Filter, Outside, Precision, Taps};
+use crate::base::named::Named;
 
 /// The kinds of name, as [`list`] and [`check`] take them (`fill` with the `photo` feature,
 /// `scene` (the built-in scenes) and `shading` with the `scene` feature).
@@ -41,77 +30,82 @@ pub const KINDS: [&str; 21] = [
     "shading",
 ];
 
+/// One kind of name: its enum's canonical names, whether a text is one of them or an alias,
+/// and the error text for any other.
+struct Kind {
+    names: &'static [&'static str],
+    known: fn(&str) -> bool,
+    unknown: fn(&str) -> String,
+}
+
+fn of<T: Named>() -> Kind {
+    fn known<T: Named>(v: &str) -> bool {
+        T::lookup(v).is_some()
+    }
+    Kind {
+        names: T::names(),
+        known: known::<T>,
+        unknown: T::unknown,
+    }
+}
+
+/// The enum of each kind in [`KINDS`] (the payload enums' by their names: a mapping's without
+/// its preset, a lens model's without its coefficients, a render mode's without its MatCap
+/// variant, a material's without its roughness).
+fn kind(kind: &str) -> Option<Kind> {
+    use crate::{images, jobs, lighting, mappings, resample};
+    Some(match kind {
+        "mapping" => of::<mappings::mapping::MappingName>(),
+        "filter" => of::<resample::Filter>(),
+        "taps" => of::<resample::Taps>(),
+        "outside" => of::<resample::Outside>(),
+        "precision" => of::<resample::Precision>(),
+        "layout" => of::<images::cube_layout::Layout>(),
+        #[cfg(feature = "photo")]
+        "fill" => of::<jobs::photo::Fill>(),
+        "lens" => of::<mappings::fisheye::LensName>(),
+        "render" => of::<jobs::render::ModeName>(),
+        "normalize" => of::<mappings::texgen::NormalMode>(),
+        "singular" => of::<crate::frame::conventions::Singular>(),
+        "matcap" => of::<mappings::matcap::MatcapVariant>(),
+        "nonfinite" => of::<images::codec::NonFinite>(),
+        "tonemap" => of::<images::tonemap::ToneMap>(),
+        "material" => of::<lighting::brdf::MaterialName>(),
+        "roughness_map" => of::<lighting::prefilter::RoughnessMap>(),
+        "prefilter_method" => of::<lighting::prefilter::PrefilterMethod>(),
+        "encode" => of::<images::compress::Encoding>(),
+        "wrap" => of::<jobs::render::Wrap>(),
+        #[cfg(feature = "scene")]
+        "scene" => of::<crate::trace::scene::Builtin>(),
+        #[cfg(feature = "scene")]
+        "shading" => of::<crate::trace::scene::Shading>(),
+        _ => return None,
+    })
+}
+
 /// The names of `kind` (the canonical spellings; parsers also take a few aliases), or `None`
 /// for a kind not in [`KINDS`].
 pub fn list(kind: &str) -> Option<&'static [&'static str]> {
-    Some(match kind {
-        "mapping" => &MAPPING_NAMES,
-        "filter" => &Filter::NAMES,
-        "taps" => &Taps::NAMES,
-        "outside" => &Outside::NAMES,
-        "precision" => &Precision::NAMES,
-        "layout" => &Layout::NAMES,
-        #[cfg(feature = "photo")]
-        "fill" => &photo::Fill::NAMES,
-        "lens" => &LensModel::NAMES,
-        "render" => &render::Mode::NAMES,
-        "normalize" => &NormalMode::NAMES,
-        "singular" => &Singular::NAMES,
-        "matcap" => &MatcapVariant::NAMES,
-        "nonfinite" => &NonFinite::NAMES,
-        "tonemap" => &ToneMap::NAMES,
-        "material" => &crate::lighting::brdf::Material::NAMES,
-        "roughness_map" => &crate::lighting::prefilter::RoughnessMap::NAMES,
-        "prefilter_method" => &crate::lighting::prefilter::PrefilterMethod::NAMES,
-        "encode" => &crate::images::compress::Encoding::NAMES,
-        "wrap" => &render::Wrap::NAMES,
-        #[cfg(feature = "scene")]
-        "scene" => &crate::trace::scene::Builtin::NAMES,
-        #[cfg(feature = "scene")]
-        "shading" => &crate::trace::scene::Shading::NAMES,
-        _ => return None,
-    })
+    self::kind(kind).map(|k| k.names)
 }
 
 /// Checks `value` as a name of `kind` with the core's own parser (aliases included); the error
 /// names the argument `arg`.
 pub fn check(kind: &str, value: &str, arg: &str) -> Result<()> {
-    let named = |r: Result<()>| r.map_err(|e| e.named(arg));
-    named(match kind {
-        "mapping" => crate::mappings::mapping::Mapping::parse(value, None).map(drop),
-        "filter" => Filter::parse_as(value, arg).map(drop),
-        "taps" => Taps::parse_as(value, arg).map(drop),
-        "outside" => Outside::parse_as(value, arg).map(drop),
-        "precision" => Precision::parse_as(value, arg).map(drop),
-        "layout" => Layout::parse_as(value, arg).map(drop),
-        #[cfg(feature = "photo")]
-        "fill" => photo::Fill::parse_as(value, arg).map(drop),
-        "lens" => LensModel::parse(value, [0.0; 4]).map(drop),
-        "render" => render::Mode::parse(value, MatcapVariant::default()).map(drop),
-        "normalize" => NormalMode::parse_as(value, arg).map(drop),
-        "singular" => Singular::parse_as(value, arg).map(drop),
-        "matcap" => MatcapVariant::parse_as(value, arg).map(drop),
-        "nonfinite" => NonFinite::parse_as(value, arg).map(drop),
-        "tonemap" => ToneMap::parse_as(value, arg).map(drop),
-        "material" => crate::lighting::brdf::Material::parse(value, 0.5).map(drop),
-        "roughness_map" => crate::lighting::prefilter::RoughnessMap::parse_as(value, arg).map(drop),
-        "prefilter_method" => {
-            crate::lighting::prefilter::PrefilterMethod::parse_as(value, arg).map(drop)
-        }
-        "encode" => crate::images::compress::Encoding::parse_as(value, arg).map(drop),
-        "wrap" => render::Wrap::parse_as(value, arg).map(drop),
-        #[cfg(feature = "scene")]
-        "scene" => crate::trace::scene::Builtin::parse_as(value, arg).map(drop),
-        #[cfg(feature = "scene")]
-        "shading" => crate::trace::scene::Shading::parse_as(value, arg).map(drop),
-        _ => Err(Error::param(
+    let k = self::kind(kind).ok_or_else(|| {
+        Error::param(
             "kind",
             format!(
                 "unknown kind of name {kind:?}; expected one of: {}",
                 KINDS.join(", ")
             ),
-        )),
-    })
+        )
+    })?;
+    if (k.known)(value) {
+        Ok(())
+    } else {
+        Err(Error::param(arg, (k.unknown)(value)))
+    }
 }
 
 #[cfg(test)]

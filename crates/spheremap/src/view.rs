@@ -29,7 +29,7 @@ use crate::base::error::{Error, Result};
 use crate::images::codec::{self, ReadOptions};
 use crate::images::envmap::{read_env_layout, read_note, EnvFiles};
 use crate::images::Image;
-use crate::jobs::render::Mode;
+use crate::jobs::render::ModeName;
 use crate::lighting::EnvRequest;
 use crate::mappings::mapping::Mapping;
 use crate::mappings::matcap::MatcapVariant;
@@ -168,7 +168,7 @@ impl ViewData {
                     lookup: crate::jobs::shader::snippet("glsl", "lookup")?,
                     matcap: crate::jobs::shader::snippet("glsl", "matcap")?,
                 },
-                modes: Mode::NAMES,
+                modes: ModeName::NAMES,
                 variants: MatcapVariant::NAMES,
                 tonemaps: crate::images::tonemap::ToneMap::NAMES,
                 url_params: URL_PARAMS,

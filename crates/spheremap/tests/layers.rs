@@ -185,22 +185,26 @@ fn references(module: &str, code: &str, known: &BTreeSet<String>) -> BTreeSet<St
     out
 }
 
+/// Every module of the crate but its root, by name, as code ([`code_only`]).
+fn sources() -> BTreeMap<String, String> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files
+        .iter()
+        .map(|f| (module_of(&src, f), f))
+        .filter(|(m, _)| m != "lib")
+        .map(|(m, f)| (m, code_only(&std::fs::read_to_string(f).unwrap())))
+        .collect()
+}
+
 fn contains(outer: &str, inner: &str) -> bool {
     inner == outer || inner.starts_with(&format!("{outer}::"))
 }
 
 #[test]
 fn no_module_imports_from_a_layer_above_and_there_are_no_circles() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    let mut code = BTreeMap::new();
-    for f in &files {
-        let m = module_of(&src, f);
-        if m != "lib" {
-            code.insert(m, code_only(&std::fs::read_to_string(f).unwrap()));
-        }
-    }
+    let code = sources();
     let known: BTreeSet<String> = code.keys().cloned().collect();
     let mut problems = Vec::new();
     let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
@@ -255,17 +259,10 @@ fn root_shortcuts(code: &str, modules: &BTreeSet<String>) -> BTreeSet<String> {
 
 #[test]
 fn modules_name_the_module_they_use_not_a_crate_root_shortcut() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
     let tops: BTreeSet<String> = LAYERS.iter().map(|(n, _)| n.to_string()).collect();
     let mut problems = Vec::new();
-    for f in &files {
-        let m = module_of(&src, f);
-        if m == "lib" {
-            continue;
-        }
-        for name in root_shortcuts(&code_only(&std::fs::read_to_string(f).unwrap()), &tops) {
+    for (m, code) in sources() {
+        for name in root_shortcuts(&code, &tops) {
             problems.push(format!("{m} uses crate::{name}; name its module instead"));
         }
     }
@@ -327,16 +324,7 @@ fn parent_ties(code: &BTreeMap<String, String>) -> BTreeSet<String> {
 
 #[test]
 fn no_file_and_its_parent_use_each_other() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    let mut code = BTreeMap::new();
-    for f in &files {
-        let m = module_of(&src, f);
-        if m != "lib" {
-            code.insert(m, code_only(&std::fs::read_to_string(f).unwrap()));
-        }
-    }
+    let code = sources();
     let ties = parent_ties(&code);
     assert!(
         ties.is_empty(),

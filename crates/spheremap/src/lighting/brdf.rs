@@ -39,9 +39,6 @@ pub enum Material {
 }
 
 impl Material {
-    /// The names `--material` takes.
-    pub const NAMES: [&'static str; 2] = MaterialName::NAMES;
-
     /// The material from its name and perceptual roughness (ignored for `lambert`).
     pub fn parse(name: &str, roughness: f64) -> crate::base::error::Result<Material> {
         Material::of(MaterialName::parse(name)?, roughness)

@@ -41,8 +41,6 @@ pub enum LensModel {
 }
 
 impl LensModel {
-    pub const NAMES: [&'static str; 5] = LensName::NAMES;
-
     /// A model by name (`polynomial` takes `k`).
     pub fn parse(name: &str, k: [f64; 4]) -> Result<LensModel> {
         Ok(match LensName::parse(name)? {

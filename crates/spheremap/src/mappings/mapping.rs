@@ -91,9 +91,6 @@ crate::base::named::named_enum! {
     }
 }
 
-/// Names accepted by [`Mapping::parse`].
-pub const MAPPING_NAMES: [&str; 6] = MappingName::NAMES;
-
 fn only_preset(mapping: &str, preset: Option<&str>, names: &[&str]) -> Result<()> {
     match preset {
         None => Ok(()),

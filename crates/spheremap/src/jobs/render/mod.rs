@@ -265,8 +265,6 @@ pub enum Mode {
 }
 
 impl Mode {
-    pub const NAMES: [&'static str; 5] = ModeName::NAMES;
-
     /// `matcap` takes its variant separately.
     pub fn parse(name: &str, matcap: MatcapVariant) -> Result<Mode> {
         Ok(Mode::of(ModeName::parse(name)?, matcap))
