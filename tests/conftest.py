@@ -34,13 +34,14 @@ def cli(*args, cwd=None, env=None):
 
 def write_recipe(tmp_path, output, hdri):
     """A one-output batch recipe over a library holding `hdri` (a link): returns (library,
-    recipe path). `output` is the recipe's output table; a `convert` reads the map as a lat-long,
-    and the output is named after the input with the extension its op writes."""
+    recipe path). `output` is the recipe's output table; a `convert` reads the map as a lat-long
+    unless it names the source's mapping, and the output is named after the input with the
+    extension its op writes."""
     lib = tmp_path / "lib"
     lib.mkdir()
     os.symlink(os.path.abspath(hdri), lib / os.path.basename(hdri))
-    if output["op"] == "convert":
-        output = {"from": "latlong", **output}
+    if output["op"] == "convert" and not {"src", "from", "env_format"} & set(output):
+        output = {"src": "latlong", **output}
     suffix = ".ktx2" if output["op"] == "prefilter" else ".exr"
     output = {"name": "{stem}" + suffix, **output}
     rp = tmp_path / "recipe.toml"

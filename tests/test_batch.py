@@ -282,7 +282,7 @@ RECIPE_MISTAKES = [
     ("[[output]]\nop = \"convert\"\nname = \"/tmp/a.exr\"\n", "output 1: name"),
     ("[[output]]\nop = \"convert\"\nname = \"{stem}_{level}.exr\"\n", "unknown placeholder {level}"),
     ("[[output]]\nop = \"convert\"\nname = \"{stem}.txt\"\n", "cannot write this file type"),
-    ("[[output]]\nop = \"irradiance\"\nname = \"{stem}.exr\"\n", "cannot write this file type"),
+    ("[[output]]\nop = \"irradiance\"\nname = \"{stem}.csv\"\n", "cannot write this file type"),
     ("[[output]]\nop = \"irradiance\"\nname = \"{stem}.json\"\nwindow = -1\n", "output 1: window"),
     ("[[output]]\nop = \"bake-matcap\"\nname = \"{stem}.exr\"\nroughness = 2\n", "output 1: roughness"),
     ("[[output]]\nop = \"prefilter\"\nname = \"{stem}.ktx2\"\nmethod = \"magic\"\n", "output 1: method"),

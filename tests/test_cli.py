@@ -306,7 +306,7 @@ def test_maps_record_their_mapping(tmp_path):
     assert np.median(np.abs(gl - direct)) < 0.2 * np.median(np.abs(gl - direct[:, ::-1]))
     # A --from that disagrees with the note is obeyed, with a one-line note.
     r = cli("convert", tmp_path / "s.exr", tmp_path / "x.exr", "--from", "angular", "--to", "latlong", "--size", 8)
-    assert r.returncode == 0 and "records mapping sphere (preset skylibs); converting it as angular" in r.stderr, r.stderr
+    assert r.returncode == 0 and "records mapping sphere (preset skylibs); reading it as angular" in r.stderr, r.stderr
     # A cube layout and face files record theirs; both convert back without --from.
     r = cli("convert", hdri, tmp_path / "c.png", "--from", "latlong", "--to", "cube", "--layout", "vcross", "--size", 8, "-q")
     assert r.returncode == 0, r.stderr

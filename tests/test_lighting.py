@@ -331,8 +331,42 @@ def test_cli_irradiance(tmp_path):
     irr = spheremap.read_image(str(tmp_path / "irr.exr"))
     assert irr.shape == (24, 32, 3)  # a horizontal cross of 8 x 8 faces
     assert (spheremap.cube_from_layout(irr, "hcross") > 0).all()
+    cause = 'window: expected "auto" or a positive number of bands, got -3'
     p = cli("irradiance", sky, "--window", "-3")
-    assert p.returncode == 2 and "--window" in p.stderr
+    assert p.returncode == 2 and p.stderr.strip() == f"spheremap: --{cause}", p.stderr
+    with pytest.raises(ValueError) as e:
+        spheremap.irradiance_sh(spheremap.read_image(sky), window=-3)
+    assert str(e.value) == cause
+    # -o by extension: the report as a file (what the map gives: no time, no file list).
+    p = cli("irradiance", sky, "--window", "auto", "-o", tmp_path / "r.json", "--json")
+    assert p.returncode == 0, p.stderr
+    written = json.loads((tmp_path / "r.json").read_text())
+    assert written["coefficients"] == rep["coefficients"] and "seconds" not in written
+
+
+def test_a_recipe_irradiance_output_is_the_report_sh_txt_or_the_map(tmp_path):
+    """One request behind the CLI, Python and a recipe: the recipe's three outputs hold what
+    the CLI writes for the same options."""
+    sky = os.path.join(HERE, "..", "testdata", "hdri", "sky.exr")
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    os.symlink(os.path.abspath(sky), lib / "sky.exr")
+    recipe = tmp_path / "r.toml"
+    recipe.write_text("".join(
+        f'[[output]]\nop = "irradiance"\nname = "{n}"\nwindow = "auto"\nsize = 8\nto = "latlong"\n'
+        for n in ("{stem}.json", "{stem}.txt", "{stem}_irr.exr")))
+    r = cli("batch", lib, "--recipe", recipe, "--out", tmp_path / "made")
+    assert r.returncode == 0, r.stderr
+    p = cli("irradiance", sky, "--window", "auto", "--to", "latlong", "--size", 8, "--sh-txt", tmp_path / "sh.txt",
+            "-o", tmp_path / "irr.exr", "--json")
+    assert p.returncode == 0, p.stderr
+    rep = json.loads(p.stdout)
+    made = json.loads((tmp_path / "made" / "sky.json").read_text())
+    assert made["coefficients"] == rep["coefficients"]
+    assert (tmp_path / "made" / "sky.txt").read_text() == (tmp_path / "sh.txt").read_text()
+    irr = spheremap.read_image(str(tmp_path / "made" / "sky_irr.exr"))
+    assert irr.shape == (8, 16, 3)
+    np.testing.assert_array_equal(irr, spheremap.read_image(str(tmp_path / "irr.exr")))
 
 
 # -- DFG ---------------------------------------------------------------------------------------

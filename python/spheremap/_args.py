@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from typing import Any
 
@@ -9,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
+from .names import SOURCE_ALIASES
 
 _Float = np.float32 | np.float64
 _ArrayLike = npt.ArrayLike
@@ -115,3 +117,18 @@ def _finite(v, name: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v):
         raise ValueError(f"{name}: expected a finite number, got {v!r}")
     return float(v)
+
+
+def _source_aliases(f):
+    """`f`, taking the source's keywords in their older spellings too (SOURCE_ALIASES)."""
+
+    @functools.wraps(f)
+    def taking_aliases(*args, **kwargs):
+        for alias in [k for k in kwargs if k in SOURCE_ALIASES]:
+            keyword = SOURCE_ALIASES[alias]
+            if keyword in kwargs:
+                raise TypeError(f"{f.__name__}() got {keyword!r} twice (as {alias!r})")
+            kwargs[keyword] = kwargs.pop(alias)
+        return f(*args, **kwargs)
+
+    return taking_aliases

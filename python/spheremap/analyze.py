@@ -10,9 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _choice, _finite, _floats, _size_any
+from ._args import _Photo, _finite, _floats, _name, _size_any
 from .images import read_image
-from .names import MAPPINGS
 from .render import _camera, _mesh_arrays
 
 
@@ -46,7 +45,7 @@ def analyze(
     "uniform_split", "triangles_after_adaptive", "unfixable", "pixel_error_deg" ((H, W), NaN
     where no surface)}.
     """
-    _choice(mapping, "mapping", MAPPINGS)
+    _name("mapping", mapping, "mapping")
     if map is not None:
         a = read_image(map) if isinstance(map, (str, os.PathLike)) else _floats(map, "map")
         if mapping == "cube" and a.ndim == 4:

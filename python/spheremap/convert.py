@@ -6,10 +6,11 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _choice, _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _vec3
-from .names import MAPPINGS
+from ._args import _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _source_aliases, _vec3
 
 
+
+@_source_aliases
 def convert(
     image: npt.ArrayLike,
     src: str,
@@ -62,6 +63,9 @@ def convert(
         False leaves the sampled filter alone.
     look, up: the output's view (world vectors of the eye's -Z and +Y), or yaw/pitch/roll in
         degrees; src_look/src_up: the input's view when it was made for one.
+    The source's keywords (src, src_preset, src_layout, src_look, src_up) are also taken in the
+    older spellings of recipes, from / from_preset / … and env_format / env_preset / …
+    (SOURCE_ALIASES).
     precision: "f32" (fast) or "f64" (reference).
     nonfinite: NaN/Inf in `image`: "error" (ValueError naming the count and the first
         location), "zero" (replaced by 0) or "keep".
@@ -75,8 +79,8 @@ def convert(
 
     Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
     """
-    _choice(src, "src", MAPPINGS)
-    _choice(dst, "dst", MAPPINGS)
+    _name("mapping", src, "src")
+    _name("mapping", dst, "dst")
     _name("filter", filter, "filter")
     _name("outside", outside, "outside")
     _name("precision", precision, "precision")
@@ -111,10 +115,10 @@ def convert(
             raise ValueError("out: overlaps image")
     # The core's conversion request (spheremap::jobs::convert::ConvertJob): it checks the rest.
     job = {
-        "from": src,
-        "from_preset": src_preset,
-        "from_look": _vec3(src_look, "src_look"),
-        "from_up": _vec3(src_up, "src_up"),
+        "src": src,
+        "src_preset": src_preset,
+        "src_look": _vec3(src_look, "src_look"),
+        "src_up": _vec3(src_up, "src_up"),
         "to": dst,
         "preset": dst_preset,
         "size": size,

@@ -10,8 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _choice, _floats, _name, _size_any, _vec3
-from .names import MAPPINGS
+from ._args import _ArrayLike, _floats, _name, _size_any, _vec3
 
 
 def read_image(
@@ -94,7 +93,7 @@ def write_image(
         raise ValueError(f"bits: must be 8 or 16, got {bits!r}")
     note = None
     if mapping is not None:
-        _choice(mapping, "mapping", MAPPINGS)
+        _name("mapping", mapping, "mapping")
         note = _ext.map_note(
             mapping=mapping, preset=preset, layout=layout, look=_vec3(look, "look"), up=_vec3(up, "up")
         )
@@ -187,7 +186,7 @@ def write_texture(
         raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
     note = None
     if mapping is not None:
-        _choice(mapping, "mapping", MAPPINGS)
+        _name("mapping", mapping, "mapping")
         note = _ext.map_note(
             mapping=mapping,
             preset=preset,

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _finite, _floats, _name, _seed, _size_any, _vec3
+from ._args import _finite, _floats, _name, _seed, _size_any, _source_aliases, _vec3
 from .convert import _env_array
 
 
@@ -17,14 +17,15 @@ def _env_request(src: str, src_preset: str | None, src_look, src_up) -> dict[str
     """The environment's fields of the core's lighting requests (an array: its NaN/Inf are
     refused by _env_array before)."""
     return {
-        "env_format": src,
-        "env_preset": src_preset,
-        "env_look": _vec3(src_look, "src_look"),
-        "env_up": _vec3(src_up, "src_up"),
+        "src": src,
+        "src_preset": src_preset,
+        "src_look": _vec3(src_look, "src_look"),
+        "src_up": _vec3(src_up, "src_up"),
         "nonfinite": "error",
     }
 
 
+@_source_aliases
 def bake_matcap(
     env: npt.ArrayLike,
     src: str = "latlong",
@@ -77,6 +78,7 @@ def bake_matcap(
     return _ext.bake_matcap(image=a, request=request)
 
 
+@_source_aliases
 def prefilter(
     env: npt.ArrayLike,
     src: str = "latlong",
@@ -157,6 +159,7 @@ def prefilter(
     return list(arrays)
 
 
+@_source_aliases
 def irradiance_sh(
     env: npt.ArrayLike,
     src: str = "latlong",
@@ -176,8 +179,8 @@ def irradiance_sh(
     """
     _name("mapping", src, "src")
     a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    request = _env_request(src, src_preset, src_look, src_up)
-    report: dict[str, Any] = _ext.irradiance_sh(image=a, request=request, window=window)
+    request = {**_env_request(src, src_preset, src_look, src_up), "window": window}
+    report: dict[str, Any] = _ext.irradiance_sh(image=a, request=request)
     return report
 
 

@@ -30,6 +30,11 @@ PHOTO_FILLS = tuple(_ext.names("fill"))
 #: Texture wrap of render's sphere map or MatCap.
 WRAPS = tuple(_ext.names("wrap"))
 
+#: The older spellings of the source's keywords, {alias: keyword}: `from*` (conversions) and
+#: `env_*` (lighting, render, view) for `src`, `src_preset`, `src_layout`, `src_look`, `src_up`
+#: (the core's jobs::source::ALIASES, as recipes take them).
+SOURCE_ALIASES: dict[str, str] = dict(_ext.source_aliases())
+
 
 def limits() -> dict[str, dict[str, Any]]:
     """Every limit the entry points enforce, by name (``spheremap limits``; docs/limits.md):

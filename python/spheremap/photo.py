@@ -14,7 +14,6 @@ from ._spheremap import Error
 from ._args import (
     _Photo,
     _PhotoResult,
-    _choice,
     _finite,
     _floats,
     _max_memory,
@@ -25,7 +24,6 @@ from ._args import (
     _vec3,
 )
 from .images import read_image
-from .names import LENS_MODELS, MAPPINGS
 
 
 def _photo(x, name: str, linear: bool, nonfinite: str):
@@ -53,7 +51,7 @@ def _map_out(
 ) -> dict:
     """The output side shared by the photo routes (the CLI's output flags): the core's map
     request (spheremap::trace::generate::MapRequest), which checks it."""
-    _choice(to, "to", MAPPINGS)
+    _name("mapping", to, "to")
     _name("fill", fill, "fill")
     return dict(
         to=to,
@@ -248,7 +246,7 @@ def from_fisheye(
     Other arguments and the result as from_mirror_ball; the mask is the covered fraction of each
     texel (0 for the directions the lens did not see).
     """
-    _choice(model, "model", LENS_MODELS)
+    _name("lens", model, "model")
     if k is not None and model != "polynomial":
         raise ValueError("k: only the polynomial model takes coefficients")
     kk = (0.0, 0.0, 0.0, 0.0)

@@ -8,10 +8,10 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _choice, _finite, _floats, _name, _size_any, _vec3
+from ._args import _Photo, _finite, _floats, _name, _size_any, _source_aliases, _vec3
 from .convert import _env_array
 from .images import read_image
-from .names import MAPPINGS, RENDER_MODES
+
 
 
 def load_mesh(
@@ -46,13 +46,14 @@ def _env_image(env, env_format: str, linear: bool, layout: str | None = None) ->
     return _env_array(a, env_format, "env", layout)
 
 
+@_source_aliases
 def render(
     mesh: str | os.PathLike[str] | tuple[npt.ArrayLike, npt.ArrayLike | None, npt.ArrayLike],
     env: _Photo | None = None,
     *,
     mode: str = "per-pixel",
-    env_format: str | None = None,
-    env_preset: str | None = None,
+    src: str | None = None,
+    src_preset: str | None = None,
     matcap_variant: str = "classic",
     eye: npt.ArrayLike | None = None,
     target: npt.ArrayLike | None = None,
@@ -65,17 +66,17 @@ def render(
     aa: int = 1,
     wrap: str = "clamp-to-edge",
     linear: bool = False,
-    env_layout: str | None = None,
+    src_layout: str | None = None,
     subpixel_bits: int = 8,
 ) -> npt.NDArray[np.float32]:
     """Draws a mesh with the CPU rasterizer (``spheremap render``; see the README).
 
     mesh: a path (OBJ, glTF/GLB) or (positions (N, 3), normals (N, 3) or None, triangles (M, 3)).
     env: the sphere map (per-vertex, per-pixel), MatCap image (matcap) or environment map in
-        `env_format` (per-pixel), as an array or a path; not needed for normals and error. A
-        cube map is (6, F, F, C) faces or one image in a layout (`env_layout`, one of
-        CUBE_LAYOUTS, or implied by its shape as in `convert`). env_format, env_preset and
-        env_layout default, for a path, to what spheremap noted in the file when it wrote it
+        `src` (per-pixel), as an array or a path; not needed for normals and error. A
+        cube map is (6, F, F, C) faces or one image in a layout (`src_layout`, one of
+        CUBE_LAYOUTS, or implied by its shape as in `convert`). src, src_preset and
+        src_layout default, for a path, to what spheremap noted in the file when it wrote it
         (as the CLI's --env-format does), else to "sphere". A sphere map in another preset than
         "gl" is resampled into the GL sphere map texgen addresses first.
     mode: one of RENDER_MODES. per-vertex is OpenGL's fixed-function GL_SPHERE_MAP path
@@ -89,29 +90,29 @@ def render(
     Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
     in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
     """
-    _choice(mode, "mode", RENDER_MODES)
-    if env_format is not None:
-        _choice(env_format, "env_format", MAPPINGS)
+    _name("render", mode, "mode")
+    if src is not None:
+        _name("mapping", src, "src")
     if isinstance(env, (str, os.PathLike)):
-        env_format, env_preset, noted_layout = _ext.mapping_for(
-            path=os.fspath(env), mapping=env_format, preset=env_preset, default="sphere"
+        src, src_preset, noted_layout = _ext.mapping_for(
+            path=os.fspath(env), mapping=src, preset=src_preset, default="sphere"
         )
-        env_layout = env_layout if env_layout is not None else noted_layout
-    elif env_format is None:
-        env_format = "sphere"
+        src_layout = src_layout if src_layout is not None else noted_layout
+    elif src is None:
+        src = "sphere"
     _name("matcap", matcap_variant, "matcap_variant")
     _name("wrap", wrap, "wrap")
     p, n, t = _mesh_arrays(mesh)
-    if mode in ("per-vertex", "matcap") and env_format != "sphere":
+    if mode in ("per-vertex", "matcap") and src != "sphere":
         raise ValueError(
-            f"env_format: mode {mode!r} looks up (s, t) in a sphere map or MatCap image; "
+            f"src: mode {mode!r} looks up (s, t) in a sphere map or MatCap image; "
             "convert the map to a sphere map first"
         )
     if env is None and mode not in ("normals", "error"):
         raise ValueError(f"env: mode {mode!r} needs an environment map")
-    if env_layout is not None and env_format != "cube":
-        raise ValueError(f"env_layout: only for env_format='cube', not {env_format!r}")
-    e = None if env is None else _env_image(env, env_format, linear, env_layout)
+    if src_layout is not None and src != "cube":
+        raise ValueError(f"src_layout: only for src='cube', not {src!r}")
+    e = None if env is None else _env_image(env, src, linear, src_layout)
     bg = _vec3(background, "background")
     # The core's render request (spheremap::jobs::render::RenderRequest): it checks the rest.
     request = dict(
@@ -128,8 +129,8 @@ def render(
         normals=n,
         triangles=t,
         env=e,
-        env_mapping=env_format,
-        env_preset=env_preset,
+        env_mapping=src,
+        env_preset=src_preset,
         request=request,
     )
 

@@ -12,7 +12,7 @@ import numpy.typing as npt
 from . import _spheremap as _ext
 from ._args import _choice, _finite, _floats, _max_memory, _name, _seed, _size_any, _vec3
 from .convert import _env_array
-from .names import LENS_MODELS, MAPPINGS
+from .names import LENS_MODELS
 
 
 class Scene:
@@ -131,7 +131,7 @@ class Scene:
     def set_environment(
         self, image: npt.ArrayLike, mapping: str = "latlong", *, preset: str | None = None
     ) -> None:
-        _choice(mapping, "mapping", MAPPINGS)
+        _name("mapping", mapping, "mapping")
         a = _env_array(_floats(image, "environment"), mapping, "environment")
         self._inner.set_environment(image=a, mapping=mapping, preset=preset)
 
@@ -233,7 +233,7 @@ def generate(
     Deterministic for a seed. Ctrl-C cancels (KeyboardInterrupt). max_memory: refuse
     (spheremap.LimitError) a job needing more bytes (default $SPHEREMAP_MAX_MEMORY or 16 GiB).
     """
-    _choice(mapping, "mapping", MAPPINGS)
+    _name("mapping", mapping, "mapping")
     _name("filter", filter, "filter")
     _name("outside", outside, "outside")
     _name("precision", precision, "precision")

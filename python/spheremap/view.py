@@ -13,8 +13,7 @@ import webbrowser
 from typing import Any
 
 from . import _spheremap as _ext
-from ._args import _choice, _vec3
-from .names import MAPPINGS
+from ._args import _name, _source_aliases, _vec3
 
 #: The largest file the page accepts when one is dropped on it (the CLI's --max-upload default).
 DEFAULT_MAX_UPLOAD: int = _ext.VIEW_MAX_UPLOAD
@@ -137,17 +136,18 @@ class Viewer:
         )
 
 
+@_source_aliases
 def view(
     mesh: str | os.PathLike[str] | None = None,
     env: str | os.PathLike[str] | None = None,
     matcap: str | os.PathLike[str] | None = None,
     port: int = 0,
     *,
-    env_format: str | None = None,
-    env_preset: str | None = None,
-    env_layout: str | None = None,
-    env_look: Any = None,
-    env_up: Any = None,
+    src: str | None = None,
+    src_preset: str | None = None,
+    src_layout: str | None = None,
+    src_look: Any = None,
+    src_up: Any = None,
     host: str = "127.0.0.1",
     max_upload: int = DEFAULT_MAX_UPLOAD,
     open_browser: bool = False,
@@ -155,16 +155,16 @@ def view(
     """Serves the viewer (``spheremap view``; see docs/viewer.md) and returns it.
 
     mesh: OBJ or glTF/GLB (default: the bundled teapot). env: an environment map file in any
-        mapping spheremap reads, read as the CLI reads it (env_format, env_preset, env_layout,
-        env_look, env_up: as --env-format, --env-preset, --env-layout, --env-look, --env-up;
+        mapping spheremap reads, read as the CLI reads it (src, src_preset, src_layout,
+        src_look, src_up: as --env-format, --env-preset, --env-layout, --env-look, --env-up;
         by default the file's note, else lat-long). With neither env nor matcap, the bundled
         HDRI. matcap: a MatCap image.
     port: 0 picks a free one. host: 127.0.0.1 unless another address is wanted (then anyone who
         can reach the machine can see and replace the data). max_upload: bytes a dropped file
         may have. open_browser: also open the page in the system's browser.
     """
-    if env_format is not None:
-        _choice(env_format, "env_format", MAPPINGS)
+    if src is not None:
+        _name("mapping", src, "src")
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
         raise ValueError(f"port: expected an integer from 0 to 65535, got {port!r}")
     if isinstance(max_upload, bool) or not isinstance(max_upload, int) or max_upload < 1:
@@ -172,11 +172,11 @@ def view(
     if not isinstance(host, str) or not host:
         raise ValueError(f"host: expected an address, got {host!r}")
     request = {
-        "env_format": env_format,
-        "env_preset": env_preset,
-        "env_layout": env_layout,
-        "env_look": _vec3(env_look, "env_look"),
-        "env_up": _vec3(env_up, "env_up"),
+        "src": src,
+        "src_preset": src_preset,
+        "src_layout": src_layout,
+        "src_look": _vec3(src_look, "src_look"),
+        "src_up": _vec3(src_up, "src_up"),
         "nonfinite": "error",
     }
     server = _ext.ViewServer(

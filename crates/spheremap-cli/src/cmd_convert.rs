@@ -1,7 +1,6 @@
 //! `spheremap convert`: any environment mapping to any other.  The flags are a
 //! [`ConvertJob`]; the core resolves and runs it (`spheremap::jobs::convert`).
 
-use crate::job::vec3;
 use spheremap::jobs::convert::ConvertJob;
 
 #[derive(clap::Args, Debug)]
@@ -14,17 +13,12 @@ pub struct Args {
     /// bottom front back; front = +Z) or {index} (0-5).
     #[arg(required = true, num_args = 2..=12, value_names = ["IN", "OUT"])]
     paths: Vec<String>,
-    /// Input mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: the
-    /// mapping (and preset, and cube layout) that spheremap recorded in IN when it wrote it.
-    #[arg(long, value_parser = crate::names::core("mapping"))]
-    from: Option<String>,
+    #[command(flatten)]
+    source: crate::source_args::SourceArgs,
     /// Output mapping (same names). Default: the input's mapping, preset, cube layout and
     /// view, so that `convert IN OUT` changes only the file format (the texels are copied).
     #[arg(long, value_parser = crate::names::core("mapping"))]
     to: Option<String>,
-    /// Preset of the input mapping (see `spheremap conventions`); default: the mapping's own.
-    #[arg(long)]
-    from_preset: Option<String>,
     /// Preset of the output mapping (default: the mapping's own; without --to, the input's).
     #[arg(long)]
     preset: Option<String>,
@@ -45,18 +39,9 @@ pub struct Args {
     /// Roll in degrees (about the view axis, counter-clockwise as seen).
     #[arg(long, allow_negative_numbers = true, conflicts_with = "look")]
     roll: Option<f64>,
-    /// The input's view, when it was made for one (a sphere map of a turned camera).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    from_look: Option<Vec<f64>>,
-    /// The input view's up (with --from-look).
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    from_up: Option<Vec<f64>>,
     /// Cube layout of the output: hcross (default), vcross, hstrip, vstrip, dice, horizon.
     #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
-    /// Cube layout of the input (default: from its shape; a 6:1 strip must be named).
-    #[arg(long, value_parser = crate::names::core("layout"))]
-    from_layout: Option<String>,
     /// f32 (fast, default) or f64 (reference) arithmetic.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Precision>())]
     precision: spheremap::resample::Precision,
@@ -80,11 +65,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let job = ConvertJob {
-        from: a.from,
-        from_preset: a.from_preset,
-        from_layout: a.from_layout,
-        from_look: vec3(&a.from_look),
-        from_up: vec3(&a.from_up),
+        source: a.source.source(),
         to: a.to,
         preset: a.preset,
         layout: a.layout,

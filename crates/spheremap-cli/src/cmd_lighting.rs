@@ -1,12 +1,12 @@
 //! `spheremap bake-matcap`, `prefilter`, `irradiance` and `dfg`: lighting from a map (thin layer over
-//! `spheremap::lighting`).
+//! the core's requests, `spheremap::jobs::{bake_matcap, prefilter, irradiance}`, and
+//! `spheremap::lighting::dfg`).
 
 use crate::job::vec3;
-use anyhow::Context;
-use spheremap::images::envmap::{read_env_layout, read_note, write_env, EnvFiles};
-use spheremap::lighting::{dfg, sh, MatcapRequest, PrefilterRequest};
-use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::EnvMap;
+use spheremap::jobs::bake_matcap::MatcapRequest;
+use spheremap::jobs::irradiance::IrradianceRequest;
+use spheremap::jobs::prefilter::PrefilterRequest;
+use spheremap::lighting::{dfg, sh};
 
 /// The environment a lighting command reads.
 #[derive(clap::Args, Debug)]
@@ -15,46 +15,7 @@ pub struct EnvArgs {
     /// faces as a pattern ('sky_{face}.exr').
     env: String,
     #[command(flatten)]
-    flags: EnvFlags,
-}
-
-/// How an environment map is read (the `--env-*` flags of every command that reads one).
-#[derive(clap::Args, Debug)]
-pub struct EnvFlags {
-    /// Its mapping: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
-    /// spheremap recorded in it, else latlong.
-    #[arg(long, value_parser = crate::names::core("mapping"))]
-    pub env_format: Option<String>,
-    /// Preset of its mapping.
-    #[arg(long)]
-    pub env_preset: Option<String>,
-    /// Cube layout of a cube map in one image (default: from its shape).
-    #[arg(long, value_parser = crate::names::core("layout"))]
-    pub env_layout: Option<String>,
-    /// The view it was made for, when it is not the world's (a turned sphere map); default:
-    /// the one it records.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    pub env_look: Option<Vec<f64>>,
-    /// Up of --env-look.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
-    pub env_up: Option<Vec<f64>>,
-}
-
-impl EnvFlags {
-    /// The core's request for these flags.
-    pub fn request(
-        &self,
-        nonfinite: spheremap::images::codec::NonFinite,
-    ) -> spheremap::lighting::EnvRequest {
-        spheremap::lighting::EnvRequest {
-            env_format: self.env_format.clone(),
-            env_preset: self.env_preset.clone(),
-            env_layout: self.env_layout.clone(),
-            env_look: vec3(&self.env_look),
-            env_up: vec3(&self.env_up),
-            nonfinite,
-        }
-    }
+    source: crate::source_args::SourceArgs,
 }
 
 #[derive(clap::Args, Debug)]
@@ -107,11 +68,7 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
         max_samples: a.max_samples,
         seed: a.seed,
         outside: a.outside,
-        env_format: a.env.flags.env_format.clone(),
-        env_preset: a.env.flags.env_preset.clone(),
-        env_layout: a.env.flags.env_layout.clone(),
-        env_look: vec3(&a.env.flags.env_look),
-        env_up: vec3(&a.env.flags.env_up),
+        source: a.env.source.source(),
         nonfinite: a.job.nonfinite,
         max_memory: Some(a.job.max_memory()?),
     };
@@ -156,7 +113,8 @@ pub struct IrradianceArgs {
     /// Also write Filament's sh.txt (pre-scaled for its shader) here.
     #[arg(long)]
     sh_txt: Option<String>,
-    /// Also write the irradiance map (the full integral, no SH truncation) here.
+    /// Also write here the irradiance map (an image, or six faces as a '{face}' pattern: the
+    /// full integral, no SH truncation), or the report (.json).
     #[arg(short = 'o', long)]
     output: Option<String>,
     /// Mapping of the irradiance map.
@@ -183,69 +141,29 @@ pub struct IrradianceArgs {
 }
 
 pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
-    let t0 = std::time::Instant::now();
-    let files = EnvFiles::parse(&a.env.env);
-    let note = read_note(files.first())?;
-    let job = spheremap::lighting::EnvRequest {
-        env_format: a.env.flags.env_format.clone(),
-        env_preset: a.env.flags.env_preset.clone(),
-        env_layout: a.env.flags.env_layout.clone(),
-        env_look: vec3(&a.env.flags.env_look),
-        env_up: vec3(&a.env.flags.env_up),
-        nonfinite: a.nonfinite,
-    };
-    let r = job
-        .resolve(note.as_ref(), &a.env.env)
-        .map_err(crate::flag_error)?;
-    let window = match a.window.as_deref() {
-        None => sh::Window::None,
-        Some("auto") => sh::Window::Auto,
-        Some(w) => sh::Window::Size(
-            w.parse::<f64>()
-                .ok()
-                .filter(|w| w.is_finite() && *w > 0.0)
-                .with_context(|| format!("--window: {w:?} is not auto or a positive number"))?,
-        ),
-    };
-    let mut outputs: Vec<String> = a.sh_txt.iter().cloned().collect();
-    if let Some(o) = &a.output {
-        outputs.extend(EnvFiles::parse(o).paths());
-    }
-    if !a.force {
-        spheremap::images::envmap::refuse_overwrite(&files.paths(), &outputs)?;
-    }
-    let to = Mapping::parse(&a.to, None)?;
-    if let Some(o) = &a.output {
-        EnvFiles::parse(o).check_output(to)?;
-    }
-    let layout = a
-        .layout
+    let window = a
+        .window
         .as_deref()
-        .map(spheremap::images::cube_layout::Layout::parse)
-        .transpose()?;
-    let img = r.read(&files, &mut read_env_layout)?;
-    let env = EnvMap::new(r.mapping, &img, files.first())?;
-    let mut report = sh::IrradianceReport::of(&env, &r.world_to_env, window, &files.label())?;
-    if let Some(p) = &a.sh_txt {
-        spheremap::base::files::write_text(std::path::Path::new(p), &report.filament.sh_txt)?;
-        report.output.push(p.clone());
+        .map(str::parse::<sh::Window>)
+        .transpose()
+        .map_err(crate::flag_error)?
+        .unwrap_or_default();
+    let request = IrradianceRequest {
+        source: a.env.source.source(),
+        nonfinite: a.nonfinite,
+        window,
+        to: a.to.clone(),
+        layout: a.layout.clone(),
+        size: a.size,
+        samples: a.samples,
+    };
+    let outputs: Vec<String> = a.sh_txt.iter().chain(&a.output).cloned().collect();
+    let (report, notice) = request
+        .run_files(&a.env.env, &outputs, &Default::default(), a.force)
+        .map_err(crate::flag_error)?;
+    if let (Some(n), false) = (&notice, a.quiet) {
+        eprintln!("note: {n}");
     }
-    if let Some(o) = &a.output {
-        let (w, h) = to.canvas(a.size);
-        spheremap::base::limits::check_map_size("size", a.size).map_err(crate::flag_error)?;
-        let map = spheremap::lighting::irradiance_map(&env, &r.world_to_env, to, w, h, a.samples)
-            .map_err(crate::flag_error)?;
-        let written = write_env(
-            o,
-            to,
-            &map,
-            layout,
-            &spheremap::resample::IDENTITY,
-            &Default::default(),
-        )?;
-        report.output.extend(written);
-    }
-    report.seconds = t0.elapsed().as_secs_f64();
     if a.json {
         crate::out(&format!("{}\n", serde_json::to_string(&report)?));
     } else if !a.quiet {
@@ -385,11 +303,7 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
         tolerance: a.tolerance,
         method: a.method,
         lobe_samples: a.lobe_samples,
-        env_format: a.env.flags.env_format.clone(),
-        env_preset: a.env.flags.env_preset.clone(),
-        env_layout: a.env.flags.env_layout.clone(),
-        env_look: vec3(&a.env.flags.env_look),
-        env_up: vec3(&a.env.flags.env_up),
+        source: a.env.source.source(),
         nonfinite: a.job.nonfinite,
         max_memory: Some(a.job.max_memory()?),
     };

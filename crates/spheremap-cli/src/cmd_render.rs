@@ -21,19 +21,11 @@ pub struct Args {
     /// The mesh: OBJ or glTF/GLB (its vertex normals when present, else angle-weighted ones).
     mesh: String,
     /// The environment: a sphere map (per-vertex, per-pixel), a MatCap image (matcap), or any
-    /// mapping with --env-format (per-pixel). Not needed for normals and error.
+    /// mapping with --from (per-pixel). Not needed for normals and error.
     #[arg(long)]
     env: Option<String>,
-    /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
-    /// spheremap recorded in the file when it wrote it, else sphere.
-    #[arg(long, value_parser = crate::names::core("mapping"))]
-    env_format: Option<String>,
-    /// Preset of --env's mapping.
-    #[arg(long)]
-    env_preset: Option<String>,
-    /// Cube layout of --env (default: from its shape).
-    #[arg(long, value_parser = crate::names::core("layout"))]
-    env_layout: Option<String>,
+    #[command(flatten)]
+    source: crate::source_args::SourceArgs,
     /// per-vertex (GL_SPHERE_MAP texgen, as OpenGL), per-pixel, matcap, normals, error.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::render::ModeName>())]
     mode: spheremap::jobs::render::ModeName,
@@ -108,14 +100,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cam = request
         .camera(&mesh.positions)
         .with_context(|| a.mesh.clone())?;
-    let (mapping, layout) = crate::job::env_mapping(
-        a.env.as_deref().unwrap_or(""),
-        a.env_format.as_deref(),
-        a.env_preset.as_deref(),
-        a.env_layout.as_deref(),
-        "sphere",
-        "--env-format",
-    )?;
+    let (mapping, layout) = a
+        .source
+        .mapping(a.env.as_deref().unwrap_or(""), "sphere", "render")?;
     let env_img: Option<Image> = match (&a.env, mode) {
         (None, Mode::Normals | Mode::Error) => None,
         (None, _) => bail!("--env: mode {} needs an environment map", a.mode),
@@ -132,7 +119,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let what = a.env.as_deref().unwrap_or("env");
     let (mapping, env_img) = request.environment(mapping, env_img, what)?;
     let input = EnvInput::new(mapping, env_img.as_ref(), wrap, what)?;
-    input.check(mode)?;
+    input.check(mode).map_err(crate::flag_error)?;
     let env = input.env();
     let opts = request.options()?;
     if let Some(n) = a.turntable {

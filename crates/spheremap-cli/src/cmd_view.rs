@@ -1,7 +1,6 @@
 //! `spheremap view`: the interactive WebGL2 viewer, served locally (thin layer over
 //! `spheremap::view` and the `spheremap-view` server).
 
-use crate::cmd_lighting::EnvFlags;
 use anyhow::Context;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -15,7 +14,7 @@ pub struct Args {
     #[arg(long)]
     env: Option<String>,
     #[command(flatten)]
-    env_flags: EnvFlags,
+    env_flags: crate::source_args::SourceArgs,
     /// A MatCap image for the matcap mode (default: the live sphere map, the mirror's MatCap).
     #[arg(long)]
     matcap: Option<PathBuf>,
@@ -49,7 +48,7 @@ fn parse_bytes(s: &str) -> Result<u64, String> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let req = a.env_flags.request(a.nonfinite);
+    let req = a.env_flags.env_request(a.nonfinite);
     let data = spheremap::view::ViewData::load(
         a.mesh.as_deref(),
         a.env.as_deref(),

@@ -141,23 +141,3 @@ impl JobFlags {
 pub fn vec3<T: Copy>(v: &Option<Vec<T>>) -> Option<[T; 3]> {
     v.as_ref().map(|v| [v[0], v[1], v[2]])
 }
-
-/// An environment map's mapping and cube layout from `--…-format`/`--…-preset`/`--…-layout`
-/// flags: what is given, else what the file records (spheremap's note, `spheremap::images::note`;
-/// `images::envmap::mapping_for`), else `default` (the flag's documented default).  `flag` names the
-/// format flag in errors; a file that cannot be read is an error naming it.
-pub fn env_mapping(
-    path: &str,
-    format: Option<&str>,
-    preset: Option<&str>,
-    layout: Option<&str>,
-    default: &str,
-    flag: &str,
-) -> anyhow::Result<(
-    spheremap::Mapping,
-    Option<spheremap::images::cube_layout::Layout>,
-)> {
-    use anyhow::Context;
-    spheremap::images::envmap::env_mapping_of(path, format, preset, layout, default)
-        .with_context(|| flag.to_string())
-}

@@ -27,6 +27,7 @@ mod names;
 pub mod progress;
 mod sampling_args;
 mod scene_args;
+mod source_args;
 mod view_args;
 
 use clap::{Parser, Subcommand};
@@ -220,12 +221,14 @@ fn one_line(e: &anyhow::Error) -> String {
     msg.replace('\n', " ")
 }
 
-/// A core error whose parameter is a request's field (`from_preset`), named as the flag that
-/// sets it (`--from-preset`).
+/// A core error whose parameter is a request's field (`max_samples`, `src_preset`), named as
+/// the flag that sets it (`--max-samples`, `--from-preset`).
 pub(crate) fn flag_error(e: spheremap::Error) -> anyhow::Error {
     match e {
         spheremap::Error::InvalidParameter { name, reason } if !name.starts_with('-') => {
-            anyhow::anyhow!("--{}: {reason}", name.replace('_', "-"))
+            let flag = source_args::SourceArgs::flag(&name)
+                .unwrap_or_else(|| format!("--{}", name.replace('_', "-")));
+            anyhow::anyhow!("{flag}: {reason}")
         }
         other => other.into(),
     }

@@ -4,11 +4,12 @@
 
 use crate::job::{vec3, JobFlags};
 use anyhow::bail;
+use spheremap::frame::view::Mat3;
 use spheremap::images::codec::{check_nonfinite, ReadOptions};
 use spheremap::images::envmap::read_env;
 use spheremap::images::Image;
 use spheremap::mappings::mapping::Mapping;
-use spheremap::resample::{EnvMap, IDENTITY};
+use spheremap::resample::EnvMap;
 use spheremap::trace::generate::{EnvSource, RaySource};
 use spheremap::trace::scene::{self, Environment, Light, Scene, Shading};
 use std::path::Path;
@@ -22,19 +23,11 @@ pub struct SceneArgs {
     pub scene: Option<String>,
     /// Environment map: what rays leaving the scene see (and the light it casts); without
     /// --scene, the rays look it up directly (e.g. six cube faces taken around the point:
-    /// 'faces_{face}.exr' --env-format cube).
+    /// 'faces_{face}.exr' --from cube).
     #[arg(long)]
     pub env: Option<String>,
-    /// Mapping of --env: sphere, latlong, cube, angular, paraboloid, octahedral. Default: what
-    /// spheremap recorded in the file when it wrote it, else latlong.
-    #[arg(long, value_parser = crate::names::core("mapping"))]
-    env_format: Option<String>,
-    /// Preset of --env's mapping.
-    #[arg(long)]
-    env_preset: Option<String>,
-    /// Cube layout of --env (default: from its shape).
-    #[arg(long, value_parser = crate::names::core("layout"))]
-    env_layout: Option<String>,
+    #[command(flatten)]
+    source: crate::source_args::SourceArgs,
     /// Constant environment colour (linear RGB) when there is no --env; default black.
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
     background: Option<Vec<f32>>,
@@ -59,7 +52,8 @@ pub struct SceneArgs {
 /// What the rays see, loaded.
 pub struct World {
     pub scene: Option<Scene>,
-    pub env: Option<(Image, Mapping)>,
+    /// The environment map, its mapping and the rotation from world directions to its frame.
+    pub env: Option<(Image, Mapping, Mat3)>,
 }
 
 impl World {
@@ -67,7 +61,7 @@ impl World {
     pub fn source(&self) -> Box<dyn RaySource + '_> {
         match (&self.scene, &self.env) {
             (Some(s), _) => Box::new(SceneRef(s)),
-            (None, Some((img, mapping))) => {
+            (None, Some((img, mapping, rotation))) => {
                 let map = EnvMap {
                     mapping: *mapping,
                     width: img.width,
@@ -75,7 +69,7 @@ impl World {
                     channels: img.channels,
                     data: &img.data,
                 };
-                Box::new(EnvSource::new(&map, IDENTITY))
+                Box::new(EnvSource::new(&map, *rotation))
             }
             _ => unreachable!("checked on load"),
         }
@@ -115,20 +109,13 @@ impl SceneArgs {
         }
         let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
         job.refuse_overwrite(&inputs, outputs)?;
-        let env: Option<(Image, Mapping)> = match &self.env {
+        let env: Option<(Image, Mapping, Mat3)> = match &self.env {
             Some(e) => {
-                let (m, l) = crate::job::env_mapping(
-                    e,
-                    self.env_format.as_deref(),
-                    self.env_preset.as_deref(),
-                    self.env_layout.as_deref(),
-                    "latlong",
-                    "--env-format/--env-preset",
-                )?;
+                let (m, l, rotation) = self.source.read_as(e, "latlong")?;
                 let mut img = read_env(e, m, l, &ReadOptions::default())?;
                 check_nonfinite(&mut img, job.nonfinite()?, e)?;
                 EnvMap::new(m, &img, e)?;
-                Some((img, m))
+                Some((img, m, rotation))
             }
             None => None,
         };
@@ -136,10 +123,10 @@ impl SceneArgs {
             Some(s) => {
                 let mut sc = load_scene(s)?;
                 sc.environment = match &env {
-                    Some((img, m)) => Environment::Map {
+                    Some((img, m, rotation)) => Environment::Map {
                         image: img.clone(),
                         mapping: *m,
-                        rotation: IDENTITY,
+                        rotation: *rotation,
                     },
                     None => Environment::Constant(match vec3(&self.background) {
                         Some(c) => c,

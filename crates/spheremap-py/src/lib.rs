@@ -492,6 +492,12 @@ pub(crate) fn image_of(
     })
 }
 
+/// A core request read from a dict of its fields; serde's message names the field at fault
+/// (a name's, a window's) or the key it does not know.
+fn request_of<T: serde::de::DeserializeOwned>(request: &Bound<'_, PyAny>) -> PyResult<T> {
+    pythonize::depythonize(request).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 /// The names of `kind` as the core lists them ([`spheremap::names`]; Python's FILTERS,
 /// CUBE_LAYOUTS, ... are these).
 #[pyfunction]
@@ -499,6 +505,12 @@ fn names(kind: &str) -> PyResult<Vec<&'static str>> {
     spheremap::names::list(kind)
         .map(|n| n.to_vec())
         .ok_or_else(|| PyValueError::new_err(format!("kind: unknown {kind:?}")))
+}
+
+/// The older spellings of the source's fields, (alias, field) ([`spheremap::jobs::source::ALIASES`]).
+#[pyfunction]
+fn source_aliases() -> Vec<(&'static str, &'static str)> {
+    spheremap::jobs::source::ALIASES.to_vec()
 }
 
 /// The core's table of limits ([`spheremap::base::limits::table`]): Python's `limits()`.
@@ -611,15 +623,13 @@ fn bake_matcap<'py>(
     image: PyReadonlyArrayDyn<'py, f32>,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::lighting::MatcapRequest;
+    use spheremap::jobs::bake_matcap::MatcapRequest;
     use spheremap::resample::Progress;
     let req: MatcapRequest = pythonize::depythonize(request)
         .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
     let img = image_of(&image, "env")?;
     let progress = Progress::default();
-    let (out, _) = run_cancellable(py, &progress, "the bake", |p| {
-        req.run_image(&img, Some(p)).map_err(lighting_names)
-    })?;
+    let (out, _) = run_cancellable(py, &progress, "the bake", |p| req.run_image(&img, Some(p)))?;
     Ok(PyArray1::from_vec(py, out.data)
         .reshape([out.height, out.width, out.channels])?
         .into_any())
@@ -637,14 +647,14 @@ fn prefilter<'py>(
     image: PyReadonlyArrayDyn<'py, f32>,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<PyLevels<'py>> {
-    use spheremap::lighting::PrefilterRequest;
+    use spheremap::jobs::prefilter::PrefilterRequest;
     use spheremap::resample::Progress;
     let req: PrefilterRequest = pythonize::depythonize(request)
         .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
     let img = image_of(&image, "env")?;
     let progress = Progress::default();
     let made = run_cancellable(py, &progress, "the prefilter", |p| {
-        req.run_image(&img, Some(p)).map_err(lighting_names)
+        req.run_image(&img, Some(p))
     })?;
     let (mut arrays, mut reports) = (Vec::new(), Vec::new());
     for (out, rep) in made {
@@ -741,30 +751,15 @@ fn write_texture<'py>(
 }
 
 /// The SH9 report of `spheremap irradiance --json` for an environment array, as a dict;
-/// `request` is an `EnvRequest` as a dict, `window` None, "auto" or a size in bands.
+/// `request` is an `IrradianceRequest` (`jobs::irradiance`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (image, request, window))]
+#[pyo3(signature = (image, request))]
 fn irradiance_sh<'py>(
     py: Python<'py>,
     image: PyReadonlyArrayDyn<'py, f32>,
     request: &Bound<'py, PyAny>,
-    window: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::lighting::{sh, EnvRequest};
-    let req: EnvRequest = pythonize::depythonize(request)
-        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
-    let window = match window {
-        None => sh::Window::None,
-        Some(w) if w.extract::<String>().is_ok_and(|s| s == "auto") => sh::Window::Auto,
-        Some(w) => match w.extract::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.0 => sh::Window::Size(v),
-            _ => {
-                return Err(PyValueError::new_err(
-                    "window: expected None, \"auto\" or a positive number of bands",
-                ))
-            }
-        },
-    };
+    let req: spheremap::jobs::irradiance::IrradianceRequest = request_of(request)?;
     let shape = image.shape().to_vec();
     if shape.len() != 3 {
         return Err(PyValueError::new_err(format!(
@@ -772,17 +767,18 @@ fn irradiance_sh<'py>(
         )));
     }
     let data = contiguous(&image, "env")?;
-    let r = req
-        .resolve(None, "env")
-        .map_err(|e| to_py(lighting_names(e)))?;
+    let r = req.resolve(None, "env").map_err(to_py)?;
     // The array's texels as they are (no copy: a 2048×1024 map is read in a few ms).
     let env = spheremap::resample::EnvMap::from_slice(
-        r.mapping, shape[1], shape[0], shape[2], data, "env",
+        r.env.mapping,
+        shape[1],
+        shape[0],
+        shape[2],
+        data,
+        "env",
     )
     .map_err(to_py)?;
-    let report = py
-        .detach(|| sh::IrradianceReport::of(&env, &r.world_to_env, window, "env"))
-        .map_err(to_py)?;
+    let report = py.detach(|| r.report(&env, "env")).map_err(to_py)?;
     Ok(pythonize::pythonize(py, &report)
         .map_err(|e| PyValueError::new_err(format!("report: {e}")))?
         .into_any())
@@ -800,37 +796,14 @@ fn dfg_lut<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
         .into_any())
 }
 
-/// A lighting request's field names as Python's functions spell their arguments.
-fn lighting_names(e: spheremap::Error) -> spheremap::Error {
-    match e {
-        spheremap::Error::InvalidParameter { name, reason } => {
-            let py_name = match name.as_str() {
-                "env_format" => "src",
-                "env_preset" => "src_preset",
-                "env_layout" => "src_layout",
-                "env_look" => "src_look",
-                "env_up" => "src_up",
-                other => other,
-            };
-            spheremap::Error::param(py_name, reason)
-        }
-        other => other,
-    }
-}
-
-/// A conversion request's field names (the CLI's flags) as Python's `convert` spells its
-/// arguments.
+/// A conversion request's output fields as Python's `convert` spells its arguments (`dst`,
+/// `dst_preset`; the source's, `src`, `src_preset`, …, are spelled alike).
 fn python_names(e: spheremap::Error) -> spheremap::Error {
     match e {
         spheremap::Error::InvalidParameter { name, reason } => {
             let py_name = match name.as_str() {
-                "from" => "src",
-                "from_preset" => "src_preset",
                 "to" => "dst",
                 "preset" => "dst_preset",
-                "from_look" => "src_look",
-                "from_up" => "src_up",
-                "from_layout" => "src_layout",
                 other => other,
             };
             spheremap::Error::param(py_name, reason)
@@ -1119,6 +1092,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
+    m.add_function(wrap_pyfunction!(source_aliases, m)?)?;
     m.add_function(wrap_pyfunction!(limits, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;

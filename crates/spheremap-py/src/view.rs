@@ -4,7 +4,7 @@
 use crate::to_py;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use spheremap::lighting::EnvRequest;
+use spheremap::jobs::source::EnvRequest;
 use std::path::Path;
 
 /// A running viewer: its address, and `close()` to stop it.

@@ -21,7 +21,7 @@
 //! When the server listens on a loopback address it answers only requests whose `Host` is that
 //! address or `localhost` (a DNS-rebinding page gets 403).
 
-use spheremap::lighting::EnvRequest;
+use spheremap::jobs::source::EnvRequest;
 use spheremap::view::{ViewData, ENV_EXTENSIONS, MESH_EXTENSIONS};
 use std::io::Read;
 use std::net::SocketAddr;

@@ -3,7 +3,7 @@
 
 use spheremap::images::codec::{write_image, WriteOptions};
 use spheremap::images::Image;
-use spheremap::lighting::EnvRequest;
+use spheremap::jobs::source::EnvRequest;
 use spheremap::view::ViewData;
 use spheremap_view::{ServeOptions, Server, UPLOAD_HEADER};
 use std::io::{Read, Write};

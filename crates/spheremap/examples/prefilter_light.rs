@@ -6,7 +6,7 @@
 //! `RMAP=threejs` the roughness map; `TO=octahedral` the output mapping;
 //! `SUN=1,0.5` inserts a sun of that diameter (degrees) holding that fraction of the power.
 use spheremap::images::codec::{read_image, ReadOptions};
-use spheremap::lighting::PrefilterRequest;
+use spheremap::jobs::prefilter::PrefilterRequest;
 use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::energy::add_sun;
 

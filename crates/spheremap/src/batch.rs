@@ -1,4 +1,4 @@
-//! Layer 7, batch: a library of maps turned into their assets by one recipe.
+//! Layer 8, batch: a library of maps turned into their assets by one recipe.
 //!
 //! * [`Recipe`]: the TOML recipe — a list of outputs, each one spheremap operation (`convert`,
 //!   `bake-matcap`, `prefilter`, `irradiance`) with the same options as its CLI subcommand,
@@ -20,14 +20,15 @@ use crate::base::limits::check_map_size;
 use crate::images::codec::{ReadOptions, WriteOptions};
 use crate::images::compress::Encoding;
 use crate::images::cube_layout::Layout;
-use crate::images::envmap::{read_env_layout, read_note, EnvFiles, EnvReader};
+use crate::images::envmap::{read_env_layout, EnvFiles, EnvReader};
 use crate::images::format::Format;
 use crate::images::Image;
+use crate::jobs::bake_matcap::MatcapRequest;
 use crate::jobs::convert::ConvertJob;
-use crate::lighting::sh::{IrradianceReport, Window};
-use crate::lighting::{EnvRequest, MatcapRequest, PrefilterRequest};
+use crate::jobs::irradiance::IrradianceRequest;
+use crate::jobs::prefilter::PrefilterRequest;
 use crate::mappings::mapping::Mapping;
-use crate::resample::{EnvMap, Progress};
+use crate::resample::Progress;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
@@ -74,61 +75,13 @@ impl WriteFlags {
     }
 }
 
-/// The `irradiance` operation: SH9 of the environment, written as the JSON report of
-/// `spheremap irradiance --json` (`.json`) or as Filament's `sh.txt` (`.txt`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct IrradianceJob {
-    /// Filament's ringing window: `"auto"` or a size in bands; none by default.
-    pub window: Option<WindowArg>,
-    pub env_format: Option<String>,
-    pub env_preset: Option<String>,
-    pub env_layout: Option<String>,
-    pub env_look: Option<[f64; 3]>,
-    pub env_up: Option<[f64; 3]>,
-    pub nonfinite: Option<crate::images::codec::NonFinite>,
-}
-
-/// A window as a recipe spells it: `"auto"` or a number.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum WindowArg {
-    Size(f64),
-    Name(String),
-}
-
-impl IrradianceJob {
-    fn env(&self) -> EnvRequest {
-        EnvRequest {
-            env_format: self.env_format.clone(),
-            env_preset: self.env_preset.clone(),
-            env_layout: self.env_layout.clone(),
-            env_look: self.env_look,
-            env_up: self.env_up,
-            nonfinite: self.nonfinite.unwrap_or_default(),
-        }
-    }
-
-    fn window(&self) -> Result<Window> {
-        match &self.window {
-            None => Ok(Window::None),
-            Some(WindowArg::Name(n)) if n == "auto" => Ok(Window::Auto),
-            Some(WindowArg::Size(w)) if w.is_finite() && *w > 0.0 => Ok(Window::Size(*w)),
-            Some(w) => Err(Error::param(
-                "window",
-                format!("{w:?} is not \"auto\" or a positive number of bands"),
-            )),
-        }
-    }
-}
-
 /// One output of a recipe: what to make and the name pattern of its file(s).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Op {
     Convert(ConvertJob),
     BakeMatcap(MatcapRequest, WriteFlags),
     Prefilter(PrefilterRequest, WriteFlags),
-    Irradiance(IrradianceJob),
+    Irradiance(IrradianceRequest, WriteFlags),
 }
 
 impl Op {
@@ -137,7 +90,7 @@ impl Op {
             Op::Convert(_) => OPS[0],
             Op::BakeMatcap(..) => OPS[1],
             Op::Prefilter(..) => OPS[2],
-            Op::Irradiance(_) => OPS[3],
+            Op::Irradiance(..) => OPS[3],
         }
     }
 
@@ -147,7 +100,7 @@ impl Op {
             Op::Convert(j) => (serde_json::to_value(j), None),
             Op::BakeMatcap(j, w) => (serde_json::to_value(j), Some(w)),
             Op::Prefilter(j, w) => (serde_json::to_value(j), Some(w)),
-            Op::Irradiance(j) => (serde_json::to_value(j), None),
+            Op::Irradiance(j, w) => (serde_json::to_value(j), Some(w)),
         };
         serde_json::json!({
             "op": self.name(),
@@ -318,8 +271,14 @@ impl Recipe {
             }
         }
         /// The table as `T`; on an error, the key at fault is found by reading each key alone
-        /// (every field has a default), as serde's messages do not always name it.
-        fn de<T: serde::de::DeserializeOwned>(t: toml::Table) -> Result<T> {
+        /// (every field has a default), as serde's messages do not always name it.  An
+        /// unknown key's message lists the keys `T` takes (serde's own list leaves out those of
+        /// a flattened part, the source's).
+        /// `also`: the other keys the operation takes.
+        fn de<T: serde::de::DeserializeOwned + Serialize + Default>(
+            t: toml::Table,
+            also: &[&str],
+        ) -> Result<T> {
             let read = |t: toml::Table| -> std::result::Result<T, String> {
                 toml::Value::Table(t)
                     .try_into()
@@ -336,17 +295,30 @@ impl Recipe {
                     .map(|(k, _)| k.clone())
                     .unwrap_or_else(|| "value".into());
                 // A name's message names its field already (`base::named`).
-                let m = m
+                let mut m = m
                     .strip_prefix(&format!("{key}: "))
                     .map_or(m.clone(), str::to_string);
+                if m.starts_with("unknown field") {
+                    let keys = serde_json::to_value(T::default()).map(|v| match v {
+                        serde_json::Value::Object(o) => o.keys().cloned().collect::<Vec<_>>(),
+                        _ => Vec::new(),
+                    });
+                    if let Ok(mut keys) = keys {
+                        keys.extend(also.iter().map(|k| k.to_string()));
+                        m = format!(
+                            "unknown field `{key}`; expected one of: {}",
+                            keys.join(", ")
+                        );
+                    }
+                }
                 Error::param(key, m)
             })
         }
         let op = match op.as_str() {
-            "convert" => Op::Convert(de(rest)?),
-            "bake-matcap" => Op::BakeMatcap(de(rest)?, de(write)?),
-            "prefilter" => Op::Prefilter(de(rest)?, de(write)?),
-            "irradiance" => Op::Irradiance(de(rest)?),
+            "convert" => Op::Convert(de(rest, &[])?),
+            "bake-matcap" => Op::BakeMatcap(de(rest, &WRITE_KEYS)?, de(write, &[])?),
+            "prefilter" => Op::Prefilter(de(rest, &WRITE_KEYS)?, de(write, &[])?),
+            "irradiance" => Op::Irradiance(de(rest, &WRITE_KEYS)?, de(write, &[])?),
             other => {
                 return Err(Error::param(
                     "op",
@@ -413,7 +385,11 @@ fn check_pattern(name: &str, op: &Op) -> Result<()> {
     let ext_from_input = name.ends_with("{name}") || name.ends_with("{ext}");
     let ext_ok = ext_from_input
         || match op {
-            Op::Irradiance(_) => name.ends_with(".json") || name.ends_with(".txt"),
+            Op::Irradiance(..) => {
+                name.ends_with(".json")
+                    || name.ends_with(".txt")
+                    || Format::from_extension(p).is_some()
+            }
             Op::Prefilter(..) => Format::from_extension(p).is_some(),
             _ => {
                 Format::from_extension(p).is_some_and(|f| !matches!(f, Format::Ktx2 | Format::Dds))
@@ -426,7 +402,9 @@ fn check_pattern(name: &str, op: &Op) -> Result<()> {
                 "{name:?}: {} cannot write this file type{}",
                 op.name(),
                 match op {
-                    Op::Irradiance(_) => " (.json: the report; .txt: Filament's sh.txt)",
+                    Op::Irradiance(..) => {
+                        " (.json: the report; .txt: Filament's sh.txt; an image: the irradiance map)"
+                    }
                     _ => "",
                 }
             ),
@@ -460,9 +438,8 @@ fn check_values(op: &Op) -> Result<()> {
         Op::Prefilter(j, _) => {
             j.resolve(Some(&note), "input")?;
         }
-        Op::Irradiance(j) => {
-            j.env().resolve(Some(&note), "input")?;
-            j.window()?;
+        Op::Irradiance(j, _) => {
+            j.resolve(Some(&note), "input")?;
         }
     }
     Ok(())
@@ -898,31 +875,10 @@ fn run_step(
                 job.run_files_with(input, output, &w.options(), true, Some(progress), read)?;
             Ok(r.output)
         }
-        Op::Irradiance(job) => {
-            let files = EnvFiles::parse(input);
-            let note = read_note(files.first())?;
-            let r = job.env().resolve(note.as_ref(), input)?;
-            let img = r.read(&files, read)?;
-            let env = EnvMap::new(r.mapping, &img, files.first())?;
-            let report = IrradianceReport::of(&env, &r.world_to_env, job.window()?, input)?;
-            let text = if output.ends_with(".txt") {
-                report.filament.sh_txt.clone()
-            } else {
-                // The file holds what the map gives, not how long it took or where it was
-                // written: the same input makes the same bytes (the manifest hashes files).
-                let mut v = serde_json::to_value(&report)
-                    .map_err(|e| Error::data(output, e.to_string()))?;
-                if let Some(o) = v.as_object_mut() {
-                    o.remove("seconds");
-                    o.remove("output");
-                }
-                let mut s = serde_json::to_string_pretty(&v)
-                    .map_err(|e| Error::data(output, e.to_string()))?;
-                s.push('\n');
-                s
-            };
-            crate::base::files::write_text(Path::new(output), &text)?;
-            Ok(vec![output.to_string()])
+        Op::Irradiance(job, w) => {
+            let (r, _) =
+                job.run_files_with(input, &[output.to_string()], &w.options(), true, read)?;
+            Ok(r.output)
         }
     }
 }

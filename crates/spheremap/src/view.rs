@@ -30,7 +30,7 @@ use crate::images::codec::{self, ReadOptions};
 use crate::images::envmap::{read_env_layout, read_note, EnvFiles};
 use crate::images::Image;
 use crate::jobs::render::ModeName;
-use crate::lighting::EnvRequest;
+use crate::jobs::source::EnvRequest;
 use crate::mappings::mapping::Mapping;
 use crate::mappings::matcap::MatcapVariant;
 use crate::mesh::Mesh;

@@ -23,6 +23,29 @@ fn a_request_reads_from_json_with_every_default_and_refuses_unknown_keys() {
     )
     .unwrap();
     assert_eq!(job.look, Some([1.0, 0.0, 0.0]));
+    // The source's fields are spelled src, src_preset, …; from, from_preset, … and env_format,
+    // env_preset, … are the same fields.
+    for spelling in [
+        r#"{"src": "sphere", "src_preset": "skylibs", "src_look": [1, 0, 0], "src_up": [0, 0, 1]}"#,
+        r#"{"from": "sphere", "from_preset": "skylibs", "from_look": [1, 0, 0], "from_up": [0, 0, 1]}"#,
+        r#"{"env_format": "sphere", "env_preset": "skylibs", "env_look": [1, 0, 0], "env_up": [0, 0, 1]}"#,
+    ] {
+        let job: ConvertJob = serde_json::from_str(spelling).unwrap();
+        assert_eq!(job.source.src.as_deref(), Some("sphere"), "{spelling}");
+        assert_eq!(
+            job.source.src_preset.as_deref(),
+            Some("skylibs"),
+            "{spelling}"
+        );
+        assert_eq!(job.source.src_look, Some([1.0, 0.0, 0.0]), "{spelling}");
+        assert_eq!(job.source.src_up, Some([0.0, 0.0, 1.0]), "{spelling}");
+    }
+    let written = serde_json::to_value(&job).unwrap();
+    assert_eq!(written["src"], "latlong");
+    assert!(written.get("from").is_none());
+    let e =
+        serde_json::from_str::<ConvertJob>(r#"{"src": "sphere", "from": "latlong"}"#).unwrap_err();
+    assert!(e.to_string().contains("duplicate field `src`"), "{e}");
     let e = serde_json::from_str::<ConvertJob>(r#"{"form": "latlong"}"#).unwrap_err();
     assert!(e.to_string().contains("unknown field `form`"), "{e}");
     // Names are read as the core's enums (aliases too) and refused as they are read.
@@ -40,7 +63,10 @@ fn a_request_reads_from_json_with_every_default_and_refuses_unknown_keys() {
 #[test]
 fn the_rules_name_what_they_refuse() {
     let job = ConvertJob {
-        from: Some("latlong".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("latlong".into()),
+            ..Default::default()
+        },
         to: Some("sphere".into()),
         look: Some([1.0, 0.0, 0.0]),
         yaw: Some(30.0),
@@ -49,7 +75,10 @@ fn the_rules_name_what_they_refuse() {
     let e = job.resolve(None, "in.exr").unwrap_err().to_string();
     assert!(e.starts_with("look: ") && e.contains("not both"), "{e}");
     let job = ConvertJob {
-        from: Some("latlong".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("latlong".into()),
+            ..Default::default()
+        },
         up: Some([0.0, 1.0, 0.0]),
         ..Default::default()
     };
@@ -62,9 +91,12 @@ fn the_rules_name_what_they_refuse() {
         .resolve(None, "in.exr")
         .unwrap_err()
         .to_string();
-    assert!(e.starts_with("from: in.exr records no mapping"), "{e}");
+    assert!(e.starts_with("src: in.exr records no mapping"), "{e}");
     let job = ConvertJob {
-        from: Some("latlong".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("latlong".into()),
+            ..Default::default()
+        },
         to: Some("globe".into()),
         ..Default::default()
     };
@@ -92,7 +124,10 @@ fn a_note_supplies_the_source_and_without_to_the_output_keeps_it() {
     assert_eq!(r.rotation, spheremap::resample::IDENTITY);
     // Read as another mapping: converted as given, with a notice, the note's view not applied.
     let job = ConvertJob {
-        from: Some("angular".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("angular".into()),
+            ..Default::default()
+        },
         to: Some("latlong".into()),
         ..Default::default()
     };
@@ -109,7 +144,10 @@ fn a_note_supplies_the_source_and_without_to_the_output_keeps_it() {
 fn running_a_request_is_the_engines_result() {
     let img = common::apartment();
     let job = ConvertJob {
-        from: Some("latlong".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("latlong".into()),
+            ..Default::default()
+        },
         to: Some("sphere".into()),
         size: Some(48),
         look: Some([0.3, 0.2, -1.0]),

@@ -4,8 +4,8 @@
 
 use spheremap::images::codec::{read_image, ReadOptions};
 use spheremap::images::Image;
+use spheremap::jobs::prefilter::PrefilterRequest;
 use spheremap::lighting::sh::Sh9;
-use spheremap::lighting::PrefilterRequest;
 use spheremap::mappings::mapping::Mapping;
 use spheremap::resample::energy::{add_sun, reduce, LightCheck, Moments};
 use spheremap::resample::{resample, EnvMap, ResampleOptions, IDENTITY};

@@ -14,12 +14,12 @@ const LAYERS: [(&str, usize); 13] = [
     ("mesh", 3),
     ("resample", 4),
     ("trace", 5),
-    ("jobs", 6),
     ("lighting", 6),
-    ("batch", 7),
-    ("demo", 7),
-    ("names", 7),
-    ("view", 7),
+    ("jobs", 7),
+    ("batch", 8),
+    ("demo", 8),
+    ("names", 8),
+    ("view", 8),
 ];
 
 fn layer(module: &str) -> Option<usize> {
@@ -341,7 +341,7 @@ fn the_checker_sees_what_it_must() {
     );
     let got = references("a::b", &code, &known);
     assert_eq!(got, ["a::b", "a::c"].map(String::from).into());
-    assert_eq!(layer("jobs::render::raster"), Some(6));
+    assert_eq!(layer("jobs::render::raster"), Some(7));
     let tops: BTreeSet<String> = ["base", "mappings"].map(String::from).into();
     let code = code_only("use crate::Mapping;\nlet e = crate::base::error::Error::x();\nuse crate::{mappings::X, Result};");
     assert_eq!(

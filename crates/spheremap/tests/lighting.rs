@@ -2,9 +2,10 @@
 //! a white map, the DFG table against the albedo.
 
 use spheremap::images::Image;
+use spheremap::jobs::bake_matcap::MatcapRequest;
 use spheremap::jobs::convert::ConvertJob;
 use spheremap::lighting::brdf::{ggx_albedo, Material};
-use spheremap::lighting::{dfg, MatcapRequest};
+use spheremap::lighting::dfg;
 
 fn constant(w: usize, h: usize, v: f32) -> Image {
     Image {
@@ -79,7 +80,10 @@ fn roughness_zero_is_the_sphere_map_of_the_view() {
     let (baked, rep) = req.run_image(&env, None).unwrap();
     assert_eq!(rep.method, spheremap::lighting::matcap::Method::Mirror);
     let job = ConvertJob {
-        from: Some("latlong".into()),
+        source: spheremap::jobs::source::Source {
+            src: Some("latlong".into()),
+            ..Default::default()
+        },
         to: Some("sphere".into()),
         size: Some(32),
         look,
@@ -137,10 +141,13 @@ fn bad_requests_name_their_field() {
         ),
         (
             MatcapRequest {
-                env_format: Some("globe".into()),
+                source: spheremap::jobs::source::Source {
+                    src: Some("globe".into()),
+                    ..Default::default()
+                },
                 ..Default::default()
             },
-            "env_format",
+            "src",
         ),
     ] {
         let e = req.run_image(&env, None).unwrap_err().to_string();
@@ -277,8 +284,8 @@ fn a_bake_takes_the_cheaper_of_the_grid_and_the_samples() {
 
 mod prefilter {
     use super::*;
+    use spheremap::jobs::prefilter::PrefilterRequest;
     use spheremap::lighting::prefilter::{split_sum_norm, RoughnessMap};
-    use spheremap::lighting::PrefilterRequest;
     use spheremap::mappings::mapping::Mapping;
     use spheremap::resample::EnvMap;
 
@@ -677,7 +684,10 @@ mod prefilter {
         };
         let levels = req.run_image(&env, None).unwrap();
         let conv = ConvertJob {
-            from: Some("latlong".into()),
+            source: spheremap::jobs::source::Source {
+                src: Some("latlong".into()),
+                ..Default::default()
+            },
             to: Some("cube".into()),
             size: Some(16),
             ..Default::default()
@@ -894,4 +904,103 @@ fn a_shared_cut_keeps_each_normals_integral() {
         );
         assert!(worst_shared < 1e-2, "α {alpha}: worst error {worst_shared}");
     }
+}
+
+/// The irradiance request (the CLI's `irradiance`, Python's `irradiance_sh`, a recipe's
+/// `irradiance`): under a white sky of radiance 1 the irradiance is π everywhere — in the SH9
+/// report, in Filament's pre-scaled sh.txt (E/π = 1) and in the irradiance map, written by
+/// extension (.json, .txt, an image pattern).
+#[test]
+fn the_irradiance_request_writes_its_report_sh_txt_and_map_by_extension() {
+    use spheremap::jobs::irradiance::IrradianceRequest;
+    use spheremap::lighting::sh::Window;
+    let dir = std::env::temp_dir().join(format!("spheremap-irradiance-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("white.exr");
+    spheremap::images::codec::write_image(&input, &constant(64, 32, 1.0), &Default::default())
+        .unwrap();
+    let p = |n: &str| dir.join(n).to_string_lossy().into_owned();
+    // The lighting spelling of the source is the same field.
+    let req: IrradianceRequest =
+        serde_json::from_str(r#"{"env_format": "latlong", "size": 4, "to": "cube"}"#).unwrap();
+    assert_eq!(req.source.src.as_deref(), Some("latlong"));
+    let outputs = [p("r.json"), p("sh.txt"), p("irr_{face}.exr")];
+    let (report, notice) = req
+        .run_files(&p("white.exr"), &outputs, &Default::default(), false)
+        .unwrap();
+    assert!(notice.is_none());
+    assert_eq!(report.output.len(), 8, "{:?}", report.output);
+    for e in report.irradiance_axes {
+        for c in e {
+            assert!((c - std::f64::consts::PI).abs() < 1e-3, "{c}");
+        }
+    }
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("r.json")).unwrap()).unwrap();
+    assert!(file.get("seconds").is_none() && file.get("output").is_none());
+    assert_eq!(
+        file["coefficients"],
+        serde_json::to_value(report.coefficients).unwrap()
+    );
+    assert_eq!(
+        std::fs::read_to_string(p("sh.txt")).unwrap(),
+        report.filament.sh_txt
+    );
+    for face in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let img = spheremap::images::codec::read_image(
+            std::path::Path::new(&p(&format!("irr_{face}.exr"))),
+            &Default::default(),
+        )
+        .unwrap();
+        assert_eq!((img.width, img.height), (4, 4));
+        for v in img.data {
+            assert!(
+                (v as f64 - std::f64::consts::PI).abs() < 2e-3,
+                "{face}: {v}"
+            );
+        }
+    }
+    // Refused before anything is read or written: the input as an output, a layout for a
+    // map that is not a cube, a window that is not one.
+    let e = req
+        .run_files(
+            &p("white.exr"),
+            &[p("white.exr")],
+            &Default::default(),
+            false,
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("would overwrite the input"), "{e}");
+    let bad = IrradianceRequest {
+        to: "latlong".into(),
+        layout: Some("hcross".into()),
+        ..req.clone()
+    };
+    let e = bad.resolve(None, "in").unwrap_err().to_string();
+    assert!(e.starts_with("layout: "), "{e}");
+    for (json, want) in [
+        (r#"{"window": "auto"}"#, Ok(Window::Auto)),
+        (r#"{"window": 2.5}"#, Ok(Window::Size(2.5))),
+        (r#"{"window": 3}"#, Ok(Window::Size(3.0))),
+        (r#"{"window": null}"#, Ok(Window::None)),
+        (r#"{}"#, Ok(Window::None)),
+        (
+            r#"{"window": -1}"#,
+            Err("window: expected \"auto\" or a positive number of bands, got -1"),
+        ),
+        (
+            r#"{"window": "wide"}"#,
+            Err("window: expected \"auto\" or a positive number of bands, got \"wide\""),
+        ),
+    ] {
+        let got = serde_json::from_str::<IrradianceRequest>(json).map(|r| r.window);
+        match (got, want) {
+            (Ok(w), Ok(v)) => assert_eq!(w, v, "{json}"),
+            (Err(e), Err(m)) => assert!(e.to_string().starts_with(m), "{json}: {e}"),
+            (got, _) => panic!("{json}: {got:?}"),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

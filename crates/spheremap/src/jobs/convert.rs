@@ -9,14 +9,12 @@
 //!
 //! The rules, in one place:
 //!
-//! * **Source mapping**: `from` (with `from_preset`), else what the input's note records; a
-//!   file with neither is an error.  A `from` that differs from the note is converted as given,
-//!   with a notice.
+//! * **Source**: mapping, preset, cube layout and view by [`Source`]'s rules (`src`,
+//!   `src_preset`, `src_layout`, `src_look`, `src_up`, also spelled `from`, `from_preset`, …):
+//!   given, else what the input's note records; a file with no mapping either way is an error.
 //! * **Output mapping**: `to` (with `preset`); without `to`, the source's mapping (in `preset`
 //!   when given), cube layout and view, so that converting a file into another name changes
 //!   only its format (the texels are copied).
-//! * **Source view**: `from_look`/`from_up`, else the view the note records when the note is
-//!   what the input is read as.
 //! * **Output view**: `look`/`up`, or `yaw`/`pitch`/`roll` (not both); without `to` and
 //!   without either, the source's view.
 //! * **Size**: `size`, else the source's (a cube face F gives a sphere map of 2F, and N gives
@@ -30,12 +28,13 @@ use crate::images::codec::{Losses, NonFinite, ReadOptions, WriteOptions};
 use crate::images::compress::Encoding;
 use crate::images::cube_layout::Layout;
 use crate::images::envmap::{
-    check_nonfinite_env, default_size, layout_for, mapping_for, read_env_layout, read_note,
-    refuse_overwrite, split_paths, write_env_files, EnvReader,
+    check_nonfinite_env, default_size, read_env_layout, read_note, refuse_overwrite, split_paths,
+    write_env_files, EnvReader,
 };
 use crate::images::format::Format;
 use crate::images::note::MapNote;
 use crate::images::Image;
+use crate::jobs::source::Source;
 use crate::mappings::cube::FACE_NAMES;
 use crate::mappings::mapping::{name_fields, Mapping};
 use crate::resample::energy::{LightCheck, Moments};
@@ -50,17 +49,10 @@ use std::path::Path;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ConvertJob {
-    /// The source mapping (sphere, latlong, cube, angular, paraboloid, octahedral); `None`: what
-    /// the input file records.
-    pub from: Option<String>,
-    /// The source mapping's preset (`spheremap conventions`); `None`: the mapping's own, or the
-    /// note's.
-    pub from_preset: Option<String>,
-    /// The source's cube layout; `None`: the note's, else from its shape.
-    pub from_layout: Option<String>,
-    /// The view the source was made for: world directions of its eye's −Z and +Y.
-    pub from_look: Option<[f64; 3]>,
-    pub from_up: Option<[f64; 3]>,
+    /// The source: its mapping, preset, cube layout and view (`src`, `src_preset`, …; also
+    /// read as `from`, `from_preset`, …).
+    #[serde(flatten)]
+    pub source: Source,
     /// The output mapping; `None`: the source's (with its preset, layout and view).
     pub to: Option<String>,
     /// The output mapping's preset.
@@ -118,11 +110,7 @@ pub struct ConvertJob {
 impl Default for ConvertJob {
     fn default() -> Self {
         ConvertJob {
-            from: None,
-            from_preset: None,
-            from_layout: None,
-            from_look: None,
-            from_up: None,
+            source: Source::default(),
             to: None,
             preset: None,
             layout: None,
@@ -226,35 +214,8 @@ impl ConvertJob {
     /// file without one); `input` names the source in errors.
     pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<Resolved> {
         crate::base::limits::check_samples(self.samples, self.max_samples)?;
-        let src = mapping_for(
-            self.from.as_deref(),
-            self.from_preset.as_deref(),
-            note,
-            None,
-        )
-        .map_err(|e| name_fields(e, "from", "from_preset"))?
-        .ok_or_else(|| {
-            Error::param(
-                "from",
-                format!(
-                    "{input} records no mapping (spheremap records one in the EXR, PNG, JPEG \
-                     and HDR maps it writes); name it with --from"
-                ),
-            )
-        })?;
-        let notice = note
-            .filter(|t| {
-                (t.mapping.name(), t.mapping.preset_name()) != (src.name(), src.preset_name())
-            })
-            .map(|t| {
-                format!(
-                    "{input} records mapping {} (preset {}); converting it as {} (preset {})",
-                    t.mapping.name(),
-                    t.mapping.preset_name(),
-                    src.name(),
-                    src.preset_name()
-                )
-            });
+        let source = self.source.resolve(note, input, None)?;
+        let src = source.mapping;
         let same = self.to.is_none();
         let dst = match &self.to {
             Some(to) => Mapping::parse(to, self.preset.as_deref())
@@ -265,17 +226,8 @@ impl ConvertJob {
             },
         };
         let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
-        let from_layout = layout_for(self.from_layout.as_deref(), note, src)
-            .map_err(|e| e.named("from_layout"))?;
         let ypr = self.yaw_pitch_roll();
-        // The source's view: given, else the note's when the note is what the source is read as.
-        let note_applies = note.is_some_and(|t| {
-            (t.mapping.name(), t.mapping.preset_name()) == (src.name(), src.preset_name())
-        });
-        let (from_look, from_up) = match (self.from_look, note.and_then(|t| t.view)) {
-            (None, Some((l, u))) if note_applies && self.from_up.is_none() => (Some(l), Some(u)),
-            _ => (self.from_look, self.from_up),
-        };
+        let (from_look, from_up) = (source.look, source.up);
         // Without `to` and an output view, the output keeps the source's view.
         let (look, up) = match (same && self.look.is_none() && ypr.is_none(), from_look) {
             (true, Some(l)) => (Some(l), from_up),
@@ -298,7 +250,7 @@ impl ConvertJob {
         Ok(Resolved {
             src,
             dst,
-            from_layout,
+            from_layout: source.layout,
             layout,
             same,
             from_look,
@@ -307,7 +259,7 @@ impl ConvertJob {
             out_view,
             options,
             nonfinite: self.nonfinite,
-            notice,
+            notice: source.notice,
         })
     }
 

@@ -467,14 +467,92 @@ fn of_moments(m0: f64, m1: [f64; 3], m2: [[f64; 3]; 3]) -> [f64; 9] {
     ]
 }
 
-/// Which window a report applies.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Which window a report applies: written as users give it, `"auto"`, a size in bands, or
+/// nothing (`null`, `"none"`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Window {
+    #[default]
     None,
     /// The largest window that leaves no negative irradiance ([`Sh9::auto_window`]).
     Auto,
     /// A window of this size, in bands.
     Size(f64),
+}
+
+impl Window {
+    /// A window of `bands`: a positive, finite number.
+    pub fn size(bands: f64) -> Result<Window> {
+        if bands.is_finite() && bands > 0.0 {
+            Ok(Window::Size(bands))
+        } else {
+            Err(Error::param("window", Window::expected(&bands.to_string())))
+        }
+    }
+
+    fn expected(got: &str) -> String {
+        format!("expected \"auto\" or a positive number of bands, got {got}")
+    }
+}
+
+impl std::str::FromStr for Window {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Window> {
+        match s {
+            "auto" => Ok(Window::Auto),
+            "none" => Ok(Window::None),
+            _ => match s.parse::<f64>() {
+                Ok(w) => Window::size(w),
+                Err(_) => Err(Error::param("window", Window::expected(&format!("{s:?}")))),
+            },
+        }
+    }
+}
+
+impl serde::Serialize for Window {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        match self {
+            Window::None => s.serialize_none(),
+            Window::Auto => s.serialize_str("auto"),
+            Window::Size(w) => s.serialize_f64(*w),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Window {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Window;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"auto\" or a positive number of bands")
+            }
+            fn visit_unit<E: serde::de::Error>(self) -> std::result::Result<Window, E> {
+                Ok(Window::None)
+            }
+            fn visit_none<E: serde::de::Error>(self) -> std::result::Result<Window, E> {
+                Ok(Window::None)
+            }
+            fn visit_some<D: serde::Deserializer<'de>>(
+                self,
+                d: D,
+            ) -> std::result::Result<Window, D::Error> {
+                d.deserialize_any(V)
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> std::result::Result<Window, E> {
+                s.parse().map_err(|e: Error| E::custom(e))
+            }
+            fn visit_f64<E: serde::de::Error>(self, w: f64) -> std::result::Result<Window, E> {
+                Window::size(w).map_err(E::custom)
+            }
+            fn visit_i64<E: serde::de::Error>(self, w: i64) -> std::result::Result<Window, E> {
+                self.visit_f64(w as f64)
+            }
+            fn visit_u64<E: serde::de::Error>(self, w: u64) -> std::result::Result<Window, E> {
+                self.visit_f64(w as f64)
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// three.js's forms of the coefficients.

@@ -363,7 +363,7 @@ impl<'a> EnvInput<'a> {
     pub fn check(&self, mode: Mode) -> Result<()> {
         match mode {
             Mode::PerVertex | Mode::Matcap(_) if self.texture.is_none() => Err(Error::param(
-                "env-format",
+                "src",
                 "per-vertex and matcap look up (s, t) in a sphere map or MatCap image; convert \
                  the map to a sphere map first",
             )),
