@@ -36,7 +36,7 @@ class Manifest:
     def read(cls, out_dir: str | os.PathLike[str]) -> Manifest:
         """The manifest of an output folder (the last record of each input)."""
         d = os.fspath(out_dir)
-        return cls(d, json.loads(_ext._batch_read_manifest(d)), {})
+        return cls(d, _ext._batch_read_manifest(d), {})
 
     @property
     def failed(self) -> list[dict[str, Any]]:
@@ -119,7 +119,7 @@ class _Progress:
             sys.stderr.flush()
 
 
-def _dask_task(task: str, text: str, is_json: bool, source: str, out_dir: str) -> str:
+def _dask_task(task: dict[str, Any], text: str, is_json: bool, source: str, out_dir: str) -> dict[str, Any]:
     """One input on a Dask worker (spheremap installed there; the output folder shared)."""
     try:
         from distributed import get_worker
@@ -161,24 +161,23 @@ def run(
         raise ValueError(f"workers: expected a positive integer, got {workers!r}")
     if client is not None and workers is not None:
         raise ValueError("workers: give workers or client, not both (a Dask cluster has its own)")
-    plan_json = _ext._batch_plan(names, text, is_json, source, out, bool(force))
-    plan = json.loads(plan_json)
+    plan = _ext._batch_plan(names, text, is_json, source, out, bool(force))
     if client is None:
-        got = json.loads(_ext._batch_run_local(plan_json, text, is_json, source, workers or 0))
+        got = _ext._batch_run_local(plan, text, is_json, source, workers or 0)
         if got["summary"]["cancelled"]:
             # Ctrl-C: the inputs in progress finished and were recorded; a rerun resumes.
             raise KeyboardInterrupt
         return Manifest(out, _records_of(out, plan), got["summary"])
-    return _run_dask(plan, plan_json, text, is_json, source, out, client, progress)
+    return _run_dask(plan, text, is_json, source, out, client, progress)
 
 
 def _records_of(out: str, plan: dict[str, Any]) -> list[dict[str, Any]]:
     """The manifest's records of the plan's inputs, in the plan's order."""
-    by_input = {r["input"]: r for r in json.loads(_ext._batch_read_manifest(out))}
+    by_input = {r["input"]: r for r in _ext._batch_read_manifest(out)}
     return [by_input[t["input"]] for t in plan["tasks"] if t["input"] in by_input]
 
 
-def _run_dask(plan, plan_json, text, is_json, source, out, client, progress) -> Manifest:
+def _run_dask(plan, text, is_json, source, out, client, progress) -> Manifest:
     from distributed import as_completed
 
     t0 = time.perf_counter()
@@ -189,7 +188,7 @@ def _run_dask(plan, plan_json, text, is_json, source, out, client, progress) -> 
     futures = {
         client.submit(
             _dask_task,
-            json.dumps(t),
+            t,
             text,
             is_json,
             source,
@@ -206,23 +205,15 @@ def _run_dask(plan, plan_json, text, is_json, source, out, client, progress) -> 
         for fut in as_completed(list(futures)):
             t = futures[fut]
             try:
-                rec = json.loads(fut.result())
+                rec = fut.result()
             except Exception as e:  # the task itself failed on every try (a worker kept dying)
                 first = str(e).splitlines()[0] if str(e) else type(e).__name__
-                rec = {
-                    "input": t["input"],
-                    "input_hash": "",
-                    "recipe_hash": plan["recipe_hash"],
-                    "outputs": [],
-                    "seconds": 0.0,
-                    "worker": "dask",
-                    "error": f"{t['input']}: the Dask task failed: {first}",
-                }
+                rec = _ext._batch_failed_record(t, plan["recipe_hash"], f"{t['input']}: the Dask task failed: {first}")
             # Records use the task's own paths relative to the caller, as the local runner does.
             for o in rec["outputs"]:
                 if os.path.isabs(o["path"]):
                     o["path"] = os.path.relpath(o["path"], out_abs)
-            _ext._batch_append(out, json.dumps(rec))
+            _ext._batch_append(out, rec)
             results[t["index"]] = rec
             bar.record(rec)
     except KeyboardInterrupt:
@@ -231,9 +222,7 @@ def _run_dask(plan, plan_json, text, is_json, source, out, client, progress) -> 
         raise
     bar.close()
     n_workers = len(client.scheduler_info().get("workers", {}))
-    summary = json.loads(
-        _ext._batch_summary(plan_json, json.dumps(list(results.values())), time.perf_counter() - t0, n_workers)
-    )
+    summary = _ext._batch_summary(plan, list(results.values()), time.perf_counter() - t0, n_workers)
     return Manifest(out, _records_of(out, plan), summary)
 
 

@@ -1,12 +1,12 @@
 //! `spheremap bake-matcap`, `prefilter`, `irradiance` and `dfg`: lighting from a map (thin layer over
-//! the core's requests, `spheremap::jobs::{bake_matcap, prefilter, irradiance}`, and
-//! `spheremap::lighting::dfg`).
+//! the core's requests, `spheremap::jobs::{bake_matcap, prefilter, irradiance, dfg}`).
 
 use crate::job::vec3;
 use spheremap::jobs::bake_matcap::MatcapRequest;
+use spheremap::jobs::dfg::DfgRequest;
 use spheremap::jobs::irradiance::IrradianceRequest;
 use spheremap::jobs::prefilter::PrefilterRequest;
-use spheremap::lighting::{dfg, sh};
+use spheremap::lighting::sh;
 
 /// The environment a lighting command reads.
 #[derive(clap::Args, Debug)]
@@ -27,7 +27,7 @@ pub struct BakeArgs {
     material: spheremap::lighting::brdf::MaterialName,
     /// GGX perceptual roughness 0..1 (α = roughness², as glTF, Blender and Filament); 0 is the
     /// mirror (the sphere map of the view).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().roughness)]
     roughness: f64,
     /// Linear RGB albedo (default 0.8 0.8 0.8 for lambert, 1 1 1 for ggx).
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
@@ -35,16 +35,16 @@ pub struct BakeArgs {
     #[command(flatten)]
     view: crate::view_args::ViewArgs,
     /// Output size N (N×N).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().size)]
     size: usize,
     /// Spatial samples per texel (1: the texel centre; S > 1: at least S, more at the rim).
     #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
     samples: u32,
     /// The most samples a rim texel may take.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().max_samples)]
     max_samples: u32,
     /// Seed of the sample jitter.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().seed)]
     seed: u64,
     /// Outside the disc: gutter (default) or black.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
@@ -118,16 +118,16 @@ pub struct IrradianceArgs {
     #[arg(short = 'o', long)]
     output: Option<String>,
     /// Mapping of the irradiance map.
-    #[arg(long, default_value = "cube", value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Cube layout of the irradiance map when --to cube.
     #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Size N of the irradiance map (cube faces N×N; latlong 2N×N).
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().size)]
     size: usize,
     /// Samples per texel of the irradiance map.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().samples)]
     samples: u32,
     /// NaN/Inf in the map: error (default), zero or keep.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::codec::NonFinite>())]
@@ -187,7 +187,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
 #[derive(clap::Args, Debug)]
 pub struct DfgArgs {
     /// Table size N (N×N): column i is n·v = (i+½)/N, row j (row 0 first) roughness (j+½)/N.
-    #[arg(long, default_value_t = dfg::DEFAULT_SIZE)]
+    #[arg(long, default_value_t = DfgRequest::default().size)]
     size: usize,
     /// Output file (.exr .pfm .hdr; channels A, B, A+B).
     #[arg(short = 'o', long)]
@@ -197,24 +197,22 @@ pub struct DfgArgs {
 }
 
 pub fn run_dfg(a: DfgArgs) -> anyhow::Result<()> {
-    let t0 = std::time::Instant::now();
-    let img = dfg::table(a.size).map_err(crate::flag_error)?;
-    spheremap::images::codec::write_image(
-        std::path::Path::new(&a.output),
-        &img,
-        &a.job.write_options(true),
-    )?;
+    let request = DfgRequest { size: a.size };
+    let report = request
+        .run_files(&a.output, &a.job.write_options(true))
+        .map_err(crate::flag_error)?;
     if a.job.json {
-        let v = serde_json::json!({
-            "output": a.output, "size": a.size, "seconds": t0.elapsed().as_secs_f64()
-        });
-        crate::out(&format!("{v}\n"));
+        crate::out(&format!(
+            "{}
+",
+            serde_json::to_string(&report)?
+        ));
     } else if !a.job.quiet {
         eprintln!(
             "-> {} ({n}x{n} split-sum DFG: A, B, A+B), {:.3} s",
-            a.output,
-            t0.elapsed().as_secs_f64(),
-            n = a.size,
+            report.output,
+            report.seconds,
+            n = report.size,
         );
     }
     Ok(())
@@ -226,7 +224,7 @@ pub struct PrefilterArgs {
     env: EnvArgs,
     /// Output mapping: cube (default), octahedral, latlong, sphere (the exact prefiltered sphere
     /// map of the view: the GGX MatCap of each level's roughness), or any other.
-    #[arg(long, default_value = "cube", value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
@@ -253,13 +251,13 @@ pub struct PrefilterArgs {
     /// Spatial samples per texel (1, the default: the texel centre; S > 1: at least S over
     /// the texel's footprint, adaptive). A texel wider than its level's lobe holds the lobe's
     /// mean over its footprint either way (evaluated on a finer canvas).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().samples)]
     samples: u32,
     /// The most samples a texel may take.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().max_samples)]
     max_samples: u32,
     /// Seed of the sample jitter.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().seed)]
     seed: u64,
     /// Outside a sphere map's disc: gutter (default) or black.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
@@ -275,7 +273,7 @@ pub struct PrefilterArgs {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::lighting::prefilter::PrefilterMethod>())]
     method: spheremap::lighting::prefilter::PrefilterMethod,
     /// GGX samples per texel with --method sampled (Filament's default).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().lobe_samples)]
     lobe_samples: usize,
     /// Output: a .ktx2 or .dds file (every level; a cube's six faces), or images with
     /// '{level}' in the name (.exr .hdr .pfm .png .jpg; '{face}' for cube face files).

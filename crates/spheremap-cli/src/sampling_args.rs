@@ -12,7 +12,7 @@ pub struct SamplingArgs {
     pub samples: u32,
     /// The most samples one texel may take when adapting to its footprint (conversions: beyond
     /// it, the lookups read prefiltered source levels).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = spheremap::jobs::convert::ConvertJob::default().max_samples)]
     pub max_samples: u32,
     /// Reconstruction filter: box (the texel's own footprint, default), tent, gaussian.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Filter>())]
@@ -22,6 +22,6 @@ pub struct SamplingArgs {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
     pub outside: spheremap::resample::Outside,
     /// Seed of the sample jitter (results are deterministic for a seed).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = spheremap::jobs::convert::ConvertJob::default().seed)]
     pub seed: u64,
 }

@@ -1,6 +1,6 @@
 //! `spheremap.batch`: the core's batch engine for Python (translation only). Plans, tasks,
-//! records and summaries cross as JSON text, so the Dask path ships them between processes as
-//! they are.
+//! records and summaries cross as Python dicts and lists of the core's serde types, which the
+//! Dask path ships between processes as they are.
 
 use crate::to_py;
 use pyo3::exceptions::PyValueError;
@@ -20,8 +20,18 @@ fn recipe(text: &str, is_json: bool, source: &str) -> PyResult<Recipe> {
     .map_err(to_py)
 }
 
-fn json_err(what: &str) -> impl Fn(serde_json::Error) -> PyErr + '_ {
-    move |e| PyValueError::new_err(format!("{what}: {e}"))
+/// A core value as Python data (dicts, lists, strings, numbers).
+fn to_python<'py, T: serde::Serialize>(
+    py: Python<'py>,
+    what: &str,
+    v: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    pythonize::pythonize(py, v).map_err(|e| PyValueError::new_err(format!("{what}: {e}")))
+}
+
+/// Python data as a core value; the error names `what`.
+fn of_python<T: serde::de::DeserializeOwned>(what: &str, v: &Bound<'_, PyAny>) -> PyResult<T> {
+    pythonize::depythonize(v).map_err(|e| PyValueError::new_err(format!("{what}: {e}")))
 }
 
 /// Validates a recipe; returns its hash.
@@ -31,23 +41,23 @@ pub fn _batch_recipe(text: &str, is_json: bool, source: &str) -> PyResult<String
     Ok(recipe(text, is_json, source)?.hash)
 }
 
-/// The plan of a batch, as JSON.
+/// The plan of a batch.
 #[pyfunction]
 #[pyo3(signature = (inputs, text, is_json, source, out_dir, force))]
-pub fn _batch_plan(
-    py: Python<'_>,
+pub fn _batch_plan<'py>(
+    py: Python<'py>,
     inputs: Vec<String>,
     text: &str,
     is_json: bool,
     source: &str,
     out_dir: &str,
     force: bool,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let r = recipe(text, is_json, source)?;
     let plan = py
         .detach(|| batch::plan(&inputs, &r, Path::new(out_dir), force))
         .map_err(to_py)?;
-    serde_json::to_string(&plan).map_err(json_err("plan"))
+    to_python(py, "plan", &plan)
 }
 
 /// Makes the output folder and compacts its manifest (before tasks are handed out).
@@ -58,46 +68,64 @@ pub fn _batch_prepare(out_dir: &str) -> PyResult<()> {
     Manifest::compact(d).map_err(to_py)
 }
 
-/// Runs one task (JSON) and returns its record (JSON); never raises for the input's own
-/// errors, which are in the record.
+/// Runs one task and returns its record; never raises for the input's own errors, which are
+/// in the record.
 #[pyfunction]
 #[pyo3(signature = (task, text, is_json, source, out_dir, worker))]
-pub fn _batch_run_task(
-    py: Python<'_>,
-    task: &str,
+pub fn _batch_run_task<'py>(
+    py: Python<'py>,
+    task: &Bound<'py, PyAny>,
     text: &str,
     is_json: bool,
     source: &str,
     out_dir: &str,
     worker: &str,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let r = recipe(text, is_json, source)?;
-    let t: Task = serde_json::from_str(task).map_err(json_err("task"))?;
+    let t: Task = of_python("task", task)?;
     let rec = py.detach(|| batch::run_task(&t, &r, Path::new(out_dir), worker, None));
-    serde_json::to_string(&rec).map_err(json_err("record"))
+    to_python(py, "record", &rec)
 }
 
-/// Appends a record (JSON) to the manifest.
+/// The record of a task that never ran to its end (its Dask task failed on every try): the
+/// input failed with `error`.
 #[pyfunction]
-pub fn _batch_append(out_dir: &str, record: &str) -> PyResult<()> {
-    let r: batch::Record = serde_json::from_str(record).map_err(json_err("record"))?;
+#[pyo3(signature = (task, recipe_hash, error))]
+pub fn _batch_failed_record<'py>(
+    py: Python<'py>,
+    task: &Bound<'py, PyAny>,
+    recipe_hash: &str,
+    error: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let t: Task = of_python("task", task)?;
+    to_python(
+        py,
+        "record",
+        &batch::Record::failed(&t.input, recipe_hash, "dask", error),
+    )
+}
+
+/// Appends a record to the manifest.
+#[pyfunction]
+pub fn _batch_append(out_dir: &str, record: &Bound<'_, PyAny>) -> PyResult<()> {
+    let r: batch::Record = of_python("record", record)?;
     Manifest::append(Path::new(out_dir), &r).map_err(to_py)
 }
 
-/// Runs a plan (JSON) on local threads; Ctrl-C stops starting inputs. Returns the summary and
-/// the records made, as JSON.
+/// Runs a plan on local threads; Ctrl-C stops starting inputs. Returns the summary and the
+/// records made (`{"summary": …, "records": […]}`).
 #[pyfunction]
 #[pyo3(signature = (plan, text, is_json, source, workers))]
-pub fn _batch_run_local(
-    py: Python<'_>,
-    plan: &str,
+pub fn _batch_run_local<'py>(
+    py: Python<'py>,
+    plan: &Bound<'py, PyAny>,
     text: &str,
     is_json: bool,
     source: &str,
     workers: usize,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let r = recipe(text, is_json, source)?;
-    let p: Plan = serde_json::from_str(plan).map_err(json_err("plan"))?;
+    let p: Plan = of_python("plan", plan)?;
     let cancel = AtomicBool::new(false);
     let records = std::sync::Mutex::new(Vec::new());
     let on_record = |rec: &batch::Record| {
@@ -120,25 +148,32 @@ pub fn _batch_run_local(
     });
     let summary = summary.map_err(to_py)?;
     let records = records.into_inner().unwrap_or_default();
-    serde_json::to_string(&serde_json::json!({"summary": summary, "records": records}))
-        .map_err(json_err("summary"))
+    to_python(
+        py,
+        "summary",
+        &serde_json::json!({"summary": summary, "records": records}),
+    )
 }
 
-/// The summary of a run made elsewhere (Dask): `results` a JSON list of records or null (not
-/// started).
+/// The summary of a run made elsewhere (Dask): `results` a list of records, or None for an
+/// input not started.
 #[pyfunction]
 #[pyo3(signature = (plan, results, seconds, workers))]
-pub fn _batch_summary(plan: &str, results: &str, seconds: f64, workers: usize) -> PyResult<String> {
-    let p: Plan = serde_json::from_str(plan).map_err(json_err("plan"))?;
-    let r: Vec<Option<batch::Record>> =
-        serde_json::from_str(results).map_err(json_err("results"))?;
-    serde_json::to_string(&batch::Summary::of(&p, &r, seconds, workers))
-        .map_err(json_err("summary"))
+pub fn _batch_summary<'py>(
+    py: Python<'py>,
+    plan: &Bound<'py, PyAny>,
+    results: &Bound<'py, PyAny>,
+    seconds: f64,
+    workers: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let p: Plan = of_python("plan", plan)?;
+    let r: Vec<Option<batch::Record>> = of_python("results", results)?;
+    to_python(py, "summary", &batch::Summary::of(&p, &r, seconds, workers))
 }
 
-/// The manifest of `out_dir`: the last record of each input, as a JSON list.
+/// The manifest of `out_dir`: the last record of each input.
 #[pyfunction]
-pub fn _batch_read_manifest(out_dir: &str) -> PyResult<String> {
+pub fn _batch_read_manifest<'py>(py: Python<'py>, out_dir: &str) -> PyResult<Bound<'py, PyAny>> {
     let m = Manifest::read(Path::new(out_dir)).map_err(to_py)?;
-    serde_json::to_string(&m.records.values().collect::<Vec<_>>()).map_err(json_err("manifest"))
+    to_python(py, "manifest", &m.records.values().collect::<Vec<_>>())
 }

@@ -507,6 +507,14 @@ fn names(kind: &str) -> PyResult<Vec<&'static str>> {
         .ok_or_else(|| PyValueError::new_err(format!("kind: unknown {kind:?}")))
 }
 
+/// A request's documented defaults by operation ([`spheremap::jobs::defaults`]), as a dict.
+#[pyfunction]
+fn defaults<'py>(py: Python<'py>, op: &str) -> PyResult<Bound<'py, PyAny>> {
+    let v = spheremap::jobs::defaults(op)
+        .ok_or_else(|| PyValueError::new_err(format!("op: unknown operation {op:?}")))?;
+    pythonize::pythonize(py, &v).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 /// The older spellings of the source's fields, (alias, field) ([`spheremap::jobs::source::ALIASES`]).
 #[pyfunction]
 fn source_aliases() -> Vec<(&'static str, &'static str)> {
@@ -789,7 +797,7 @@ fn irradiance_sh<'py>(
 #[pyo3(signature = (size))]
 fn dfg_lut<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
     let img = py
-        .detach(|| spheremap::lighting::dfg::table(size))
+        .detach(|| spheremap::jobs::dfg::DfgRequest { size }.run_image())
         .map_err(to_py)?;
     Ok(PyArray1::from_vec(py, img.data)
         .reshape([size, size, 3])?
@@ -1088,11 +1096,13 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::_batch_prepare, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_run_task, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_append, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_failed_record, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_run_local, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
     m.add_function(wrap_pyfunction!(source_aliases, m)?)?;
+    m.add_function(wrap_pyfunction!(defaults, m)?)?;
     m.add_function(wrap_pyfunction!(limits, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;

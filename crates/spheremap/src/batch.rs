@@ -638,6 +638,22 @@ pub struct Record {
     pub error: Option<String>,
 }
 
+impl Record {
+    /// The record of `input` that failed with `error` before any output (a task that never
+    /// ran to its end, on `worker`).
+    pub fn failed(input: &str, recipe_hash: &str, worker: &str, error: &str) -> Record {
+        Record {
+            input: input.to_string(),
+            input_hash: String::new(),
+            recipe_hash: recipe_hash.to_string(),
+            outputs: Vec::new(),
+            seconds: 0.0,
+            worker: worker.to_string(),
+            error: Some(error.to_string()),
+        }
+    }
+}
+
 /// `DIR/manifest.jsonl`, read: the last record of each input.
 #[derive(Clone, Debug, Default)]
 pub struct Manifest {

@@ -67,3 +67,47 @@ fn a_render_request_reads_from_json_and_names_its_fields() {
         .to_string()
         .starts_with("camera: "));
 }
+
+/// An option several requests take has one default: what the CLI's shared flags and Python's
+/// shared keywords show is every request's.
+#[test]
+fn an_option_shared_by_requests_has_one_default() {
+    let ops = [
+        "convert",
+        "bake-matcap",
+        "prefilter",
+        "irradiance",
+        "render",
+        "generate",
+    ];
+    let all: Vec<(&str, serde_json::Value)> = ops
+        .iter()
+        .map(|op| (*op, spheremap::jobs::defaults(op).unwrap()))
+        .collect();
+    for key in [
+        "max_samples",
+        "seed",
+        "outside",
+        "filter",
+        "taps",
+        "precision",
+        "nonfinite",
+        "max_memory",
+        "src",
+        "src_preset",
+        "src_layout",
+        "src_look",
+        "src_up",
+    ] {
+        let values: Vec<(&str, &serde_json::Value)> = all
+            .iter()
+            .filter_map(|(op, d)| d.get(key).map(|v| (*op, v)))
+            .collect();
+        assert!(!values.is_empty(), "{key}");
+        assert!(
+            values.iter().all(|(_, v)| *v == values[0].1),
+            "{key}: {values:?}"
+        );
+    }
+    assert!(spheremap::jobs::defaults("nope").is_none());
+}
