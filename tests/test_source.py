@@ -102,7 +102,8 @@ def test_render_reads_the_map_in_the_worlds_frame_and_refuses_a_source_view(tmp_
     out = tmp_path / "o.exr"
     r = cli("render", "crates/spheremap/data/teapot.obj", "--env", HDRI, "--from", "latlong", "--size", 8, 8,
             "--from-look", 1, 0, 0, "-o", out)
-    assert r.returncode == 2 and r.stderr.startswith("spheremap: --from-look: render reads the map in the world's frame"), r.stderr
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.startswith("spheremap: --from-look: render reads the map in the world's frame"), r.stderr
     assert not out.exists()
 
 

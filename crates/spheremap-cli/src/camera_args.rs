@@ -19,7 +19,7 @@ pub struct CameraArgs {
     #[arg(long, conflicts_with_all = ["eye", "target", "up"])]
     camera: Option<String>,
     /// Vertical field of view in degrees, as gluPerspective.
-    #[arg(long, default_value_t = spheremap::jobs::render::RenderRequest::default().fovy)]
+    #[arg(long, default_value_t = RenderRequest::default().fovy)]
     fovy: f64,
     /// Near plane distance (default: from the bounding sphere).
     #[arg(long)]

@@ -24,7 +24,7 @@ pub struct Args {
     #[command(flatten)]
     view: crate::view_args::ViewArgs,
     /// Output mapping (default sphere: the GL sphere map of the view).
-    #[arg(long, default_value_t = spheremap::trace::generate::MapRequest::default().to, value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = MapRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
@@ -33,7 +33,7 @@ pub struct Args {
     #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
-    #[arg(long, default_value_t = spheremap::trace::generate::MapRequest::default().size)]
+    #[arg(long, default_value_t = MapRequest::default().size)]
     size: usize,
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,

@@ -4,6 +4,7 @@
 use crate::job::vec3;
 use spheremap::jobs::bake_matcap::MatcapRequest;
 use spheremap::jobs::dfg::DfgRequest;
+use spheremap::jobs::env_job::EnvJob;
 use spheremap::jobs::irradiance::IrradianceRequest;
 use spheremap::jobs::prefilter::PrefilterRequest;
 use spheremap::lighting::sh;
@@ -27,7 +28,7 @@ pub struct BakeArgs {
     material: spheremap::lighting::brdf::MaterialName,
     /// GGX perceptual roughness 0..1 (α = roughness², as glTF, Blender and Filament); 0 is the
     /// mirror (the sphere map of the view).
-    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().roughness)]
+    #[arg(long, default_value_t = MatcapRequest::default().roughness)]
     roughness: f64,
     /// Linear RGB albedo (default 0.8 0.8 0.8 for lambert, 1 1 1 for ggx).
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], allow_negative_numbers = true)]
@@ -35,16 +36,16 @@ pub struct BakeArgs {
     #[command(flatten)]
     view: crate::view_args::ViewArgs,
     /// Output size N (N×N).
-    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().size)]
+    #[arg(long, default_value_t = MatcapRequest::default().size)]
     size: usize,
     /// Spatial samples per texel (1: the texel centre; S > 1: at least S, more at the rim).
     #[arg(long, default_value_t = spheremap::resample::DEFAULT_SAMPLES)]
     samples: u32,
     /// The most samples a rim texel may take.
-    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().max_samples)]
+    #[arg(long, default_value_t = MatcapRequest::default().max_samples)]
     max_samples: u32,
     /// Seed of the sample jitter.
-    #[arg(long, default_value_t = spheremap::jobs::bake_matcap::MatcapRequest::default().seed)]
+    #[arg(long, default_value_t = MatcapRequest::default().seed)]
     seed: u64,
     /// Outside the disc: gutter (default) or black.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
@@ -118,16 +119,16 @@ pub struct IrradianceArgs {
     #[arg(short = 'o', long)]
     output: Option<String>,
     /// Mapping of the irradiance map.
-    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().to, value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = IrradianceRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Cube layout of the irradiance map when --to cube.
     #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Size N of the irradiance map (cube faces N×N; latlong 2N×N).
-    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().size)]
+    #[arg(long, default_value_t = IrradianceRequest::default().size)]
     size: usize,
     /// Samples per texel of the irradiance map.
-    #[arg(long, default_value_t = spheremap::jobs::irradiance::IrradianceRequest::default().samples)]
+    #[arg(long, default_value_t = IrradianceRequest::default().samples)]
     samples: u32,
     /// NaN/Inf in the map: error (default), zero or keep.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::codec::NonFinite>())]
@@ -224,7 +225,7 @@ pub struct PrefilterArgs {
     env: EnvArgs,
     /// Output mapping: cube (default), octahedral, latlong, sphere (the exact prefiltered sphere
     /// map of the view: the GGX MatCap of each level's roughness), or any other.
-    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().to, value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = PrefilterRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
@@ -251,13 +252,13 @@ pub struct PrefilterArgs {
     /// Spatial samples per texel (1, the default: the texel centre; S > 1: at least S over
     /// the texel's footprint, adaptive). A texel wider than its level's lobe holds the lobe's
     /// mean over its footprint either way (evaluated on a finer canvas).
-    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().samples)]
+    #[arg(long, default_value_t = PrefilterRequest::default().samples)]
     samples: u32,
     /// The most samples a texel may take.
-    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().max_samples)]
+    #[arg(long, default_value_t = PrefilterRequest::default().max_samples)]
     max_samples: u32,
     /// Seed of the sample jitter.
-    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().seed)]
+    #[arg(long, default_value_t = PrefilterRequest::default().seed)]
     seed: u64,
     /// Outside a sphere map's disc: gutter (default) or black.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::resample::Outside>())]
@@ -273,7 +274,7 @@ pub struct PrefilterArgs {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::lighting::prefilter::PrefilterMethod>())]
     method: spheremap::lighting::prefilter::PrefilterMethod,
     /// GGX samples per texel with --method sampled (Filament's default).
-    #[arg(long, default_value_t = spheremap::jobs::prefilter::PrefilterRequest::default().lobe_samples)]
+    #[arg(long, default_value_t = PrefilterRequest::default().lobe_samples)]
     lobe_samples: usize,
     /// Output: a .ktx2 or .dds file (every level; a cube's six faces), or images with
     /// '{level}' in the name (.exr .hdr .pfm .png .jpg; '{face}' for cube face files).

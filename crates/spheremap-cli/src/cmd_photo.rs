@@ -17,7 +17,7 @@ use std::time::Instant;
 #[derive(clap::Args, Debug)]
 pub struct MapOut {
     /// Output mapping (default sphere: the GL sphere map of the camera's view).
-    #[arg(long, default_value_t = spheremap::trace::generate::MapRequest::default().to, value_parser = crate::names::core("mapping"))]
+    #[arg(long, default_value_t = MapRequest::default().to, value_parser = crate::names::core("mapping"))]
     to: String,
     /// Preset of the output mapping.
     #[arg(long)]
@@ -26,7 +26,7 @@ pub struct MapOut {
     #[arg(long, value_parser = crate::names::core("layout"))]
     layout: Option<String>,
     /// Output size N (sphere N×N; latlong 2N×N; cube faces N×N).
-    #[arg(long, default_value_t = spheremap::trace::generate::MapRequest::default().size)]
+    #[arg(long, default_value_t = MapRequest::default().size)]
     size: usize,
     #[command(flatten)]
     sampling: crate::sampling_args::SamplingArgs,

@@ -35,18 +35,18 @@ pub struct Args {
     #[command(flatten)]
     camera: CameraArgs,
     /// Image size in pixels.
-    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [spheremap::jobs::render::RenderRequest::default().width, spheremap::jobs::render::RenderRequest::default().height])]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [RenderRequest::default().width, RenderRequest::default().height])]
     size: Vec<usize>,
     /// Colour where no triangle is (linear RGB).
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], default_values_t = [0.0, 0.0, 0.0])]
     background: Vec<f32>,
     /// Anti-aliasing: K × K samples per pixel (1 = the pixel centre, as GL without MSAA).
-    #[arg(long, default_value_t = spheremap::jobs::render::RenderRequest::default().aa)]
+    #[arg(long, default_value_t = RenderRequest::default().aa)]
     aa: u32,
     /// Sub-pixel precision of the vertex snapping, in bits (1-8): 8 as Mesa's llvmpipe and
     /// D3D11-class GPUs; 4 as SwiftShader (Chromium without a GPU), the least GL allows. A GPU
     /// reports its own as GL_SUBPIXEL_BITS.
-    #[arg(long, default_value_t = spheremap::jobs::render::RenderRequest::default().subpixel_bits)]
+    #[arg(long, default_value_t = RenderRequest::default().subpixel_bits)]
     subpixel_bits: u32,
     /// Texture wrap of a sphere map or MatCap: clamp-to-edge (default) or repeat.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::render::Wrap>())]

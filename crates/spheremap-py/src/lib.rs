@@ -507,15 +507,16 @@ fn names(kind: &str) -> PyResult<Vec<&'static str>> {
         .ok_or_else(|| PyValueError::new_err(format!("kind: unknown {kind:?}")))
 }
 
-/// A request's documented defaults by operation ([`spheremap::jobs::defaults`]), as a dict.
+/// A request's documented defaults by operation ([`spheremap::jobs::defaults::of`]), as a dict.
 #[pyfunction]
 fn defaults<'py>(py: Python<'py>, op: &str) -> PyResult<Bound<'py, PyAny>> {
-    let v = spheremap::jobs::defaults(op)
+    let v = spheremap::jobs::defaults::of(op)
         .ok_or_else(|| PyValueError::new_err(format!("op: unknown operation {op:?}")))?;
     pythonize::pythonize(py, &v).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
-/// The older spellings of the source's fields, (alias, field) ([`spheremap::jobs::source::ALIASES`]).
+/// The older spellings of the source's fields, (alias, field)
+/// ([`spheremap::jobs::source::ALIASES`]).
 #[pyfunction]
 fn source_aliases() -> Vec<(&'static str, &'static str)> {
     spheremap::jobs::source::ALIASES.to_vec()

@@ -25,6 +25,7 @@ use crate::images::format::Format;
 use crate::images::Image;
 use crate::jobs::bake_matcap::MatcapRequest;
 use crate::jobs::convert::ConvertJob;
+use crate::jobs::env_job::EnvJob;
 use crate::jobs::irradiance::IrradianceRequest;
 use crate::jobs::prefilter::PrefilterRequest;
 use crate::mappings::mapping::Mapping;

@@ -5,6 +5,7 @@
 use spheremap::images::codec::{read_texture, write_texture, ReadOptions, WriteOptions};
 use spheremap::images::container::Texture;
 use spheremap::images::Image;
+use spheremap::jobs::env_job::EnvJob;
 use spheremap::jobs::prefilter::PrefilterRequest;
 
 /// A lat-long map whose radiance is 2 + the direction (x, y, z), in the default preset.

@@ -82,7 +82,7 @@ fn an_option_shared_by_requests_has_one_default() {
     ];
     let all: Vec<(&str, serde_json::Value)> = ops
         .iter()
-        .map(|op| (*op, spheremap::jobs::defaults(op).unwrap()))
+        .map(|op| (*op, spheremap::jobs::defaults::of(op).unwrap()))
         .collect();
     for key in [
         "max_samples",
@@ -109,5 +109,5 @@ fn an_option_shared_by_requests_has_one_default() {
             "{key}: {values:?}"
         );
     }
-    assert!(spheremap::jobs::defaults("nope").is_none());
+    assert!(spheremap::jobs::defaults::of("nope").is_none());
 }

@@ -5,13 +5,11 @@
 
 use crate::base::error::{Error, Result};
 use crate::base::limits::default_max_memory;
-use crate::images::codec::ReadOptions;
-use crate::images::envmap::{
-    check_nonfinite_env, read_env_layout, read_note, refuse_overwrite, EnvFiles,
-};
+use crate::images::envmap::{read_note, refuse_overwrite, EnvFiles};
 use crate::images::note::MapNote;
 use crate::images::Image;
-use crate::jobs::source::{EnvRequest, Source};
+use crate::jobs::env_job::EnvJob;
+use crate::jobs::source::{EnvRequest, ResolvedEnv, Source};
 use crate::lighting::brdf::{self, Material};
 use crate::lighting::{envtree, matcap};
 use crate::resample::{EnvMap, Outside, Progress, DEFAULT_SAMPLES};
@@ -72,12 +70,9 @@ impl Default for MatcapRequest {
 /// A [`MatcapRequest`] checked against its environment.
 #[derive(Clone, Debug)]
 pub struct ResolvedMatcap {
-    /// The environment's mapping and cube layout.
-    pub env: crate::mappings::mapping::Mapping,
-    pub env_layout: Option<crate::images::cube_layout::Layout>,
+    /// The environment: its mapping, cube layout, view and NaN/Inf rule.
+    pub env: ResolvedEnv,
     pub bake: matcap::Bake,
-    pub nonfinite: crate::images::codec::NonFinite,
-    pub notice: Option<String>,
 }
 
 /// The report of `spheremap bake-matcap --json`.
@@ -127,8 +122,6 @@ impl MatcapRequest {
         let view = crate::frame::view::output_view(self.look, self.up, None)?;
         let world_to_env = r.world_to_env;
         Ok(ResolvedMatcap {
-            env: r.mapping,
-            env_layout: r.layout,
             bake: matcap::Bake {
                 material,
                 albedo,
@@ -143,8 +136,7 @@ impl MatcapRequest {
                 rule: envtree::CutRule::default(),
                 normal_table: None,
             },
-            nonfinite: r.nonfinite,
-            notice: r.notice,
+            env: r,
         })
     }
 
@@ -155,26 +147,18 @@ impl MatcapRequest {
         progress: Option<&Progress>,
     ) -> Result<(Image, matcap::BakeReport)> {
         let r = self.resolve(None, "env")?;
-        let env = EnvMap::new(r.env, image, "env")?;
+        let env = EnvMap::new(r.env.mapping, image, "env")?;
         matcap::bake(&env, &r.bake, progress)
     }
+}
+
+impl EnvJob for MatcapRequest {
+    type Report = MatcapReport;
 
     /// Reads the environment `input` (one image, a face pattern), bakes, and writes `output`
     /// atomically with a sphere-map note of the view (the MatCap of a mirror is the sphere map;
     /// of any material, the map of its reflected light addressed by reflection).
-    pub fn run_files(
-        &self,
-        input: &str,
-        output: &str,
-        write: &crate::images::codec::WriteOptions,
-        force: bool,
-        progress: Option<&Progress>,
-    ) -> Result<(MatcapReport, Option<String>)> {
-        self.run_files_with(input, output, write, force, progress, &mut read_env_layout)
-    }
-
-    /// `run_files` with the environment read by `read`.
-    pub fn run_files_with(
+    fn run_files_with(
         &self,
         input: &str,
         output: &str,
@@ -182,7 +166,7 @@ impl MatcapRequest {
         force: bool,
         progress: Option<&Progress>,
         read: &mut crate::images::envmap::EnvReader<'_>,
-    ) -> Result<(MatcapReport, Option<String>)> {
+    ) -> Result<(Self::Report, Option<String>)> {
         let t0 = std::time::Instant::now();
         let files = EnvFiles::parse(input);
         let note = read_note(files.first())?;
@@ -193,9 +177,8 @@ impl MatcapRequest {
         }
         let sphere = crate::mappings::mapping::Mapping::parse("sphere", None)?;
         out.check_output(sphere)?;
-        let (mut img, _) = read(&files, r.env, r.env_layout, &ReadOptions::default())?;
-        check_nonfinite_env(&mut img, &files, r.nonfinite)?;
-        let env = EnvMap::new(r.env, &img, files.first())?;
+        let img = r.env.read(&files, read)?;
+        let env = EnvMap::new(r.env.mapping, &img, files.first())?;
         let (map, rep) = matcap::bake(&env, &r.bake, progress)?;
         let written =
             crate::images::envmap::write_env_files(&out, sphere, &map, None, &r.bake.view, write)?;
@@ -215,7 +198,7 @@ impl MatcapRequest {
                 max_texel_samples: rep.max_texel_samples,
                 seconds: t0.elapsed().as_secs_f64(),
             },
-            r.notice,
+            r.env.notice,
         ))
     }
 }

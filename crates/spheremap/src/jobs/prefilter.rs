@@ -6,13 +6,11 @@
 
 use crate::base::error::{Error, Result};
 use crate::base::limits::default_max_memory;
-use crate::images::codec::ReadOptions;
-use crate::images::envmap::{
-    check_nonfinite_env, read_env_layout, read_note, refuse_overwrite, EnvFiles,
-};
+use crate::images::envmap::{read_note, refuse_overwrite, EnvFiles};
 use crate::images::note::MapNote;
 use crate::images::Image;
-use crate::jobs::source::{EnvRequest, Source};
+use crate::jobs::env_job::EnvJob;
+use crate::jobs::source::{EnvRequest, ResolvedEnv, Source};
 use crate::lighting::{envtree, prefilter};
 use crate::resample::{EnvMap, Outside, Progress};
 
@@ -91,12 +89,10 @@ impl Default for PrefilterRequest {
 /// A [`PrefilterRequest`] checked against its environment.
 #[derive(Clone, Debug)]
 pub struct ResolvedPrefilter {
-    pub env: crate::mappings::mapping::Mapping,
-    pub env_layout: Option<crate::images::cube_layout::Layout>,
+    /// The environment: its mapping, cube layout, view and NaN/Inf rule.
+    pub env: ResolvedEnv,
     pub layout: Option<crate::images::cube_layout::Layout>,
     pub prefilter: prefilter::Prefilter,
-    pub nonfinite: crate::images::codec::NonFinite,
-    pub notice: Option<String>,
 }
 
 /// The report of `spheremap prefilter --json`.
@@ -188,8 +184,6 @@ impl PrefilterRequest {
             ));
         }
         Ok(ResolvedPrefilter {
-            env: r.mapping,
-            env_layout: r.layout,
             layout,
             prefilter: prefilter::Prefilter {
                 mapping,
@@ -212,8 +206,7 @@ impl PrefilterRequest {
                 lobe_samples: self.lobe_samples,
                 footprint: true,
             },
-            nonfinite: r.nonfinite,
-            notice: r.notice,
+            env: r,
         })
     }
 
@@ -225,7 +218,7 @@ impl PrefilterRequest {
         progress: Option<&Progress>,
     ) -> Result<Vec<(Image, prefilter::LevelReport)>> {
         let r = self.resolve(None, "env")?;
-        let env = EnvMap::new(r.env, image, "env")?;
+        let env = EnvMap::new(r.env.mapping, image, "env")?;
         prefilter::prefilter(&env, &r.prefilter, progress)
     }
 
@@ -260,23 +253,15 @@ impl PrefilterRequest {
             ))
         }
     }
+}
+
+impl EnvJob for PrefilterRequest {
+    type Report = PrefilterReport;
 
     /// Reads the environment `input`, prefilters, and writes `output` atomically: every level
     /// in one `.ktx2`/`.dds` texture (a cube's faces, or a 2D mip chain), or one image per
     /// level with `{level}` in the name; each records its mapping and view.
-    pub fn run_files(
-        &self,
-        input: &str,
-        output: &str,
-        write: &crate::images::codec::WriteOptions,
-        force: bool,
-        progress: Option<&Progress>,
-    ) -> Result<(PrefilterReport, Option<String>)> {
-        self.run_files_with(input, output, write, force, progress, &mut read_env_layout)
-    }
-
-    /// `run_files` with the environment read by `read`.
-    pub fn run_files_with(
+    fn run_files_with(
         &self,
         input: &str,
         output: &str,
@@ -284,7 +269,7 @@ impl PrefilterRequest {
         force: bool,
         progress: Option<&Progress>,
         read: &mut crate::images::envmap::EnvReader<'_>,
-    ) -> Result<(PrefilterReport, Option<String>)> {
+    ) -> Result<(Self::Report, Option<String>)> {
         use crate::images::cube_layout::Layout;
         use crate::images::note::MapNote;
         let t0 = std::time::Instant::now();
@@ -301,9 +286,8 @@ impl PrefilterRequest {
         for o in &outs {
             o.check_output(p.mapping)?;
         }
-        let (mut img, _) = read(&files, r.env, r.env_layout, &ReadOptions::default())?;
-        check_nonfinite_env(&mut img, &files, r.nonfinite)?;
-        let env = EnvMap::new(r.env, &img, files.first())?;
+        let img = r.env.read(&files, read)?;
+        let env = EnvMap::new(r.env.mapping, &img, files.first())?;
         let made = prefilter::prefilter(&env, p, progress)?;
         let cube = matches!(p.mapping, crate::mappings::mapping::Mapping::Cube(_));
         let one_texture =
@@ -371,7 +355,7 @@ impl PrefilterRequest {
                 compression,
                 seconds: t0.elapsed().as_secs_f64(),
             },
-            r.notice,
+            r.env.notice,
         ))
     }
 }

@@ -1,11 +1,10 @@
 //! The environment a job reads, as users name it: one [`Source`] (mapping, preset, cube layout
 //! and view; with the NaN/Inf rule, an [`EnvRequest`]), flattened into every request that reads
-//! a map — [`crate::jobs::convert::ConvertJob`], the MatCap, prefilter and irradiance
-//! requests — and spelled the same in recipes,
-//! JSON and Python: `src`, `src_preset`, `src_layout`, `src_look`, `src_up`.  The CLI's
-//! `--from`, `--from-preset`, … set the same fields.  The older spellings stay accepted
-//! ([`ALIASES`]): `from`, `from_preset`, … (conversions) and `env_format`, `env_preset`, …
-//! (lighting).
+//! a map — [`crate::jobs::convert::ConvertJob`], the MatCap, prefilter and irradiance requests
+//! — and spelled the same in recipes, JSON and Python: `src`, `src_preset`, `src_layout`,
+//! `src_look`, `src_up`.  The CLI's `--from`, `--from-preset`, … set the same fields.  The older
+//! spellings stay accepted ([`ALIASES`]): `from`, `from_preset`, … (conversions) and
+//! `env_format`, `env_preset`, … (lighting).
 //!
 //! The rules, in one place ([`Source::resolve`]):
 //!
@@ -45,6 +44,7 @@ pub struct Source {
     /// world directions of its eye's −Z and +Y (up defaults to +Y).
     #[serde(alias = "from_look", alias = "env_look")]
     pub src_look: Option<[f64; 3]>,
+    /// The world direction of that view's +Y (with `src_look`).
     #[serde(alias = "from_up", alias = "env_up")]
     pub src_up: Option<[f64; 3]>,
 }
@@ -148,9 +148,9 @@ impl Source {
     }
 }
 
-/// The environment a lighting job reads, as users name it: its [`Source`] (mapping, preset
-/// and cube layout, default its note, else lat-long; its view when it is not the world's,
-/// default its note's) and what to do with NaN/Inf.
+/// The environment a lighting job or the viewer reads, as users name it: its [`Source`]
+/// (mapping, preset and cube layout, default its note, else lat-long; its view when it is not
+/// the world's, default its note's) and what to do with NaN/Inf.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct EnvRequest {
@@ -196,8 +196,9 @@ impl EnvRequest {
 }
 
 impl ResolvedEnv {
-    /// Reads the environment's `files` (`read` decodes them: [`crate::images::envmap::read_env_layout`] or a caller's
-    /// cache) in the resolved mapping and layout, and applies the NaN/Inf rule.
+    /// Reads the environment's `files` (`read` decodes them:
+    /// [`crate::images::envmap::read_env_layout`] or a caller's cache) in the resolved mapping
+    /// and layout, and applies the NaN/Inf rule.
     pub fn read(&self, files: &EnvFiles, read: &mut EnvReader<'_>) -> Result<Image> {
         let (mut img, _) = read(files, self.mapping, self.layout, &ReadOptions::default())?;
         check_nonfinite_env(&mut img, files, self.nonfinite)?;

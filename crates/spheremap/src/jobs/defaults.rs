@@ -1,0 +1,23 @@
+//! Every request's documented defaults, by operation: what the CLI's flags show and Python's
+//! signatures are held to.
+
+use crate::jobs::{bake_matcap, convert, dfg, irradiance, prefilter, render};
+
+/// The defaults of the request of `op` (`convert`, `bake-matcap`, `prefilter`, `irradiance`,
+/// `dfg`, `render`, `generate`) as JSON: what its `Default` holds.  The CLI's flags take their
+/// defaults from the requests; Python's signatures are checked against these.
+pub fn of(op: &str) -> Option<serde_json::Value> {
+    fn json<T: serde::Serialize>(t: T) -> Option<serde_json::Value> {
+        serde_json::to_value(t).ok()
+    }
+    match op {
+        "convert" => json(convert::ConvertJob::default()),
+        "bake-matcap" => json(bake_matcap::MatcapRequest::default()),
+        "prefilter" => json(prefilter::PrefilterRequest::default()),
+        "irradiance" => json(irradiance::IrradianceRequest::default()),
+        "dfg" => json(dfg::DfgRequest::default()),
+        "render" => json(render::RenderRequest::default()),
+        "generate" => json(crate::trace::generate::MapRequest::default()),
+        _ => None,
+    }
+}
