@@ -87,15 +87,24 @@ def test_one_option_under_two_spellings_is_refused_everywhere(sphere_file, tmp_p
     assert not (tmp_path / "made").exists() or not any((tmp_path / "made").iterdir())
 
 
-def test_an_error_names_the_option_as_it_is_spelled_where_it_was_given(sphere_file, tmp_path):
-    """The core names the field (src_preset); the CLI prints it as its flag, whichever alias was typed."""
+def test_a_mistake_is_refused_alike_and_named_as_the_option_is_spelled_there(sphere_file, tmp_path):
+    """The core names the field (src_preset) and gives one cause; the CLI prints the field as its
+    flag whichever alias was typed, Python and a recipe as the field."""
     r = cli("convert", sphere_file, tmp_path / "o.exr", "--env-format", "sphere", "--env-preset", "nope",
             "--to", "latlong")
     assert r.returncode == 2 and r.stderr.startswith("spheremap: --from-preset: "), r.stderr
-    with pytest.raises(ValueError, match="^src_preset: "):
+    cause = r.stderr.strip().removeprefix("spheremap: --from-preset: ")
+    assert "nope" in cause
+    with pytest.raises(ValueError) as e:
         sm.convert(sm.read_image(sphere_file), env_format="sphere", env_preset="nope", dst="latlong")
-    with pytest.raises(ValueError, match="^src_preset: "):
-        sm.irradiance_sh(sm.read_image(HDRI), env_preset="nope")
+    assert str(e.value) == f"src_preset: {cause}"
+    with pytest.raises(ValueError) as e:
+        sm.irradiance_sh(sm.read_image(HDRI), env_format="sphere", env_preset="nope")
+    assert str(e.value) == f"src_preset: {cause}"
+    lib, rp = write_recipe(tmp_path, {"op": "convert", "from": "sphere", "from_preset": "nope", "to": "latlong"},
+                           sphere_file)
+    r = cli("batch", lib, "--recipe", rp, "--out", tmp_path / "made")
+    assert r.returncode == 2 and r.stderr.strip() == f"spheremap: {rp}: output 1: src_preset: {cause}", r.stderr
 
 
 def test_render_reads_the_map_in_the_worlds_frame_and_refuses_a_source_view(tmp_path):
