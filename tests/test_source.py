@@ -36,7 +36,7 @@ def test_sm_source_aliases_are_the_cores():
     assert sm.SOURCE_ALIASES == {
         "from": "src", "from_preset": "src_preset", "from_layout": "src_layout", "from_look": "src_look",
         "from_up": "src_up", "env_format": "src", "env_preset": "src_preset", "env_layout": "src_layout",
-        "env_look": "src_look", "env_up": "src_up",
+        "env_look": "src_look", "env_up": "src_up", "environment_mapping": "src", "environment_preset": "src_preset",
     }
 
 
@@ -138,3 +138,26 @@ def test_generate_turns_a_map_made_for_a_view_back_into_the_world(tmp_path):
     err = np.abs(got - want).mean() / want.mean()
     assert err < 0.02, err
     assert np.abs(unturned - want).mean() / want.mean() > 10 * err
+
+
+def test_a_scenes_environment_made_for_a_view_is_turned_back():
+    """Python's scenes read their environment by the same source keywords: a lat-long made for a
+    turned view, given that view, lights the rays that miss the ball as the world-framed
+    original does (environment_mapping, the scenes' older spelling of src, still reads)."""
+    img = sm.read_image(HDRI)
+    look, up = (1.0, 0.4, -0.7), (0.2, 1.0, 0.1)
+    world = sm.convert(img, "latlong", "latlong", size=64)
+    turned = sm.convert(img, "latlong", "latlong", size=64, look=look, up=up)
+    a = sm.Scene.builtin("mirror-ball", environment=world)
+    b = sm.Scene.builtin("mirror-ball", environment=turned, src_look=look, src_up=up)
+    c = sm.Scene.builtin("mirror-ball", environment=turned, environment_mapping="latlong")
+    rng = np.random.default_rng(1)
+    d = rng.normal(size=(4000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = 10 * d  # outside the ball, looking away from it: every ray misses
+    ra, rb, rc = a(o, d), b(o, d), c(o, d)
+    err = np.abs(rb - ra).mean() / ra.mean()
+    assert err < 0.05, err
+    assert np.abs(rc - ra).mean() / ra.mean() > 5 * err
+    with pytest.raises(TypeError, match="'src' twice"):
+        sm.Scene.builtin("mirror-ball", environment=world, src="latlong", environment_mapping="latlong")

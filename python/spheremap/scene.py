@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import os
 
@@ -10,7 +10,17 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _choice, _finite, _floats, _max_memory, _name, _seed, _size_any, _vec3
+from ._args import (
+    _choice,
+    _finite,
+    _floats,
+    _max_memory,
+    _name,
+    _seed,
+    _size_any,
+    _source_aliases,
+    _vec3,
+)
 from .convert import _env_array
 from .names import LENS_MODELS
 
@@ -29,28 +39,31 @@ class Scene:
         self._inner = _inner
 
     @classmethod
+    @_source_aliases
     def load(
         cls,
         path: str | os.PathLike[str],
         *,
         background: npt.ArrayLike | None = None,
         environment: npt.ArrayLike | None = None,
-        environment_mapping: str = "latlong",
-        environment_preset: str | None = None,
+        src: str = "latlong",
+        src_preset: str | None = None,
+        src_look: npt.ArrayLike | None = None,
+        src_up: npt.ArrayLike | None = None,
         shading: str = "full",
         max_depth: int = 8,
         indirect_samples: int = 1,
         seed: int = 0,
     ) -> Scene:
         """Loads an OBJ (+MTL) or glTF/GLB file. background: constant environment colour (RGB,
-        default black); environment: an environment map image in `environment_mapping` instead
-        (a cube as (6, F, F, C) faces in GL order)."""
+        default black); environment: an environment map image instead, read as `src`,
+        `src_preset`, `src_look`, `src_up` say (as set_environment; environment_mapping and
+        environment_preset are accepted for src and src_preset)."""
         scene = cls(_ext.Scene.load(os.fspath(path)))
         scene._configure(
             background,
             environment,
-            environment_mapping,
-            environment_preset,
+            dict(src=src, src_preset=src_preset, src_look=src_look, src_up=src_up),
             shading,
             max_depth,
             indirect_samples,
@@ -59,6 +72,7 @@ class Scene:
         return scene
 
     @classmethod
+    @_source_aliases
     def builtin(cls, name: str = "demo", *, reflectance: float = 0.75, **kwargs) -> Scene:
         """A built-in scene: "demo" (the demo's little world; view it from (0, 1, 0)),
         "octants" (inside a sphere whose octants glow in 8 colours) or "mirror-ball" (a chrome
@@ -70,29 +84,23 @@ class Scene:
             raise ValueError(f"reflectance: expected a number in [0, 1], got {reflectance!r}")
         scene = cls(_ext.Scene.builtin(name, reflectance=reflectance))
         if kwargs:
-            args = dict(
-                background=None,
-                environment=None,
-                environment_mapping="latlong",
-                environment_preset=None,
-                shading="full",
-                max_depth=8,
-                indirect_samples=1,
-                seed=0,
+            source: dict[str, Any] = dict(src="latlong", src_preset=None, src_look=None, src_up=None)
+            args: dict[str, Any] = dict(
+                background=None, environment=None, shading="full", max_depth=8, indirect_samples=1, seed=0
             )
-            unknown = set(kwargs) - set(args)
+            unknown = set(kwargs) - set(args) - set(source)
             if unknown:
                 raise TypeError(f"builtin() got unexpected keyword arguments {sorted(unknown)}")
-            args.update(kwargs)
-            scene._configure(**args)
+            for k, v in kwargs.items():
+                (source if k in source else args)[k] = v
+            scene._configure(source=source, **args)
         return scene
 
     def _configure(
         self,
         background,
         environment,
-        environment_mapping,
-        environment_preset,
+        source,
         shading,
         max_depth,
         indirect_samples,
@@ -104,7 +112,7 @@ class Scene:
         if background is not None:
             self.set_background(background)
         if environment is not None:
-            self.set_environment(environment, environment_mapping, preset=environment_preset)
+            self.set_environment(environment, **source)
         for v, n in ((max_depth, "max_depth"), (indirect_samples, "indirect_samples"), (seed, "seed")):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
                 raise ValueError(f"{n}: expected a non-negative integer, got {v!r}")
@@ -128,12 +136,24 @@ class Scene:
     def set_background(self, colour: npt.ArrayLike) -> None:
         self._inner.set_background([float(x) for x in _vec3(colour, "background")])
 
+    @_source_aliases
     def set_environment(
-        self, image: npt.ArrayLike, mapping: str = "latlong", *, preset: str | None = None
+        self,
+        image: npt.ArrayLike,
+        src: str = "latlong",
+        *,
+        src_preset: str | None = None,
+        src_look: npt.ArrayLike | None = None,
+        src_up: npt.ArrayLike | None = None,
     ) -> None:
-        _name("mapping", mapping, "mapping")
-        a = _env_array(_floats(image, "environment"), mapping, "environment")
-        self._inner.set_environment(image=a, mapping=mapping, preset=preset)
+        """The map rays leaving the scene see: `image` in mapping `src` (its preset
+        `src_preset`; a cube as (6, F, F, C) faces in GL order), made for the view `src_look`,
+        `src_up` when it is not the world's (the scene's lookups are turned by it)."""
+        _name("mapping", src, "src")
+        a = _env_array(_floats(image, "environment"), src, "environment")
+        request = {"src": src, "src_preset": src_preset, "src_look": _vec3(src_look, "src_look"),
+                   "src_up": _vec3(src_up, "src_up")}
+        self._inner.set_environment(image=a, request=request)
 
     def add_point_light(self, position: npt.ArrayLike, intensity: npt.ArrayLike) -> None:
         self._inner.add_point_light(

@@ -1,7 +1,7 @@
 //! PyO3 glue for the ray-traced generator: the `Scene` class and `generate` with a scene or a
 //! Python callable as `fire_ray`.  No maths here.
 
-use super::{parse_mapping, run_cancellable, to_py};
+use super::{run_cancellable, to_py};
 use numpy::{
     PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods,
 };
@@ -76,21 +76,22 @@ impl Scene {
         Ok(())
     }
 
-    /// An environment map (H, W, C) float32 in `mapping` (cube: the (6F, F, C) face stack).
-    #[pyo3(signature = (image, mapping, preset=None))]
+    /// An environment map (H, W, C) float32 (cube: the (6F, F, C) face stack) read as
+    /// `request` says (an `EnvRequest` as a dict: `src`, `src_preset`, `src_look`, `src_up`).
+    #[pyo3(signature = (image, request))]
     fn set_environment(
         &mut self,
         image: PyReadonlyArrayDyn<'_, f32>,
-        mapping: &str,
-        preset: Option<&str>,
+        request: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let m = parse_mapping(mapping, preset)?;
+        let req: spheremap::jobs::source::EnvRequest = super::request_of(request)?;
+        let r = req.resolve(None, "environment").map_err(to_py)?;
         let img = super::image_of(&image, "environment")?;
-        rs::EnvMap::new(m, &img, "environment").map_err(to_py)?;
+        rs::EnvMap::new(r.mapping, &img, "environment").map_err(to_py)?;
         self.inner.environment = Environment::Map {
             image: img,
-            mapping: m,
-            rotation: rs::IDENTITY,
+            mapping: r.mapping,
+            rotation: r.world_to_env,
         };
         Ok(())
     }

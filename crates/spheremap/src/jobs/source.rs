@@ -3,8 +3,9 @@
 //! a map — [`crate::jobs::convert::ConvertJob`], the MatCap, prefilter and irradiance requests
 //! — and spelled the same in recipes, JSON and Python: `src`, `src_preset`, `src_layout`,
 //! `src_look`, `src_up`.  The CLI's `--from`, `--from-preset`, … set the same fields.  The older
-//! spellings stay accepted ([`ALIASES`]): `from`, `from_preset`, … (conversions) and
-//! `env_format`, `env_preset`, … (lighting).
+//! spellings stay accepted ([`ALIASES`]): `from`, `from_preset`, … (conversions),
+//! `env_format`, `env_preset`, … (lighting) and `environment_mapping`, `environment_preset`
+//! (Python's scenes).
 //!
 //! The rules, in one place ([`Source::resolve`]):
 //!
@@ -32,10 +33,14 @@ use serde::{Deserialize, Serialize};
 pub struct Source {
     /// Its mapping (sphere, latlong, cube, angular, paraboloid, octahedral); `None`: what the
     /// file records.
-    #[serde(alias = "from", alias = "env_format")]
+    #[serde(alias = "from", alias = "env_format", alias = "environment_mapping")]
     pub src: Option<String>,
     /// The mapping's preset (`spheremap conventions`); `None`: the mapping's own, or the note's.
-    #[serde(alias = "from_preset", alias = "env_preset")]
+    #[serde(
+        alias = "from_preset",
+        alias = "env_preset",
+        alias = "environment_preset"
+    )]
     pub src_preset: Option<String>,
     /// The cube layout of a cube map in one image; `None`: the note's, else from its shape.
     #[serde(alias = "from_layout", alias = "env_layout")]
@@ -51,7 +56,7 @@ pub struct Source {
 
 /// The other spellings each field takes, (alias, field): serde reads them (a test holds the
 /// two together), Python's functions take them as keywords.
-pub const ALIASES: [(&str, &str); 10] = [
+pub const ALIASES: [(&str, &str); 12] = [
     ("from", "src"),
     ("from_preset", "src_preset"),
     ("from_layout", "src_layout"),
@@ -62,6 +67,8 @@ pub const ALIASES: [(&str, &str); 10] = [
     ("env_layout", "src_layout"),
     ("env_look", "src_look"),
     ("env_up", "src_up"),
+    ("environment_mapping", "src"),
+    ("environment_preset", "src_preset"),
 ];
 
 /// A [`Source`] checked against its file's note.
