@@ -1,5 +1,7 @@
 """The CLI (the Rust binary behind the `spheremap` console script)."""
 
+import json
+import math
 import shutil
 
 import numpy as np
@@ -345,3 +347,33 @@ def test_preview_without_a_camera_position_is_a_usage_error(tmp_path):
     r = cli("preview", "--scene", "builtin:demo", "-o", out)
     assert r.returncode == 2 and "--eye" in r.stderr and "internal error" not in r.stderr
     assert not out.exists()
+
+
+def test_the_json_reports_of_preview_turntable_and_from_photo_hold_their_fields(tmp_path):
+    """Each --json report is one of the core's report types: every field present, the losses
+    of the written file included."""
+    hdri = "testdata/apartment.exr"
+    r = cli("preview", "--scene", "builtin:mirror-ball", "--env", hdri, "--from", "latlong", "--eye", 0, 0, 5,
+            "--target", 0, 0, 0, "--fov", 30, "--size", 64, 48, "--samples", 1, "-o", tmp_path / "ball.png",
+            "--json")
+    assert r.returncode == 0, r.stderr
+    p = json.loads(r.stdout)
+    assert {"output", "width", "height", "samples", "focal_px", "seconds", "clipped", "clamped_half"} == set(p)
+    assert (p["width"], p["height"], p["samples"]) == (64, 48, 1) and p["focal_px"] > 0
+    r = cli("render", TEAPOT, "--mode", "normals", "--size", 16, 16, "--turntable", 3,
+            "-o", tmp_path / "t_{frame}.png", "--json")
+    assert r.returncode == 0, r.stderr
+    t = json.loads(r.stdout)
+    assert t["frames"] == 3 and len(t["output"]) == 3 and t["mode"] == "normals"
+    assert (t["width"], t["height"]) == (16, 16) and set(t) == {"output", "frames", "mode", "width", "height",
+                                                                 "seconds"}
+    # The ball (radius 1, 5 away) seen through the preview's lens: its outline is given.
+    rad = p["focal_px"] * math.tan(math.asin(0.2))
+    r = cli("from-photo", tmp_path / "ball.png", "--fov", 30, "--circle", 32, 24, rad, "--size", 16, "--json",
+            "-o", tmp_path / "m.exr")
+    assert r.returncode == 0, r.stderr
+    f = json.loads(r.stdout)
+    for k in ("inputs", "output", "models", "to", "preset", "size", "samples", "fill", "seconds", "shots",
+              "seen_fraction", "samples_total", "clipped", "clamped_half"):
+        assert k in f, k
+    assert f["to"] == "sphere" and f["size"] == 16 and f["output"] == [str(tmp_path / "m.exr")]

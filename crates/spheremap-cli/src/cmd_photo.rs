@@ -337,19 +337,20 @@ fn summary(
     inputs: &[&str],
 ) {
     if out.job.json {
-        let mut v = serde_json::json!({
-            "inputs": inputs, "output": written, "models": models,
-            "to": dst.name(), "preset": dst.preset_name(), "size": out.size,
-            "samples": out.sampling.samples, "fill": out.fill,
-            "seconds": seconds,
-        });
-        if let (Some(v), Ok(serde_json::Value::Object(s))) =
-            (v.as_object_mut(), serde_json::to_value(r.summary()))
-        {
-            v.extend(s);
-        }
-        out.job.add_losses(&mut v, map, &written[0], out.linear);
-        crate::out(&format!("{v}\n"));
+        let report = spheremap::jobs::photo::PhotoRunReport {
+            inputs: inputs.iter().map(|i| i.to_string()).collect(),
+            output: written.to_vec(),
+            models: models.to_vec(),
+            to: dst.name(),
+            preset: dst.preset_name(),
+            size: out.size,
+            samples: out.sampling.samples,
+            fill: out.fill,
+            seconds,
+            summary: r.summary(),
+            losses: out.job.losses(map, &written[0], out.linear).into(),
+        };
+        crate::out_json(&report);
     } else if !out.job.quiet {
         for (i, (s, m)) in r.shots.iter().zip(models).enumerate() {
             let fit = match s.fit_rms {

@@ -90,12 +90,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let seconds = t0.elapsed().as_secs_f64();
     write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;
     if a.job.json {
-        let mut v = serde_json::json!({
-            "output": a.output, "width": w, "height": h, "samples": a.samples,
-            "focal_px": cam.focal_px(), "seconds": seconds,
-        });
-        a.job.add_losses(&mut v, &img, &a.output, false);
-        crate::out(&format!("{v}\n"));
+        let losses = a.job.losses(&img, &a.output, false).into();
+        crate::out_json(&cam.report(&a.output, a.samples, seconds, losses));
     } else if !a.job.quiet {
         eprintln!(
             "-> {} ({w}x{h}, {} rays/pixel): {seconds:.3} s",

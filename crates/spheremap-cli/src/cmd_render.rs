@@ -225,9 +225,14 @@ fn turntable(
     };
     let seconds = t0.elapsed().as_secs_f64();
     if a.job.json {
-        let v = serde_json::json!({"output": written, "frames": n, "mode": a.mode,
-                                   "width": cam.width, "height": cam.height, "seconds": seconds});
-        crate::out(&format!("{v}\n"));
+        crate::out_json(&render::TurntableReport {
+            output: written.clone(),
+            frames: n,
+            mode: a.mode,
+            width: cam.width,
+            height: cam.height,
+            seconds,
+        });
     } else if !a.job.quiet {
         eprintln!(
             "-> {} ({n} frames, {}x{}, {}): {seconds:.3} s",

@@ -90,20 +90,6 @@ impl JobFlags {
         self.encode
     }
 
-    /// Adds what writing `img` to `path` lost ([`spheremap::images::codec::Losses`]) to a `--json`
-    /// summary: `clipped` (values out of the format's range) and `clamped_half`.
-    pub fn add_losses(
-        &self,
-        summary: &mut serde_json::Value,
-        img: &spheremap::images::Image,
-        path: &str,
-        linear: bool,
-    ) {
-        let l = self.losses(img, path, linear);
-        summary["clipped"] = l.clipped.into();
-        summary["clamped_half"] = l.beyond_half.into();
-    }
-
     /// What writing `img` to `path` loses ([`spheremap::images::codec::Losses`]).
     pub fn losses(
         &self,

@@ -132,6 +132,14 @@ pub(crate) fn out(text: &str) {
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
+/// A core report as one line of JSON on stdout (`--json`).
+pub(crate) fn out_json<T: serde::Serialize>(report: &T) {
+    match serde_json::to_string(report) {
+        Ok(s) => out(&format!("{s}\n")),
+        Err(e) => eprintln!("spheremap: the report could not be written as JSON: {e}"),
+    }
+}
+
 /// Runs the CLI on `args` (the first item is the program name) and returns the exit code.
 pub fn main_with_args<I, T>(args: I) -> i32
 where

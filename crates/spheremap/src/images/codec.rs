@@ -120,6 +120,22 @@ pub struct Losses {
     pub largest: f32,
 }
 
+/// The counts of [`Losses`] a `--json` report carries: `clipped` and `clamped_half`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LossCounts {
+    pub clipped: u64,
+    pub clamped_half: u64,
+}
+
+impl From<Losses> for LossCounts {
+    fn from(l: Losses) -> LossCounts {
+        LossCounts {
+            clipped: l.clipped,
+            clamped_half: l.beyond_half,
+        }
+    }
+}
+
 impl Losses {
     /// What writing `img` as `format` with `opts` loses.
     pub fn of(img: &Image, format: Format, opts: &WriteOptions) -> Losses {

@@ -42,6 +42,22 @@ pub enum Projection {
     Fisheye(Lens),
 }
 
+/// The report of `spheremap preview --json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PreviewReport {
+    pub output: String,
+    pub width: usize,
+    pub height: usize,
+    /// Rays per pixel.
+    pub samples: u32,
+    /// The focal length in pixels (`None` for a fisheye).
+    pub focal_px: Option<f64>,
+    pub seconds: f64,
+    /// What writing the image lost.
+    #[serde(flatten)]
+    pub losses: crate::images::codec::LossCounts,
+}
+
 /// A camera: projection, pose and image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -95,6 +111,26 @@ impl Camera {
             width,
             height,
         })
+    }
+
+    /// The report of `spheremap preview --json` for an image this camera took with `samples`
+    /// rays per pixel into `output`, in `seconds`, writing which lost `losses`.
+    pub fn report(
+        &self,
+        output: &str,
+        samples: u32,
+        seconds: f64,
+        losses: crate::images::codec::LossCounts,
+    ) -> PreviewReport {
+        PreviewReport {
+            output: output.to_string(),
+            width: self.width,
+            height: self.height,
+            samples,
+            focal_px: self.focal_px(),
+            seconds,
+            losses,
+        }
     }
 
     /// Focal length in pixels of a perspective camera.

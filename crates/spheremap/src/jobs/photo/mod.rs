@@ -171,6 +171,26 @@ pub struct PhotoSummary {
     pub samples_total: u64,
 }
 
+/// The report of `spheremap from-photo` and `from-fisheye --json`: the files read and
+/// written, each photo's model, the output's mapping, size, samples and fill, the
+/// [`PhotoSummary`] and what writing the map lost.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PhotoRunReport {
+    pub inputs: Vec<String>,
+    pub output: Vec<String>,
+    pub models: Vec<String>,
+    pub to: &'static str,
+    pub preset: &'static str,
+    pub size: usize,
+    pub samples: u32,
+    pub fill: Fill,
+    pub seconds: f64,
+    #[serde(flatten)]
+    pub summary: PhotoSummary,
+    #[serde(flatten)]
+    pub losses: crate::images::codec::LossCounts,
+}
+
 /// One mirror-ball shot in a [`PhotoSummary`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ShotSummary {

@@ -473,6 +473,18 @@ pub struct RenderSummary {
     pub error_deg: Option<PixelError>,
 }
 
+/// The report of `spheremap render --turntable --json`: the frames written (one GIF, or one
+/// file per frame), their count, the mode and the size of a frame.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TurntableReport {
+    pub output: Vec<String>,
+    pub frames: u32,
+    pub mode: ModeName,
+    pub width: usize,
+    pub height: usize,
+    pub seconds: f64,
+}
+
 /// Per-vertex data in eye space.
 pub(crate) struct Vertices {
     pub eye: Vec<[f64; 3]>,
