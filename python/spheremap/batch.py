@@ -208,7 +208,8 @@ def _run_dask(plan, text, is_json, source, out, client, progress) -> Manifest:
                 rec = fut.result()
             except Exception as e:  # the task itself failed on every try (a worker kept dying)
                 first = str(e).splitlines()[0] if str(e) else type(e).__name__
-                rec = _ext._batch_failed_record(t, plan["recipe_hash"], f"{t['input']}: the Dask task failed: {first}")
+                error = f"{t['input']}: the Dask task failed: {first}"
+                rec = _ext._batch_failed_record(t, plan["recipe_hash"], error)
             # Records use the task's own paths relative to the caller, as the local runner does.
             for o in rec["outputs"]:
                 if os.path.isabs(o["path"]):

@@ -9,7 +9,6 @@ from . import _spheremap as _ext
 from ._args import _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _source_aliases, _vec3
 
 
-
 @_source_aliases
 def convert(
     image: npt.ArrayLike,

@@ -30,9 +30,10 @@ PHOTO_FILLS = tuple(_ext.names("fill"))
 #: Texture wrap of render's sphere map or MatCap.
 WRAPS = tuple(_ext.names("wrap"))
 
-#: The older spellings of the source's keywords, {alias: keyword}: `from*` (conversions) and
-#: `env_*` (lighting, render, view) for `src`, `src_preset`, `src_layout`, `src_look`, `src_up`
-#: (the core's jobs::source::ALIASES, as recipes take them).
+#: The older spellings of the source's keywords, {alias: keyword}: `from*` (conversions),
+#: `env_*` (lighting, render, view) and `environment_mapping`, `environment_preset` (scenes) for
+#: `src`, `src_preset`, `src_layout`, `src_look`, `src_up` (the core's jobs::source::ALIASES, as
+#: recipes take them).
 SOURCE_ALIASES: dict[str, str] = dict(_ext.source_aliases())
 
 

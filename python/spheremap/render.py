@@ -13,7 +13,6 @@ from .convert import _env_array
 from .images import read_image
 
 
-
 def load_mesh(
     path: str | os.PathLike[str],
 ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.uint32]]:

@@ -1,8 +1,7 @@
 //! The environment a command reads, the same five flags on every command that reads one
 //! (`convert`, `bake-matcap`, `prefilter`, `irradiance`, `view`, `render`, `generate`,
-//! `preview`): they set
-//! the core's `spheremap::jobs::source::Source`.  `--src…` and the `--env-…` spellings of the
-//! lighting commands are the same flags.
+//! `preview`): they set the core's `spheremap::jobs::source::Source`.  `--src…` and the
+//! `--env-…` spellings of the lighting commands are the same flags.
 
 use crate::job::vec3;
 use spheremap::jobs::source::Source;
