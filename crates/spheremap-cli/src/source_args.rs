@@ -87,20 +87,14 @@ impl SourceArgs {
         spheremap::Mapping,
         Option<spheremap::images::cube_layout::Layout>,
     )> {
-        self.world_frame_only(command)?;
-        let (m, l, _) = self.read_as(path, default)?;
-        Ok((m, l))
-    }
-
-    /// Refuses a view for a command that reads the map in the world's frame only.
-    pub fn world_frame_only(&self, command: &str) -> anyhow::Result<()> {
         if self.from_look.is_some() || self.from_up.is_some() {
             anyhow::bail!(
                 "--from-look: {command} reads the map in the world's frame; turn it first \
                  (spheremap convert IN OUT --from-look X Y Z)"
             );
         }
-        Ok(())
+        let (m, l, _) = self.read_as(path, default)?;
+        Ok((m, l))
     }
 
     /// The flag that sets a field of `Source` (`src_preset` → `--from-preset`); `None` for

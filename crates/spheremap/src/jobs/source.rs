@@ -181,17 +181,7 @@ impl EnvRequest {
     /// Resolves the fields for a map that records `note` (`None`: an array, or a file without
     /// one; read as lat-long unless `src` names its mapping); errors name the field.
     pub fn resolve(&self, note: Option<&MapNote>, input: &str) -> Result<ResolvedEnv> {
-        self.resolve_or(note, input, "latlong")
-    }
-
-    /// [`EnvRequest::resolve`] with `default` the mapping of a map that records none.
-    pub fn resolve_or(
-        &self,
-        note: Option<&MapNote>,
-        input: &str,
-        default: &str,
-    ) -> Result<ResolvedEnv> {
-        let r = self.source.resolve(note, input, Some(default))?;
+        let r = self.source.resolve(note, input, Some("latlong"))?;
         Ok(ResolvedEnv {
             mapping: r.mapping,
             layout: r.layout,
