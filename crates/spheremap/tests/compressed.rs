@@ -858,3 +858,39 @@ fn uastc_and_astc_hdr_repair_keeps_every_level_s_power() {
         }
     }
 }
+
+/// Warnings the core gave, for the tests that look for one.
+static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+fn keep_warning(w: &str) {
+    WARNINGS.lock().unwrap().push(w.to_string());
+}
+
+#[cfg(feature = "basisu")]
+#[test]
+fn a_level_the_repair_cannot_hold_is_written_with_a_warning_that_states_its_error() {
+    use spheremap::images::compress::LEVEL_GOAL;
+    // ASTC HDR 6x6 cannot hold a 0.5° sun holding 90 % of the power on a 16² face: its
+    // endpoints move the sun's block by several percent (docs/lighting.md).
+    let tex = cube_chain(&with_sun("park.exr", Some((0.5, 0.9))), 16, 1);
+    spheremap::base::error::set_warning_sink(Some(keep_warning));
+    let (_, rep) = encode(&tex, Format::Ktx2, Encoding::AstcHdr6x6, None, CUBE_NOTE);
+    let said: Vec<String> = WARNINGS
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|w| w.starts_with("t.ktx2: level 0: astc-hdr-6x6 keeps"))
+        .cloned()
+        .collect();
+    let r = &rep.unwrap()[0];
+    assert!(worst(&r.power_error) > LEVEL_GOAL, "{r:?}");
+    assert_eq!(said.len(), 1, "{said:?}");
+    let pct = format!("{:+.2} %", 100.0 * r.power_error[1]);
+    assert!(
+        said[0].contains(&pct) && said[0].contains("uastc-hdr-4x4 or bc6h"),
+        "{said:?}"
+    );
+    // BC6H holds the same level.
+    let (_, rep) = encode(&tex, Format::Ktx2, Encoding::Bc6h, None, CUBE_NOTE);
+    assert!(worst(&rep.unwrap()[0].power_error) <= LEVEL_GOAL);
+}

@@ -66,6 +66,9 @@
 //!    misses, its blocks that miss are tried once more, a constant ASTC block now taken
 //!    wherever it moves the light less than the block as it is.
 //!
+//! A level that still misses its power by more than [`LEVEL_GOAL`] is written with a warning
+//! that states its error per channel.
+//!
 //! Where every block holds its light, or its neighbours hold it, the level's power and its
 //! low-order moments (SH9) hold with it.  A block whose light sits in one texel far brighter
 //! than the rest holds it to a part of a percent: BC6H's ten-bit endpoints move in steps of
@@ -1066,6 +1069,9 @@ impl Repair<'_> {
 /// larger of its own and its share of the level's, before blocks are given up to BC6H's
 /// one-region encoder or their misses are carried to their neighbours.
 pub const SURFACE_TOLERANCE: f64 = 2.5e-3;
+/// The power every compressed level keeps, relative to the uncompressed level's: a level the
+/// repair leaves further off is written with a warning that states its error.
+pub const LEVEL_GOAL: f64 = 5e-3;
 
 /// A level whose power holds within [`SURFACE_TOLERANCE`] after the encoder's rounds is left
 /// so where no face of it misses by more than this (relative as for [`SURFACE_TOLERANCE`]).
@@ -1423,6 +1429,24 @@ pub fn compress(
             total(|o| o.decoded),
         );
         let values: usize = outs.iter().map(|o| o.values).sum();
+        let miss: [f64; 3] = std::array::from_fn(|k| rel(dec[k], src[k]));
+        if miss.iter().any(|m| m.abs() > LEVEL_GOAL) {
+            crate::base::error::warn(&format!(
+                "{what}: level {li}: {} keeps this level's power only to {:+.2} % (R), \
+                 {:+.2} % (G), {:+.2} % (B), beyond ±{} %: a block holds a source too small \
+                 and bright for the format's endpoints{}",
+                e.name(),
+                100.0 * miss[0],
+                100.0 * miss[1],
+                100.0 * miss[2],
+                100.0 * LEVEL_GOAL,
+                if e == Encoding::AstcHdr6x6 {
+                    "; uastc-hdr-4x4 or bc6h keep it"
+                } else {
+                    ""
+                }
+            ));
+        }
         report.push(LevelCompression {
             blocks: outs.iter().map(|o| o.blocks).sum(),
             repaired: outs.iter().map(|o| o.repaired).sum(),
