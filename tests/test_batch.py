@@ -445,3 +445,49 @@ def test_the_example_recipe_is_valid():
         with open(path) as f:
             digest = sm._spheremap._batch_recipe(f.read(), False, path)
         assert len(digest) == 64
+
+
+def test_photos_unwarped_in_batch_match_from_photo_alone(tmp_path):
+    """A library of mirror-ball photos (and a fisheye photo) through `from-photo` /
+    `from-fisheye` recipes: the same request as the subcommands, the same bytes."""
+    env = sm.read_image("testdata/apartment.exr")
+    scene = sm.Scene.builtin("mirror-ball", environment=env)
+    lib = tmp_path / "photos"
+    lib.mkdir()
+    for i, eye in enumerate([(0.0, 0.0, 5.0), (0.0, 0.5, 6.0)]):
+        sm.write_image(lib / f"ball{i}.exr", scene.preview(eye, (0, 0, 0), fov=30, size=(200, 200), samples=4))
+    recipe = tmp_path / "photos.toml"
+    recipe.write_text(
+        '[[output]]\nop = "from-photo"\nname = "{stem}_sphere.exr"\nfov = 30\nsize = 48\nfill = "smooth"\n\n'
+        '[[output]]\nop = "from-photo"\nname = "{stem}_{face}.exr"\nfov = 30\nsize = 16\nto = "cube"\n'
+        'reflectance = [0.75, 0.75, 0.75]\n\n'
+        '[[output]]\nop = "from-fisheye"\nname = "{stem}_fish.exr"\nmodel = "equidistant"\nfov = 180\nsize = 16\n'
+    )
+    out = tmp_path / "out"
+    r = cli("batch", lib, "--recipe", recipe, "--out", out, "--json")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert (s["done"], s["failed"], s["outputs"]) == (2, 0, 2 * (1 + 6 + 1)), s
+    for i in range(2):
+        src = lib / f"ball{i}.exr"
+        alone = tmp_path / f"alone{i}"
+        alone.mkdir()
+        for args, names in [
+            (("from-photo", src, "--fov", 30, "--size", 48, "--fill", "smooth", "-o", alone / "s.exr"),
+             [(f"ball{i}_sphere.exr", "s.exr")]),
+            (("from-photo", src, "--fov", 30, "--size", 16, "--to", "cube", "--reflectance", 0.75, 0.75, 0.75,
+              "-o", alone / "c_{face}.exr"),
+             [(f"ball{i}_{f}.exr", f"c_{f}.exr") for f in ("px", "nx", "py", "ny", "pz", "nz")]),
+            (("from-fisheye", src, "--model", "equidistant", "--fov", 180, "--size", 16, "-o", alone / "f.exr"),
+             [(f"ball{i}_fish.exr", "f.exr")]),
+        ]:
+            rr = cli(*args, "-q")
+            assert rr.returncode == 0, rr.stderr
+            for got, want in names:
+                assert (out / got).read_bytes() == (alone / want).read_bytes(), got
+    # A recipe mistake in a photo operation is refused before any work, naming the key.
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[output]]\nop = "from-photo"\nname = "{stem}.exr"\nreflectance = [1, 2]\n')
+    r = cli("batch", lib, "--recipe", bad, "--out", tmp_path / "o2")
+    assert r.returncode == 2 and "reflectance" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert not (tmp_path / "o2" / "manifest.jsonl").exists()

@@ -18,8 +18,9 @@ CASES = [
     (sm.dfg_lut, "dfg", {}),
     (sm.render, "render", {}),
     (sm.generate, "generate", {"mapping": "to"}),
-    (sm.from_mirror_ball, "generate", {}),
-    (sm.from_fisheye, "generate", {}),
+    (sm.from_mirror_ball, "from-photo", {}),
+    (sm.from_fisheye, "from-fisheye", {}),
+    (sm.Scene.preview, "preview", {}),
 ]
 
 

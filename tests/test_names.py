@@ -57,6 +57,45 @@ CASES = [
     ),
 ]
 
+# The photo routes' requests: a name, and values checked by the request itself (not a name),
+# refused alike by `from-photo` / `from-fisheye`, Python and a `from-photo` / `from-fisheye`
+# recipe.
+CASES += [
+    (
+        "fill",
+        "magic",
+        'unknown fill "magic"; expected one of: none, smooth, mean',
+        lambda v, out: ["from-photo", HDRI, "--fov", 30, "--fill", v, "-o", out],
+        lambda v, img: sm.from_mirror_ball(img, fov=30, fill=v),
+        lambda v: {"op": "from-photo", "fov": 30, "fill": v},
+    ),
+    (
+        "model",
+        "fishy",
+        'unknown lens model "fishy"; expected one of: equidistant, equisolid, stereographic, orthographic, '
+        "polynomial",
+        lambda v, out: ["from-fisheye", HDRI, "--model", v, "--fov", 180, "-o", out],
+        lambda v, img: sm.from_fisheye(img, model=v, fov=180),
+        lambda v: {"op": "from-fisheye", "model": v, "fov": 180},
+    ),
+    (
+        "reflectance",
+        (1, 2),
+        "give one value or three (R G B), not 2",
+        lambda v, out: ["from-photo", HDRI, "--fov", 30, "--reflectance", *v, "-o", out],
+        lambda v, img: sm.from_mirror_ball(img, fov=30, reflectance=v),
+        lambda v: {"op": "from-photo", "fov": 30, "reflectance": list(v)},
+    ),
+    (
+        "camera_radius",
+        95,
+        "must be in [0°, 90°)",
+        lambda v, out: ["from-photo", HDRI, "--fov", 30, "--camera-radius", v, "-o", out],
+        lambda v, img: sm.from_mirror_ball(img, fov=30, camera_radius=v),
+        lambda v: {"op": "from-photo", "fov": 30, "camera_radius": v},
+    ),
+]
+
 # (argument, an alias, CLI arguments, the Python call, the recipe's output): taken everywhere.
 ALIASES = [
     (

@@ -227,7 +227,7 @@ def test_cli_from_photo_errors(tmp_path):
         ((black, "--fov", 30, "--circle", 32, 32, -1), "circle"),
         ((black, "--fov", 30, "--fill", "magic"), "fill"),
         ((black, "--fov", 30, "--reflectance", 1, 2), "reflectance"),
-        ((black, "--fov", 30, "--camera-radius", 95), "camera_radius"),
+        ((black, "--fov", 30, "--camera-radius", 95), "--camera-radius"),
     ]:
         r = cli("from-photo", *args, "-o", out)
         assert r.returncode == 2, (args, r.stderr)

@@ -119,6 +119,21 @@ def _finite(v, name: str) -> float:
     return float(v)
 
 
+def _plain(v):
+    """`v` as the native calls read it: numpy scalars and arrays as Python numbers and lists."""
+    if isinstance(v, (np.ndarray, np.generic)):
+        return v.tolist()
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    return v
+
+
+def _fields(args: dict[str, Any], *, drop: tuple[str, ...] = ()) -> dict[str, Any]:
+    """A function's arguments (its `locals()`) as the fields of the core's request it fills,
+    which checks them (None: the core's default); `drop`: the arguments that are not fields."""
+    return {k: _plain(v) for k, v in args.items() if k not in drop and v is not None}
+
+
 def _source_aliases(f):
     """`f`, taking the source's keywords in their older spellings too (SOURCE_ALIASES)."""
 

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _finite, _floats, _name, _size_any
+from ._args import _Photo, _fields, _finite, _floats, _name, _size_any
 from .images import read_image
 from .render import _camera, _mesh_arrays
 
@@ -82,7 +82,7 @@ def analyze(
         p, nrm, t = _mesh_arrays(mesh)
         cam = _camera(eye, target, up, fovy, near, far, view_size, "view_size")
         m = _ext.analyze_mesh(
-            positions=p, normals=nrm, triangles=t, request=cam, threshold=_finite(threshold, "threshold")
+            positions=p, normals=nrm, triangles=t, request=_fields(cam), threshold=_finite(threshold, "threshold")
         )
         err, in_view, heat, ms = m["triangle_error_deg"], m["in_view"], m["heat"], m["summary"]
         out["mesh"] = {

@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _finite, _floats, _max_memory, _name, _nonfinite, _seed, _size_any, _source_aliases, _vec3
+from ._args import _fields, _floats, _name, _nonfinite, _source_aliases
 
 
 @_source_aliases
@@ -78,11 +78,8 @@ def convert(
 
     Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
     """
-    _name("mapping", src, "src")
-    _name("mapping", dst, "dst")
-    _name("filter", filter, "filter")
-    _name("outside", outside, "outside")
-    _name("precision", precision, "precision")
+    job = _fields(locals(), drop=("image", "out", "src_layout", "nonfinite"))
+    job["to"], job["preset"] = job.pop("dst"), job.pop("dst_preset", None)
     a = _floats(image, "image")
     if src_layout is not None and src != "cube":
         raise ValueError(f"src_layout: only for src='cube', not {src!r}")
@@ -97,45 +94,9 @@ def convert(
         if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
             raise ValueError(f"image: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
     a = _nonfinite(a, nonfinite, "image")
-    max_memory = _max_memory(max_memory)
-    if size is not None:
-        size = _size_any(size, "size")
-    samples = _size_any(samples, "samples")
-    max_samples = _size_any(max_samples, "max_samples")
-    seed = _seed(seed)
-    if out is not None:
-        if not isinstance(out, np.ndarray) or out.dtype != np.float32:
-            raise ValueError(
-                f"out: expected a float32 numpy array, got {getattr(out, 'dtype', type(out).__name__)}"
-            )
-        if not out.flags.c_contiguous or not out.flags.writeable:
-            raise ValueError("out: must be C-contiguous and writeable")
-        if np.shares_memory(out, a):
-            raise ValueError("out: overlaps image")
-    # The core's conversion request (spheremap::jobs::convert::ConvertJob): it checks the rest.
-    job = {
-        "src": src,
-        "src_preset": src_preset,
-        "src_look": _vec3(src_look, "src_look"),
-        "src_up": _vec3(src_up, "src_up"),
-        "to": dst,
-        "preset": dst_preset,
-        "size": size,
-        "look": _vec3(look, "look"),
-        "up": _vec3(up, "up"),
-        "yaw": None if yaw is None else _finite(yaw, "yaw"),
-        "pitch": None if pitch is None else _finite(pitch, "pitch"),
-        "roll": None if roll is None else _finite(roll, "roll"),
-        "samples": samples,
-        "max_samples": max_samples,
-        "filter": filter,
-        "taps": _name("taps", taps, "taps"),
-        "outside": outside,
-        "seed": int(seed),
-        "precision": precision,
-        "conserve": bool(conserve),
-        "max_memory": max_memory,
-    }
+    if out is not None and np.shares_memory(out, a):
+        raise ValueError("out: overlaps image")
+    # The core's conversion request (spheremap::jobs::convert::ConvertJob) checks every field.
     res = _ext.convert(image=np.ascontiguousarray(a, dtype=np.float32), job=job, out=out)
     if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
         f = res.shape[1]

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _floats, _name, _size_any, _vec3
+from ._args import _ArrayLike, _fields, _floats, _size_any
 
 
 def read_image(
@@ -91,17 +91,7 @@ def write_image(
         raise ValueError(f"array: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
     if bits not in (8, 16):
         raise ValueError(f"bits: must be 8 or 16, got {bits!r}")
-    note = None
-    if mapping is not None:
-        _name("mapping", mapping, "mapping")
-        note = _ext.map_note(
-            mapping=mapping, preset=preset, layout=layout, look=_vec3(look, "look"), up=_vec3(up, "up")
-        )
-    elif (preset, layout, look, up) != (None, None, None, None):
-        raise ValueError("mapping: preset, layout, look and up describe a mapping; name it")
-    if clamp_half and not half:
-        raise ValueError("clamp_half: applies to half=True")
-    _name("encode", encode, "encode")
+    note = _ext.map_note(request=_fields(dict(mapping=mapping, preset=preset, layout=layout, look=look, up=up)))
     clipped, clamped = _ext.write_image(
         path=os.fspath(path),
         array=np.ascontiguousarray(a, dtype=np.float32),
@@ -179,23 +169,8 @@ def write_texture(
         arrays.append(np.ascontiguousarray(a, dtype=np.float32))
     if not arrays:
         raise ValueError("levels: a texture needs at least one level")
-    if clamp_half and not half:
-        raise ValueError("clamp_half: applies to half=True")
-    _name("encode", encode, "encode")
-    if zstd is not None and (isinstance(zstd, bool) or not isinstance(zstd, int) or not 1 <= zstd <= 22):
-        raise ValueError(f"zstd: a Zstandard level 1..22, got {zstd!r}")
-    note = None
-    if mapping is not None:
-        _name("mapping", mapping, "mapping")
-        note = _ext.map_note(
-            mapping=mapping,
-            preset=preset,
-            layout="vstrip" if cube else None,
-            look=_vec3(look, "look"),
-            up=_vec3(up, "up"),
-        )
-    elif (preset, look, up) != (None, None, None):
-        raise ValueError("mapping: preset, look and up describe a mapping; name it")
+    layout = "vstrip" if cube and mapping is not None else None
+    note = _ext.map_note(request=_fields(dict(mapping=mapping, preset=preset, layout=layout, look=look, up=up)))
     return _ext.write_texture(
         path=os.fspath(path),
         levels=arrays,

@@ -9,20 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _finite, _floats, _name, _seed, _size_any, _source_aliases, _vec3
+from ._args import _fields, _floats, _source_aliases
 from .convert import _env_array
-
-
-def _env_request(src: str, src_preset: str | None, src_look, src_up) -> dict[str, Any]:
-    """The environment's fields of the core's lighting requests (an array: its NaN/Inf are
-    refused by _env_array before)."""
-    return {
-        "src": src,
-        "src_preset": src_preset,
-        "src_look": _vec3(src_look, "src_look"),
-        "src_up": _vec3(src_up, "src_up"),
-        "nonfinite": "error",
-    }
 
 
 @_source_aliases
@@ -60,22 +48,8 @@ def bake_matcap(
     look, up: the MatCap's view (world directions of the eye's -Z and +Y).
     src_look, src_up: the environment's view when it was made for one.
     """
-    _name("mapping", src, "src")
-    a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    request: dict[str, Any] = {
-        "material": _name("material", material, "material"),
-        "roughness": _finite(roughness, "roughness"),
-        "albedo": _vec3(albedo, "albedo"),
-        "size": _size_any(size, "size"),
-        "look": _vec3(look, "look"),
-        "up": _vec3(up, "up"),
-        "samples": 4 if samples is None else _size_any(samples, "samples"),
-        "max_samples": _size_any(max_samples, "max_samples"),
-        "seed": _seed(seed),
-        "outside": _name("outside", outside, "outside"),
-        **_env_request(src, src_preset, src_look, src_up),
-    }
-    return _ext.bake_matcap(image=a, request=request)
+    kw = _fields(locals(), drop=("env", "src_layout"))
+    return _ext.bake_matcap(image=_env_array(_floats(env, "env"), src, "env", src_layout), request=kw)
 
 
 @_source_aliases
@@ -129,28 +103,9 @@ def prefilter(
     from a cube mip pyramid with `lobe_samples` GGX samples per texel, as Filament's cmgen:
     fast, approximate).
     """
-    _name("mapping", src, "src")
-    _name("mapping", to, "to")
+    kw = _fields(locals(), drop=("env", "src_layout", "report"))
     a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    request: dict[str, Any] = {
-        "to": to,
-        "preset": preset,
-        "size": None if size is None else _size_any(size, "size"),
-        "levels": None if levels is None else _size_any(levels, "levels"),
-        "roughness_map": _name("roughness_map", roughness_map, "roughness_map"),
-        "irradiance": bool(irradiance),
-        "look": _vec3(look, "look"),
-        "up": _vec3(up, "up"),
-        "samples": 1 if samples is None else _size_any(samples, "samples"),
-        "max_samples": _size_any(max_samples, "max_samples"),
-        "seed": _seed(seed),
-        "outside": _name("outside", outside, "outside"),
-        "tolerance": None if tolerance is None else _finite(tolerance, "tolerance"),
-        "method": _name("prefilter_method", method, "method"),
-        "lobe_samples": _size_any(lobe_samples, "lobe_samples"),
-        **_env_request(src, src_preset, src_look, src_up),
-    }
-    arrays, reports = _ext.prefilter(image=a, request=request)
+    arrays, reports = _ext.prefilter(image=a, request=kw)
     if to == "cube":
         # Faces (6, F, F, C), as convert returns a cube.
         arrays = [x.reshape(6, x.shape[1], x.shape[1], x.shape[2]) for x in arrays]
@@ -177,10 +132,8 @@ def irradiance_sh(
 
     window: None, "auto" or a size in bands: Filament's deringing window.
     """
-    _name("mapping", src, "src")
-    a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    request = {**_env_request(src, src_preset, src_look, src_up), "window": window}
-    report: dict[str, Any] = _ext.irradiance_sh(image=a, request=request)
+    kw = _fields(locals(), drop=("env", "src_layout"))
+    report: dict[str, Any] = _ext.irradiance_sh(image=_env_array(_floats(env, "env"), src, "env", src_layout), request=kw)
     return report
 
 
@@ -188,4 +141,4 @@ def dfg_lut(size: int = 128) -> npt.NDArray[np.float32]:
     """The split-sum DFG table (Karis 2013) of spheremap's GGX -> (N, N, 3) float32: texel (i, j)
     has n.v = (i+1/2)/N and perceptual roughness (j+1/2)/N (row 0 first); channels A, B (the
     directional albedo is F0*A + B) and A + B."""
-    return _ext.dfg_lut(size=_size_any(size, "size"))
+    return _ext.dfg_lut(request=_fields(locals()))

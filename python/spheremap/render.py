@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _finite, _floats, _name, _size_any, _source_aliases, _vec3
+from ._args import _Photo, _fields, _floats, _size_any, _source_aliases
 from .convert import _env_array
 from .images import read_image
 
@@ -89,9 +89,6 @@ def render(
     Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
     in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
     """
-    _name("render", mode, "mode")
-    if src is not None:
-        _name("mapping", src, "src")
     if isinstance(env, (str, os.PathLike)):
         src, src_preset, noted_layout = _ext.mapping_for(
             path=os.fspath(env), mapping=src, preset=src_preset, default="sphere"
@@ -99,55 +96,26 @@ def render(
         src_layout = src_layout if src_layout is not None else noted_layout
     elif src is None:
         src = "sphere"
-    _name("matcap", matcap_variant, "matcap_variant")
-    _name("wrap", wrap, "wrap")
-    p, n, t = _mesh_arrays(mesh)
-    if mode in ("per-vertex", "matcap") and src != "sphere":
-        raise ValueError(
-            f"src: mode {mode!r} looks up (s, t) in a sphere map or MatCap image; "
-            "convert the map to a sphere map first"
-        )
-    if env is None and mode not in ("normals", "error"):
-        raise ValueError(f"env: mode {mode!r} needs an environment map")
     if src_layout is not None and src != "cube":
         raise ValueError(f"src_layout: only for src='cube', not {src!r}")
+    p, n, t = _mesh_arrays(mesh)
     e = None if env is None else _env_image(env, src, linear, src_layout)
-    bg = _vec3(background, "background")
-    # The core's render request (spheremap::jobs::render::RenderRequest): it checks the rest.
-    request = dict(
-        mode=mode,
-        matcap_variant=matcap_variant,
-        **_camera(eye, target, up, fovy, near, far, size, "size"),
-        background=tuple(float(v) for v in bg),
-        aa=_size_any(aa, "aa"),
-        subpixel_bits=_size_any(subpixel_bits, "subpixel_bits"),
-        wrap=wrap,
+    # The core's render request (spheremap::jobs::render::RenderRequest) checks every field.
+    request = _fields(
+        dict(mode=mode, matcap_variant=matcap_variant, background=background, aa=aa,
+             subpixel_bits=subpixel_bits, wrap=wrap, **_camera(eye, target, up, fovy, near, far, size, "size"))
     )
     return _ext.render(
-        positions=p,
-        normals=n,
-        triangles=t,
-        env=e,
-        env_mapping=src,
-        env_preset=src_preset,
-        request=request,
+        positions=p, normals=n, triangles=t, env=e, env_mapping=src, env_preset=src_preset, request=request
     )
 
 
 def _camera(eye, target, up, fovy, near, far, size, size_name: str) -> dict:
-    """The camera fields of the core's render request, checked (as gluLookAt and
-    gluPerspective; `size` is (width, height), named `size_name` in errors)."""
+    """The camera fields of the core's render request (as gluLookAt and gluPerspective; `size`
+    is (width, height), named `size_name` in errors); the core checks them."""
     try:
         w, h = (int(v) for v in size)
     except (TypeError, ValueError):
         raise ValueError(f"{size_name}: expected (width, height), got {size!r}") from None
-    return dict(
-        eye=_vec3(eye, "eye"),
-        target=_vec3(target, "target"),
-        up=_vec3(up, "up"),
-        fovy=_finite(fovy, "fovy"),
-        near=None if near is None else _finite(near, "near"),
-        far=None if far is None else _finite(far, "far"),
-        width=_size_any(w, size_name),
-        height=_size_any(h, size_name),
-    )
+    return dict(eye=eye, target=target, up=up, fovy=fovy, near=near, far=far,
+                width=_size_any(w, size_name), height=_size_any(h, size_name))

@@ -10,19 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import (
-    _choice,
-    _finite,
-    _floats,
-    _max_memory,
-    _name,
-    _seed,
-    _size_any,
-    _source_aliases,
-    _vec3,
-)
+from ._args import _fields, _finite, _floats, _name, _size_any, _source_aliases, _vec3
 from .convert import _env_array
-from .names import LENS_MODELS
 
 
 class Scene:
@@ -149,10 +138,8 @@ class Scene:
         """The map rays leaving the scene see: `image` in mapping `src` (its preset
         `src_preset`; a cube as (6, F, F, C) faces in GL order), made for the view `src_look`,
         `src_up` when it is not the world's (the scene's lookups are turned by it)."""
-        _name("mapping", src, "src")
+        request = _fields(dict(src=src, src_preset=src_preset, src_look=src_look, src_up=src_up))
         a = _env_array(_floats(image, "environment"), src, "environment")
-        request = {"src": src, "src_preset": src_preset, "src_look": _vec3(src_look, "src_look"),
-                   "src_up": _vec3(src_up, "src_up")}
         self._inner.set_environment(image=a, request=request)
 
     def add_point_light(self, position: npt.ArrayLike, intensity: npt.ArrayLike) -> None:
@@ -198,24 +185,14 @@ class Scene:
         fov: horizontal field of view in degrees (perspective); with `lens` (one of LENS_MODELS
         except "polynomial") a fisheye whose image circle fills the shorter side and spans `fov`
         degrees. samples: rays per pixel on a jittered grid (1 = through the pixel centre)."""
-        if lens is not None:
-            _choice(lens, "lens", LENS_MODELS[:4])
         try:
             w, h = (int(v) for v in size)
         except (TypeError, ValueError):
             raise ValueError(f"size: expected (width, height), got {size!r}") from None
-        return _ext.render_camera(
-            scene=self._inner,
-            eye=_vec3(eye, "eye"),
-            target=_vec3(target, "target"),
-            up=_vec3(up, "up"),
-            fov=_finite(fov, "fov"),
-            lens=lens,
-            width=_size_any(w, "size"),
-            height=_size_any(h, "size"),
-            samples=_size_any(samples, "samples"),
-            seed=_seed(seed),
-        )
+        # The core's preview request (spheremap::trace::camera::PreviewRequest) checks every field.
+        request = _fields(dict(eye=eye, target=target, up=up, fov=fov, lens=lens, samples=samples, seed=seed,
+                               width=_size_any(w, "size"), height=_size_any(h, "size")))
+        return _ext.render_camera(scene=self._inner, request=request)
 
     def __repr__(self) -> str:
         return f"<spheremap.Scene: {self.triangle_count} triangles, {self.light_count} lights>"
@@ -253,31 +230,10 @@ def generate(
     Deterministic for a seed. Ctrl-C cancels (KeyboardInterrupt). max_memory: refuse
     (spheremap.LimitError) a job needing more bytes (default $SPHEREMAP_MAX_MEMORY or 16 GiB).
     """
-    _name("mapping", mapping, "mapping")
-    _name("filter", filter, "filter")
-    _name("outside", outside, "outside")
-    _name("precision", precision, "precision")
-    size = _size_any(size, "size")
-    samples = _size_any(samples, "samples")
-    max_samples = _size_any(max_samples, "max_samples")
-    seed = _seed(seed)
+    # The core's map request (spheremap::trace::generate::MapRequest) checks every field.
+    request = _fields(locals(), drop=("fire_ray", "mapping"))
+    request["to"] = mapping
     p = _vec3(pos, "pos")
-    # The core's map request (spheremap::trace::generate::MapRequest): it checks the rest.
-    request = dict(
-        size=size,
-        to=mapping,
-        preset=preset,
-        pos=p,
-        look=_vec3(look, "look"),
-        up=_vec3(up, "up"),
-        samples=samples,
-        max_samples=max_samples,
-        filter=filter,
-        outside=outside,
-        seed=seed,
-        precision=precision,
-        max_memory=_max_memory(max_memory),
-    )
     if isinstance(fire_ray, Scene):
         out = _ext.generate(source=fire_ray._inner, channels=3, request=request)
     elif callable(fire_ray):

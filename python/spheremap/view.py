@@ -13,7 +13,7 @@ import webbrowser
 from typing import Any
 
 from . import _spheremap as _ext
-from ._args import _name, _source_aliases, _vec3
+from ._args import _fields, _source_aliases
 
 #: The largest file the page accepts when one is dropped on it (the CLI's --max-upload default).
 DEFAULT_MAX_UPLOAD: int = _ext.VIEW_MAX_UPLOAD
@@ -163,22 +163,14 @@ def view(
         can reach the machine can see and replace the data). max_upload: bytes a dropped file
         may have. open_browser: also open the page in the system's browser.
     """
-    if src is not None:
-        _name("mapping", src, "src")
+    # The environment's fields of the core's EnvRequest, which checks them.
+    request = _fields(dict(src=src, src_preset=src_preset, src_layout=src_layout, src_look=src_look, src_up=src_up))
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
         raise ValueError(f"port: expected an integer from 0 to 65535, got {port!r}")
     if isinstance(max_upload, bool) or not isinstance(max_upload, int) or max_upload < 1:
         raise ValueError(f"max_upload: expected a positive number of bytes, got {max_upload!r}")
     if not isinstance(host, str) or not host:
         raise ValueError(f"host: expected an address, got {host!r}")
-    request = {
-        "src": src,
-        "src_preset": src_preset,
-        "src_layout": src_layout,
-        "src_look": _vec3(src_look, "src_look"),
-        "src_up": _vec3(src_up, "src_up"),
-        "nonfinite": "error",
-    }
     server = _ext.ViewServer(
         mesh=_path(mesh, "mesh"),
         env=_path(env, "env"),

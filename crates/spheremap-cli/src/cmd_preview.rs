@@ -1,11 +1,11 @@
 //! `spheremap preview`: a photo of a scene (or an environment map) through a perspective or
 //! fisheye camera, ray traced — to look at a scene before making maps from it, or to make
-//! test photos of a mirror ball (thin layer over `spheremap::trace::camera`).
+//! test photos of a mirror ball (its flags as `spheremap::trace::camera::PreviewRequest`).
 
 use crate::job::vec3;
 use spheremap::images::codec::write_image;
-use spheremap::mappings::fisheye::{Lens, LensModel};
-use spheremap::trace::camera::{self, Camera, Projection};
+use spheremap::mappings::fisheye::LensName;
+use spheremap::trace::camera::{self, PreviewRequest};
 use std::path::Path;
 use std::time::Instant;
 
@@ -23,17 +23,17 @@ pub struct Args {
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true)]
     up: Option<Vec<f64>>,
     /// Horizontal field of view in degrees (perspective camera).
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = PreviewRequest::default().fov)]
     fov: f64,
     /// A fisheye lens instead: equidistant, equisolid, stereographic, orthographic (its image
     /// circle fills the shorter side; --fov is then the field across the circle).
-    #[arg(long, value_parser = crate::names::core("lens"))]
-    lens: Option<String>,
+    #[arg(long, value_parser = crate::names::typed::<LensName>())]
+    lens: Option<LensName>,
     /// Image size in pixels.
-    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [640, 480])]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [PreviewRequest::default().width, PreviewRequest::default().height])]
     size: Vec<usize>,
     /// Rays per pixel (jittered grid; 1 = through the pixel centre).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = PreviewRequest::default().samples)]
     samples: u32,
     /// Seed of the jitter and the scene's random rays.
     #[arg(long, default_value_t = 0)]
@@ -47,38 +47,19 @@ pub struct Args {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let (w, h) = (a.size[0], a.size[1]);
-    let projection = match a.lens.as_deref() {
-        None => Projection::Perspective { hfov_deg: a.fov },
-        Some(m) => {
-            let model = LensModel::parse(m, [0.0; 4])?;
-            Projection::Fisheye(Lens::new(
-                model,
-                a.fov,
-                [0.5 * w as f64, 0.5 * h as f64],
-                0.5 * w.min(h) as f64,
-            )?)
-        }
+    let request = PreviewRequest {
+        eye: vec3(&Some(a.eye.clone())),
+        target: vec3(&Some(a.target.clone())),
+        up: vec3(&a.up).unwrap_or(PreviewRequest::default().up),
+        fov: a.fov,
+        lens: a.lens,
+        width: w,
+        height: h,
+        samples: a.samples,
+        seed: a.seed,
+        max_memory: Some(a.job.max_memory()?),
     };
-    let up = vec3(&a.up).unwrap_or([0.0, 1.0, 0.0]);
-    let cam = Camera::look_at(
-        projection,
-        [a.eye[0], a.eye[1], a.eye[2]],
-        [a.target[0], a.target[1], a.target[2]],
-        up,
-        w,
-        h,
-    )?;
-    spheremap::base::limits::check_range(
-        "samples",
-        a.samples,
-        1,
-        spheremap::base::limits::PREVIEW_SAMPLES,
-    )?;
-    spheremap::base::limits::check_memory(
-        "size",
-        2 * (w as u128 * h as u128 * 4 * 4),
-        a.job.max_memory()?,
-    )?;
+    let cam = request.camera().map_err(crate::flag_error)?;
     let world = a
         .world
         .load(&a.job, a.seed, std::slice::from_ref(&a.output))?;

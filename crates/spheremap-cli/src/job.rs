@@ -30,7 +30,10 @@ pub struct JobFlags {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::compress::Encoding>())]
     pub encode: spheremap::images::compress::Encoding,
     /// KTX2: supercompress each level with Zstandard at this level (1-22).
-    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(i32).range(1..=22))]
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(i32).range(
+        i64::from(*spheremap::images::codec::ZSTD_LEVELS.start())
+            ..=i64::from(*spheremap::images::codec::ZSTD_LEVELS.end())
+    ))]
     pub zstd: Option<i32>,
     /// Refuse a job that would need more memory than this (bytes, or 512M, 8G, ...; default
     /// $SPHEREMAP_MAX_MEMORY or 16G).

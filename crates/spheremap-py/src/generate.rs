@@ -303,7 +303,6 @@ pub fn generate<'py>(
 pub(crate) fn map_request(
     request: &Bound<'_, PyAny>,
 ) -> PyResult<spheremap::trace::generate::ResolvedMap> {
-    let r: spheremap::trace::generate::MapRequest = pythonize::depythonize(request)
-        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let r: spheremap::trace::generate::MapRequest = super::request_of(request)?;
     r.resolve().map_err(to_py)
 }

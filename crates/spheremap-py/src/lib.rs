@@ -492,10 +492,15 @@ pub(crate) fn image_of(
     })
 }
 
-/// A core request read from a dict of its fields; serde's message names the field at fault
-/// (a name's, a window's) or the key it does not know.
-fn request_of<T: serde::de::DeserializeOwned>(request: &Bound<'_, PyAny>) -> PyResult<T> {
-    pythonize::depythonize(request).map_err(|e| PyValueError::new_err(e.to_string()))
+/// A core request read from a dict of its fields (Python's keywords) by the core's
+/// [`spheremap::jobs::fields::read`]: an error names the field at fault, as a recipe's does.
+pub(crate) fn request_of<T>(request: &Bound<'_, PyAny>) -> PyResult<T>
+where
+    T: serde::de::DeserializeOwned + serde::Serialize + Default,
+{
+    let fields: serde_json::Value = pythonize::depythonize(request)
+        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    spheremap::jobs::fields::read(&fields, &[]).map_err(to_py)
 }
 
 /// The names of `kind` as the core lists them ([`spheremap::names`]; Python's FILTERS,
@@ -557,12 +562,11 @@ fn convert<'py>(
     py: Python<'py>,
     image: PyReadonlyArrayDyn<'py, f32>,
     job: &Bound<'py, PyAny>,
-    out: Option<Bound<'py, PyArrayDyn<f32>>>,
+    out: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::jobs::convert::ConvertJob;
     use spheremap::resample::Progress;
-    let job: ConvertJob =
-        pythonize::depythonize(job).map_err(|e| PyValueError::new_err(format!("job: {e}")))?;
+    let job: ConvertJob = request_of(job)?;
     let shape = image.shape().to_vec();
     let img = spheremap::images::Image {
         height: shape[0],
@@ -572,7 +576,14 @@ fn convert<'py>(
     };
     let progress = Progress::default();
     let named = |e: spheremap::Error| to_py(python_names(e));
-    if let Some(arr) = out {
+    if let Some(out) = out {
+        let arr = out.cast_into::<PyArrayDyn<f32>>().map_err(|e| {
+            let got = e.into_inner().get_type().name().map(|n| n.to_string());
+            PyValueError::new_err(format!(
+                "out: expected a float32 numpy array, got {}",
+                got.unwrap_or_default()
+            ))
+        })?;
         // The caller's buffer: (H', W', C) float32, C-contiguous, writeable (for a cube also
         // (6, N, N, C)); the result is written into it and it is returned.
         let r = job.resolve(None, "image").map_err(named)?;
@@ -634,8 +645,7 @@ fn bake_matcap<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::jobs::bake_matcap::MatcapRequest;
     use spheremap::resample::Progress;
-    let req: MatcapRequest = pythonize::depythonize(request)
-        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let req: MatcapRequest = request_of(request)?;
     let img = image_of(&image, "env")?;
     let progress = Progress::default();
     let (out, _) = run_cancellable(py, &progress, "the bake", |p| req.run_image(&img, Some(p)))?;
@@ -658,8 +668,7 @@ fn prefilter<'py>(
 ) -> PyResult<PyLevels<'py>> {
     use spheremap::jobs::prefilter::PrefilterRequest;
     use spheremap::resample::Progress;
-    let req: PrefilterRequest = pythonize::depythonize(request)
-        .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+    let req: PrefilterRequest = request_of(request)?;
     let img = image_of(&image, "env")?;
     let progress = Progress::default();
     let made = run_cancellable(py, &progress, "the prefilter", |p| {
@@ -793,15 +802,14 @@ fn irradiance_sh<'py>(
         .into_any())
 }
 
-/// The split-sum DFG table (N, N, 3) float32: A, B, A + B.
+/// The split-sum DFG table (N, N, 3) float32: A, B, A + B; `request`: a `DfgRequest`'s fields.
 #[pyfunction]
-#[pyo3(signature = (size))]
-fn dfg_lut<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
-    let img = py
-        .detach(|| spheremap::jobs::dfg::DfgRequest { size }.run_image())
-        .map_err(to_py)?;
+#[pyo3(signature = (request))]
+fn dfg_lut<'py>(py: Python<'py>, request: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let req: spheremap::jobs::dfg::DfgRequest = request_of(request)?;
+    let img = py.detach(|| req.run_image()).map_err(to_py)?;
     Ok(PyArray1::from_vec(py, img.data)
-        .reshape([size, size, 3])?
+        .reshape([img.height, img.width, 3])?
         .into_any())
 }
 
@@ -1010,43 +1018,13 @@ fn cube_layout_of(width: usize, height: usize) -> (Option<&'static str>, Option<
     }
 }
 
-/// The note ([`spheremap::images::note`]) that records a map's mapping, preset, cube layout and view;
-/// each argument checked and named in its error.
+/// The note ([`spheremap::images::note`]) that records a map's mapping, preset, cube layout and
+/// view, or None; `request`: a `NoteRequest`'s fields, checked by the core.
 #[pyfunction]
-#[pyo3(signature = (mapping, preset, layout, look, up))]
-fn map_note(
-    mapping: &str,
-    preset: Option<&str>,
-    layout: Option<&str>,
-    look: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
-) -> PyResult<String> {
-    let mapping = spheremap::Mapping::parse(mapping, preset).map_err(to_py)?;
-    let layout = layout
-        .map(spheremap::images::cube_layout::Layout::parse)
-        .transpose()
-        .map_err(to_py)?;
-    if layout.is_some() != matches!(mapping, spheremap::Mapping::Cube(_)) {
-        return Err(PyValueError::new_err(
-            "layout: a cube map written as one image needs its layout, and only a cube map has one",
-        ));
-    }
-    let view = match look {
-        Some(l) => {
-            let v =
-                spheremap::frame::view::look_up(l, up.unwrap_or([0.0, 1.0, 0.0])).map_err(to_py)?;
-            spheremap::frame::view::as_look_up(&v)
-        }
-        None if up.is_some() => return Err(PyValueError::new_err("up: needs look")),
-        None => None,
-    };
-    Ok(spheremap::images::note::MapNote {
-        mapping,
-        layout,
-        face: None,
-        view,
-    }
-    .text())
+#[pyo3(signature = (request))]
+fn map_note(request: &Bound<'_, PyAny>) -> PyResult<Option<String>> {
+    let req: spheremap::images::note::NoteRequest = request_of(request)?;
+    Ok(req.resolve().map_err(to_py)?.map(|n| n.text()))
 }
 
 /// Runs the command line (one definition, in Rust) with `argv` (argv[0] = program name).

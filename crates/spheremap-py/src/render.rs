@@ -127,7 +127,7 @@ pub fn render<'py>(
 
 /// A dict of the core's `RenderRequest` fields.
 fn render_request(request: &Bound<'_, PyAny>) -> PyResult<RenderRequest> {
-    pythonize::depythonize(request).map_err(|e| PyValueError::new_err(format!("request: {e}")))
+    super::request_of(request)
 }
 
 /// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64,

@@ -2,7 +2,6 @@
 //! object (translation only).
 
 use crate::to_py;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use spheremap::jobs::source::EnvRequest;
 use std::path::Path;
@@ -30,8 +29,7 @@ impl ViewServer {
         port: u16,
         max_upload: u64,
     ) -> PyResult<Self> {
-        let req: EnvRequest = pythonize::depythonize(request)
-            .map_err(|e| PyValueError::new_err(format!("request: {e}")))?;
+        let req: EnvRequest = super::request_of(request)?;
         let server = py
             .detach(|| {
                 let data = spheremap::view::ViewData::load(

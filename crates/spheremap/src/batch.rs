@@ -1,7 +1,8 @@
 //! Layer 8, batch: a library of maps turned into their assets by one recipe.
 //!
 //! * [`Recipe`]: the TOML recipe — a list of outputs, each one spheremap operation (`convert`,
-//!   `bake-matcap`, `prefilter`, `irradiance`) with the same options as its CLI subcommand,
+//!   `bake-matcap`, `prefilter`, `irradiance`, and on photos `from-photo` and `from-fisheye`)
+//!   with the same options as its CLI subcommand,
 //!   spelled as the core's request fields, and an output name pattern.  [`Recipe::parse`]
 //!   validates the whole recipe before any work: one line naming the recipe file, the key and
 //!   the problem.
@@ -37,7 +38,16 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The operations a recipe's output may name, as `op = "…"`.
-pub const OPS: [&str; 4] = ["convert", "bake-matcap", "prefilter", "irradiance"];
+pub const OPS: &[&str] = &[
+    "convert",
+    "bake-matcap",
+    "prefilter",
+    "irradiance",
+    #[cfg(feature = "photo")]
+    "from-photo",
+    #[cfg(feature = "photo")]
+    "from-fisheye",
+];
 /// The placeholders of an output name, filled per input: the input's file name without its
 /// extension, with it, the extension alone (no dot), and the input's position in the sorted
 /// list of inputs (from 0).  `{face}` (cube faces as six files) and `{level}` (a prefiltered
@@ -83,6 +93,12 @@ pub enum Op {
     BakeMatcap(MatcapRequest, WriteFlags),
     Prefilter(PrefilterRequest, WriteFlags),
     Irradiance(IrradianceRequest, WriteFlags),
+    /// Each input a mirror-ball photo (its EXIF, or the recipe's `fov`, gives the camera).
+    #[cfg(feature = "photo")]
+    FromPhoto(crate::jobs::photo::BallRequest, WriteFlags),
+    /// Each input a fisheye photo.
+    #[cfg(feature = "photo")]
+    FromFisheye(crate::jobs::photo::FisheyeRequest, WriteFlags),
 }
 
 impl Op {
@@ -92,6 +108,20 @@ impl Op {
             Op::BakeMatcap(..) => OPS[1],
             Op::Prefilter(..) => OPS[2],
             Op::Irradiance(..) => OPS[3],
+            #[cfg(feature = "photo")]
+            Op::FromPhoto(..) => OPS[4],
+            #[cfg(feature = "photo")]
+            Op::FromFisheye(..) => OPS[5],
+        }
+    }
+
+    /// Whether the operation writes one map (a cube's may be six `{face}` files).
+    fn writes_a_map(&self) -> bool {
+        match self {
+            Op::Convert(_) => true,
+            #[cfg(feature = "photo")]
+            Op::FromPhoto(..) | Op::FromFisheye(..) => true,
+            _ => false,
         }
     }
 
@@ -102,6 +132,10 @@ impl Op {
             Op::BakeMatcap(j, w) => (serde_json::to_value(j), Some(w)),
             Op::Prefilter(j, w) => (serde_json::to_value(j), Some(w)),
             Op::Irradiance(j, w) => (serde_json::to_value(j), Some(w)),
+            #[cfg(feature = "photo")]
+            Op::FromPhoto(j, w) => (serde_json::to_value(j), Some(w)),
+            #[cfg(feature = "photo")]
+            Op::FromFisheye(j, w) => (serde_json::to_value(j), Some(w)),
         };
         serde_json::json!({
             "op": self.name(),
@@ -271,55 +305,24 @@ impl Recipe {
                 }
             }
         }
-        /// The table as `T`; on an error, the key at fault is found by reading each key alone
-        /// (every field has a default), as serde's messages do not always name it.  An
-        /// unknown key's message lists the keys `T` takes (serde's own list leaves out those of
-        /// a flattened part, the source's).
-        /// `also`: the other keys the operation takes.
+        /// The table as `T`, errors naming the key at fault (`jobs::fields`); `also`: the
+        /// other keys the operation takes.
         fn de<T: serde::de::DeserializeOwned + Serialize + Default>(
             t: toml::Table,
             also: &[&str],
         ) -> Result<T> {
-            let read = |t: toml::Table| -> std::result::Result<T, String> {
-                toml::Value::Table(t)
-                    .try_into()
-                    .map_err(|e: toml::de::Error| toml_message(&e))
-            };
-            read(t.clone()).map_err(|m| {
-                let key = t
-                    .iter()
-                    .find(|(k, v)| {
-                        let mut one = toml::Table::new();
-                        one.insert((*k).clone(), (*v).clone());
-                        read(one).is_err()
-                    })
-                    .map(|(k, _)| k.clone())
-                    .unwrap_or_else(|| "value".into());
-                // A name's message names its field already (`base::named`).
-                let mut m = m
-                    .strip_prefix(&format!("{key}: "))
-                    .map_or(m.clone(), str::to_string);
-                if m.starts_with("unknown field") {
-                    let keys = serde_json::to_value(T::default()).map(|v| match v {
-                        serde_json::Value::Object(o) => o.keys().cloned().collect::<Vec<_>>(),
-                        _ => Vec::new(),
-                    });
-                    if let Ok(mut keys) = keys {
-                        keys.extend(also.iter().map(|k| k.to_string()));
-                        m = format!(
-                            "unknown field `{key}`; expected one of: {}",
-                            keys.join(", ")
-                        );
-                    }
-                }
-                Error::param(key, m)
-            })
+            let v = serde_json::to_value(&t).map_err(|e| Error::param("output", e.to_string()))?;
+            crate::jobs::fields::read(&v, also)
         }
         let op = match op.as_str() {
             "convert" => Op::Convert(de(rest, &[])?),
             "bake-matcap" => Op::BakeMatcap(de(rest, &WRITE_KEYS)?, de(write, &[])?),
             "prefilter" => Op::Prefilter(de(rest, &WRITE_KEYS)?, de(write, &[])?),
             "irradiance" => Op::Irradiance(de(rest, &WRITE_KEYS)?, de(write, &[])?),
+            #[cfg(feature = "photo")]
+            "from-photo" => Op::FromPhoto(de(rest, &WRITE_KEYS)?, de(write, &[])?),
+            #[cfg(feature = "photo")]
+            "from-fisheye" => Op::FromFisheye(de(rest, &WRITE_KEYS)?, de(write, &[])?),
             other => {
                 return Err(Error::param(
                     "op",
@@ -358,7 +361,7 @@ fn check_pattern(name: &str, op: &Op) -> Result<()> {
             + open;
         let key = &rest[open + 1..close];
         let allowed = PLACEHOLDERS.contains(&key)
-            || (key == "face" && matches!(op, Op::Convert(_)))
+            || (key == "face" && op.writes_a_map())
             || (key == "level" && matches!(op, Op::Prefilter(..)));
         if !allowed {
             return Err(Error::param(
@@ -367,7 +370,7 @@ fn check_pattern(name: &str, op: &Op) -> Result<()> {
                     "{name:?}: unknown placeholder {{{key}}}; expected {}{}",
                     PLACEHOLDERS.map(|k| format!("{{{k}}}")).join(", "),
                     match op {
-                        Op::Convert(_) => ", {face}",
+                        _ if op.writes_a_map() => ", {face}",
                         Op::Prefilter(..) => ", {level}",
                         _ => "",
                     }
@@ -441,6 +444,14 @@ fn check_values(op: &Op) -> Result<()> {
         }
         Op::Irradiance(j, _) => {
             j.resolve(Some(&note), "input")?;
+        }
+        #[cfg(feature = "photo")]
+        Op::FromPhoto(j, _) => {
+            j.resolve()?;
+        }
+        #[cfg(feature = "photo")]
+        Op::FromFisheye(j, _) => {
+            j.resolve()?;
         }
     }
     Ok(())
@@ -896,6 +907,20 @@ fn run_step(
             let (r, _) =
                 job.run_files_with(input, &[output.to_string()], &w.options(), true, read)?;
             Ok(r.output)
+        }
+        #[cfg(feature = "photo")]
+        Op::FromPhoto(job, w) => {
+            let p = Some(progress);
+            Ok(job
+                .run_files(input, None, output, None, &w.options(), true, p)?
+                .output)
+        }
+        #[cfg(feature = "photo")]
+        Op::FromFisheye(job, w) => {
+            let p = Some(progress);
+            Ok(job
+                .run_files(input, output, None, &w.options(), true, p)?
+                .output)
         }
     }
 }

@@ -47,6 +47,19 @@ impl Error {
         }
     }
 
+    /// The same error said of `to` where it names `from` (a parameter, or the source of bad
+    /// data): how a caller names its own argument or file in a callee's errors.
+    pub fn renamed(self, from: &str, to: &str) -> Self {
+        match self {
+            Error::InvalidParameter { name, reason } if name == from => Error::param(to, reason),
+            Error::InvalidData {
+                source_name,
+                reason,
+            } if source_name.as_os_str() == from => Error::data(to, reason),
+            e => e,
+        }
+    }
+
     pub fn param(name: impl Into<String>, reason: impl Into<String>) -> Self {
         Error::InvalidParameter {
             name: name.into(),

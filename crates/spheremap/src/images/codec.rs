@@ -63,9 +63,12 @@ pub fn encoding_formats(e: Encoding) -> Option<&'static [Format]> {
 pub const ZSTD_LEVELS: std::ops::RangeInclusive<i32> = 1..=22;
 
 impl WriteOptions {
-    /// Checks the encoding and supercompression against the output format; errors name
-    /// `path`'s option.
+    /// Checks the encoding and supercompression against the output format, and that
+    /// `clamp_half` comes with `half`; errors name `path`'s option.
     pub fn check_for(&self, path: &Path, format: Format) -> Result<()> {
+        if self.clamp_half && !self.half {
+            return Err(Error::param("clamp_half", "applies to half output (half)"));
+        }
         if let Some(z) = self.zstd {
             if !ZSTD_LEVELS.contains(&z) {
                 return Err(Error::param(
@@ -227,11 +230,16 @@ pub fn linear_to_srgb(v: f32) -> f32 {
 /// than the content is read by its content, with a warning ([`crate::base::error::warn`]:
 /// [`extension_warning`]).
 pub fn read_image(path: &Path, opts: &ReadOptions) -> Result<Image> {
-    let bytes = crate::base::files::read_file(path)?;
-    if let Some(w) = extension_warning(path, &bytes) {
+    decode_file(path, &crate::base::files::read_file(path)?, opts)
+}
+
+/// The bytes of the file `path`, decoded as [`read_image`] does: with a warning when the
+/// content is another format than the name says.
+pub fn decode_file(path: &Path, bytes: &[u8], opts: &ReadOptions) -> Result<Image> {
+    if let Some(w) = extension_warning(path, bytes) {
         crate::base::error::warn(&w);
     }
-    decode(path, &bytes, opts)
+    decode(path, bytes, opts)
 }
 
 /// The warning for a file whose extension names another format than its content holds (PNG

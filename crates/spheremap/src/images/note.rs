@@ -20,6 +20,7 @@
 //! A note is a record of how spheremap wrote the file, not a proof of what the pixels show: an
 //! image edited elsewhere and saved keeps whatever its editor keeps.
 
+use crate::base::error::{Error, Result};
 use crate::images::cube_layout::Layout;
 use crate::images::format::Format;
 use crate::mappings::cube::FACE_NAMES;
@@ -39,6 +40,63 @@ pub struct MapNote {
     /// For a map made for a turned view: the world `look` and `up` vectors of that view
     /// ([`crate::frame::view`]); `None` for the identity view.
     pub view: Option<([f64; 3], [f64; 3])>,
+}
+
+/// What a map written from memory is, as its writer is told (Python's `write_image(...,
+/// mapping=…, preset=…, layout=…, look=…, up=…)`): read from these fields, checked, and
+/// turned into the note recorded in the file.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NoteRequest {
+    pub mapping: Option<String>,
+    pub preset: Option<String>,
+    /// The cube layout of a cube map written as one image (a cube map's needs one).
+    pub layout: Option<String>,
+    /// The view it was made for: world directions of its eye's −Z and +Y.
+    pub look: Option<[f64; 3]>,
+    pub up: Option<[f64; 3]>,
+}
+
+impl NoteRequest {
+    /// The note, checked (errors name the field); `None` when no mapping is named.
+    pub fn resolve(&self) -> Result<Option<MapNote>> {
+        let Some(name) = &self.mapping else {
+            if self.preset.is_some()
+                || self.layout.is_some()
+                || self.look.is_some()
+                || self.up.is_some()
+            {
+                return Err(Error::param(
+                    "mapping",
+                    "preset, layout, look and up describe a mapping; name it",
+                ));
+            }
+            return Ok(None);
+        };
+        let mapping = Mapping::parse(name, self.preset.as_deref())
+            .map_err(|e| crate::mappings::mapping::name_fields(e, "mapping", "preset"))?;
+        let layout = self.layout.as_deref().map(Layout::parse).transpose()?;
+        if layout.is_some() != matches!(mapping, Mapping::Cube(_)) {
+            return Err(Error::param(
+                "layout",
+                "a cube map written as one image needs its layout, and only a cube map has one",
+            ));
+        }
+        let view = match self.look {
+            Some(l) => {
+                let v = crate::frame::view::look_up(l, self.up.unwrap_or([0.0, 1.0, 0.0]))?;
+                crate::frame::view::as_look_up(&v)
+            }
+            None if self.up.is_some() => return Err(Error::param("up", "needs look")),
+            None => None,
+        };
+        Ok(Some(MapNote {
+            mapping,
+            layout,
+            face: None,
+            view,
+        }))
+    }
 }
 
 impl MapNote {
@@ -277,5 +335,35 @@ fn read_exr(bytes: &[u8]) -> Option<String> {
     match v {
         AttributeValue::Text(t) => Some(t.to_string()),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_note_request_is_checked_field_by_field() {
+        let r = |json: &str| -> Result<Option<MapNote>> {
+            crate::jobs::fields::read::<NoteRequest>(&serde_json::from_str(json).unwrap(), &[])?
+                .resolve()
+        };
+        assert_eq!(r("{}").unwrap(), None);
+        let n = r(r#"{"mapping": "cube", "layout": "hcross", "look": [1, 0, 0]}"#)
+            .unwrap()
+            .unwrap();
+        assert!(n.text().contains("layout=hcross"), "{}", n.text());
+        for (json, field) in [
+            (r#"{"preset": "gl"}"#, "mapping"),
+            (r#"{"mapping": "globe"}"#, "mapping"),
+            (r#"{"mapping": "sphere", "preset": "nope"}"#, "preset"),
+            (r#"{"mapping": "cube"}"#, "layout"),
+            (r#"{"mapping": "sphere", "layout": "hcross"}"#, "layout"),
+            (r#"{"mapping": "sphere", "up": [0, 1, 0]}"#, "up"),
+            (r#"{"mapping": "sphere", "look": "down"}"#, "look"),
+        ] {
+            let e = r(json).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("{field}: ")), "{json}: {e}");
+        }
     }
 }

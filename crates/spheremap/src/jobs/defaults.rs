@@ -4,7 +4,7 @@
 use crate::jobs::{bake_matcap, convert, dfg, irradiance, prefilter, render};
 
 /// The defaults of the request of `op` (`convert`, `bake-matcap`, `prefilter`, `irradiance`,
-/// `dfg`, `render`, `generate`) as JSON: what its `Default` holds.  The CLI's flags take their
+/// `dfg`, `render`, `generate`, `preview`, `from-photo`, `from-fisheye`) as JSON: what its `Default` holds.  The CLI's flags take their
 /// defaults from the requests; Python's signatures are checked against these.
 pub fn of(op: &str) -> Option<serde_json::Value> {
     fn json<T: serde::Serialize>(t: T) -> Option<serde_json::Value> {
@@ -18,6 +18,11 @@ pub fn of(op: &str) -> Option<serde_json::Value> {
         "dfg" => json(dfg::DfgRequest::default()),
         "render" => json(render::RenderRequest::default()),
         "generate" => json(crate::trace::generate::MapRequest::default()),
+        "preview" => json(crate::trace::camera::PreviewRequest::default()),
+        #[cfg(feature = "photo")]
+        "from-photo" => json(super::photo::BallRequest::default()),
+        #[cfg(feature = "photo")]
+        "from-fisheye" => json(super::photo::FisheyeRequest::default()),
         _ => None,
     }
 }

@@ -3,7 +3,8 @@
 //! prefiltered chains ([`prefilter`]), irradiance ([`irradiance`]) and the DFG table ([`dfg`])
 //! over the maths of [`crate::lighting`], environment maps from photos ([`photo`]), GL-exact
 //! renders of meshes ([`render`]), analytics and figures ([`analyze`], [`chart`]) and shader
-//! snippets ([`shader`]); every request's defaults by operation ([`defaults`]) and the run the
+//! snippets ([`shader`]); every request's defaults by operation ([`defaults`]), a request read from its fields with errors
+//! that name them ([`fields`]) and the run the
 //! bake and the prefilter share ([`env_job`]).
 
 pub mod analyze;
@@ -13,6 +14,7 @@ pub mod convert;
 pub mod defaults;
 pub mod dfg;
 pub mod env_job;
+pub mod fields;
 pub mod irradiance;
 #[cfg(feature = "photo")]
 pub mod photo;

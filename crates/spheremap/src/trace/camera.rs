@@ -58,6 +58,79 @@ pub struct PreviewReport {
     pub losses: crate::images::codec::LossCounts,
 }
 
+/// A photo of a scene as `spheremap preview` and Python's `Scene.preview` ask for it: the camera
+/// as `gluLookAt` places it, its lens, the image and the rays.  `Default` gives every
+/// documented default; `eye` and `target` are required.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PreviewRequest {
+    pub eye: Option<[f64; 3]>,
+    pub target: Option<[f64; 3]>,
+    pub up: [f64; 3],
+    /// The horizontal field of view in degrees; with a fisheye `lens`, the field across its
+    /// image circle, which fills the shorter side.
+    pub fov: f64,
+    pub lens: Option<crate::mappings::fisheye::LensName>,
+    pub width: usize,
+    pub height: usize,
+    /// Rays per pixel (a jittered grid; 1: through the pixel centre) and their seed.
+    pub samples: u32,
+    pub seed: u64,
+    /// Refuse an image needing more bytes than this (`None`: the default limit).
+    pub max_memory: Option<u64>,
+}
+
+impl Default for PreviewRequest {
+    fn default() -> Self {
+        PreviewRequest {
+            eye: None,
+            target: None,
+            up: [0.0, 1.0, 0.0],
+            fov: 40.0,
+            lens: None,
+            width: 640,
+            height: 480,
+            samples: 16,
+            seed: 0,
+            max_memory: None,
+        }
+    }
+}
+
+impl PreviewRequest {
+    /// The camera, every field checked (errors name it).
+    pub fn camera(&self) -> Result<Camera> {
+        use crate::base::limits;
+        use crate::mappings::fisheye::{LensModel, LensName};
+        let eye = self.eye.ok_or_else(|| Error::param("eye", "required"))?;
+        let target = self
+            .target
+            .ok_or_else(|| Error::param("target", "required"))?;
+        let (w, h) = (self.width, self.height);
+        let projection = match self.lens {
+            None => Projection::Perspective { hfov_deg: self.fov },
+            Some(LensName::Polynomial) => {
+                return Err(Error::param(
+                    "lens",
+                    "the polynomial model needs coefficients: preview takes equidistant, \
+                     equisolid, stereographic or orthographic",
+                ))
+            }
+            Some(m) => Projection::Fisheye(Lens::new(
+                LensModel::parse(m.name(), [0.0; 4])?,
+                self.fov,
+                [0.5 * w as f64, 0.5 * h as f64],
+                0.5 * w.min(h) as f64,
+            )?),
+        };
+        let cam = Camera::look_at(projection, eye, target, self.up, w, h)?;
+        limits::check_range("samples", self.samples, 1, limits::PREVIEW_SAMPLES)?;
+        let max = self.max_memory.unwrap_or_else(limits::default_max_memory);
+        limits::check_memory("size", 2 * (w as u128 * h as u128 * 4 * 4), max)?;
+        Ok(cam)
+    }
+}
+
 /// A camera: projection, pose and image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -285,6 +358,67 @@ pub fn render(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_preview_request_checks_every_field() {
+        let ok = PreviewRequest {
+            eye: Some([0.0, 0.0, 5.0]),
+            target: Some([0.0; 3]),
+            ..Default::default()
+        };
+        let cam = ok.camera().unwrap();
+        assert_eq!((cam.width, cam.height), (640, 480));
+        let fish = PreviewRequest {
+            lens: Some(crate::mappings::fisheye::LensName::Equisolid),
+            fov: 180.0,
+            ..ok.clone()
+        };
+        assert!(matches!(
+            fish.camera().unwrap().projection,
+            Projection::Fisheye(_)
+        ));
+        let refused = |r: PreviewRequest, field: &str| {
+            let e = r.camera().expect_err("refused").to_string();
+            assert!(e.starts_with(&format!("{field}: ")), "{e}");
+        };
+        refused(PreviewRequest::default(), "eye");
+        refused(
+            PreviewRequest {
+                target: None,
+                ..ok.clone()
+            },
+            "target",
+        );
+        refused(
+            PreviewRequest {
+                samples: 0,
+                ..ok.clone()
+            },
+            "samples",
+        );
+        refused(
+            PreviewRequest {
+                lens: Some(crate::mappings::fisheye::LensName::Polynomial),
+                ..ok.clone()
+            },
+            "lens",
+        );
+        refused(
+            PreviewRequest {
+                fov: 180.0,
+                ..ok.clone()
+            },
+            "fov",
+        );
+        refused(
+            PreviewRequest {
+                max_memory: Some(1000),
+                ..ok
+            },
+            "size",
+        );
+    }
+
     use super::*;
     use crate::mappings::fisheye::LensModel;
 

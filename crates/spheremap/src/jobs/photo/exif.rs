@@ -65,6 +65,15 @@ fn check_mm(name: &str, v: f64) -> Result<f64> {
     }
 }
 
+/// A photo's horizontal field of view in degrees, checked: in (0°, 180°).
+pub fn check_fov(f: f64) -> Result<f64> {
+    if f > 0.0 && f < 180.0 {
+        Ok(f)
+    } else {
+        Err(Error::param("fov", format!("{f}°: must be in (0°, 180°)")))
+    }
+}
+
 /// The horizontal field of view in degrees of a `width`×`height` photo (see the module docs);
 /// `bytes` are the photo file's bytes for EXIF.
 pub fn exif_hfov(
@@ -76,10 +85,7 @@ pub fn exif_hfov(
     height: usize,
 ) -> Result<(f64, FovSource)> {
     if let Some(f) = fov_deg {
-        if !(f > 0.0 && f < 180.0) {
-            return Err(Error::param("fov", format!("{f}°: must be in (0°, 180°)")));
-        }
-        return Ok((f, FovSource::Flag));
+        return Ok((check_fov(f)?, FovSource::Flag));
     }
     let sensor = sensor_mm.map(|s| check_mm("sensor", s)).transpose()?;
     let hfov = |focal: f64, sensor: f64| 2.0 * (0.5 * sensor / focal).atan().to_degrees();

@@ -18,6 +18,7 @@ pub const MIN_CONFIDENCE: f64 = 0.5;
 /// circle, confidence and reflectance when none reaches [`MIN_CONFIDENCE`].
 pub fn find_ball_perspective(img: &Image, hfov_deg: f64) -> Result<CircleFit> {
     use crate::trace::camera::{Camera, Projection};
+    super::exif::check_fov(hfov_deg)?;
     let (lin, log) = planes(img)?;
     let camera = Camera::new(
         Projection::Perspective { hfov_deg },

@@ -39,12 +39,14 @@ mod ball;
 mod circle;
 mod exif;
 mod find;
+mod request;
 mod rim;
 
 pub use ball::{BallGeometry, BallModel, Located};
 pub use circle::{find_circle, fit_circle, robust_circle, Circle, CircleFit};
 pub use exif::{exif_hfov, FovSource};
 pub use find::{find_ball_perspective, MIN_CONFIDENCE};
+pub use request::{BallRequest, FisheyeRequest, Photo, PhotoOutput, Reflectance};
 pub use rim::RimFit;
 
 use crate::base::error::{Error, Result};
@@ -387,7 +389,7 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
                 BallModel::Perspective { hfov_deg } => find_ball_perspective(photo.image, hfov_deg),
                 BallModel::Orthographic => find_circle(photo.image, None),
             }
-            .map_err(|e| rename(e, what))?,
+            .map_err(|e| e.renamed("image", what))?,
         ),
     };
     let circle = fit
@@ -409,7 +411,7 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
                     .collect(),
             };
             BallGeometry::perspective(&outline, hfov_deg, photo.image.width, photo.image.height)
-                .map_err(|e| rename(e, what))?
+                .map_err(|e| e.renamed("image", what))?
         }
     };
     let report = ShotReport {
@@ -425,22 +427,30 @@ fn locate_ball(photo: &BallPhoto, what: &str) -> Result<(BallGeometry, ShotRepor
     Ok((geom, report))
 }
 
-/// An "image" error from the core names the argument.
-fn rename(e: Error, what: &str) -> Error {
-    match e {
-        Error::InvalidData {
-            source_name,
-            reason,
-        } if source_name.as_os_str() == "image" => Error::data(what, reason),
-        Error::InvalidParameter { name, reason } if name == "image" => Error::param(what, reason),
-        e => e,
+/// A ball's reflectance per channel, checked: positive and finite (at most 10⁶).
+pub(crate) fn check_reflectance(v: [f32; 3]) -> Result<[f32; 3]> {
+    if v.iter().all(|&r| r > 0.0 && r <= 1e6) {
+        Ok(v)
+    } else {
+        Err(Error::param(
+            "reflectance",
+            format!("must be positive and finite, got {v:?}"),
+        ))
+    }
+}
+
+/// The radius in degrees around the direction back to the camera whose confidence is 0,
+/// checked: in [0°, 90°).
+pub(crate) fn check_camera_radius(deg: f64) -> Result<f64> {
+    if (0.0..90.0).contains(&deg) {
+        Ok(deg)
+    } else {
+        Err(Error::param("camera_radius", "must be in [0°, 90°)"))
     }
 }
 
 fn scale_of(reflectance: [f32; 3], channels: usize, gain: f64) -> Result<[f32; 4]> {
-    if reflectance.iter().any(|&r| !(r > 0.0 && r <= 1e6)) {
-        return Err(Error::param("reflectance", "must be positive"));
-    }
+    check_reflectance(reflectance)?;
     let mut s = [gain as f32; 4];
     for k in 0..channels.min(3) {
         s[k] /= if channels < 3 {
@@ -460,9 +470,7 @@ pub fn from_mirror_ball(
     opts: &PhotoOptions,
     progress: Option<&Progress>,
 ) -> Result<(Image, Image, PhotoReport)> {
-    if !(opts.camera_radius_deg >= 0.0 && opts.camera_radius_deg < 90.0) {
-        return Err(Error::param("camera_radius", "must be in [0°, 90°)"));
-    }
+    check_camera_radius(opts.camera_radius_deg)?;
     let (g1, r1) = locate_ball(first, "photo")?;
     let exclusion = (opts.camera_radius_deg > 0.0).then(|| {
         let a = opts.camera_radius_deg.to_radians();

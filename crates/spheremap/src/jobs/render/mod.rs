@@ -160,6 +160,11 @@ impl GlCamera {
         if positions.is_empty() {
             return Err(Error::param("mesh", "has no vertices"));
         }
+        for (name, v) in [("eye", eye), ("target", target), ("up", up)] {
+            if let Some(v) = v.filter(|v| v.iter().any(|x| !x.is_finite())) {
+                return Err(Error::param(name, format!("must be finite, got {v:?}")));
+            }
+        }
         if !(fovy_deg > 0.0 && fovy_deg < 180.0) {
             return Err(Error::param(
                 "fovy",
@@ -362,14 +367,16 @@ impl<'a> EnvInput<'a> {
     /// or MatCap image; per-pixel needs some environment.
     pub fn check(&self, mode: Mode) -> Result<()> {
         match mode {
+            Mode::Normals | Mode::Error => Ok(()),
+            _ if self.texture.is_none() && self.map.is_none() => Err(Error::param(
+                "env",
+                "per-vertex, per-pixel and matcap need an environment map",
+            )),
             Mode::PerVertex | Mode::Matcap(_) if self.texture.is_none() => Err(Error::param(
                 "src",
                 "per-vertex and matcap look up (s, t) in a sphere map or MatCap image; convert \
                  the map to a sphere map first",
             )),
-            Mode::PerPixel if self.texture.is_none() && self.map.is_none() => {
-                Err(Error::param("env", "per-pixel needs an environment map"))
-            }
             _ => Ok(()),
         }
     }
