@@ -345,27 +345,17 @@ impl BallRequest {
         force: bool,
         progress: Option<&Progress>,
     ) -> Result<PhotoRunReport> {
-        let t0 = std::time::Instant::now();
         let (_, map) = self.resolve()?;
         let inputs: Vec<&str> = std::iter::once(first).chain(second).collect();
-        check_outputs(&inputs, output, mask, &map, force)?;
-        let p1 = Photo::read(first, self.linear, self.nonfinite)?;
-        let p2 = second
-            .map(|s| Photo::read(s, self.linear, self.nonfinite))
-            .transpose()?;
-        let out = self.run(&p1, p2.as_ref(), progress)?;
-        finish(
-            out,
-            &inputs,
+        let files = Files {
+            inputs: &inputs,
             output,
             mask,
-            &self.map,
-            &map,
-            self.fill,
-            self.linear,
             write,
-            t0,
-        )
+            force,
+        };
+        let how = (&self.map, &map, self.fill, self.linear, self.nonfinite);
+        on_files(&files, how, |p| self.run(&p[0], p.get(1), progress))
     }
 }
 
@@ -441,24 +431,89 @@ impl FisheyeRequest {
         force: bool,
         progress: Option<&Progress>,
     ) -> Result<PhotoRunReport> {
-        let t0 = std::time::Instant::now();
         let (_, map, _, _) = self.resolve()?;
-        check_outputs(&[input], output, mask, &map, force)?;
-        let photo = Photo::read(input, self.linear, self.nonfinite)?;
-        let out = self.run(&photo, progress)?;
-        finish(
-            out,
-            &[input],
+        let files = Files {
+            inputs: &[input],
             output,
             mask,
-            &self.map,
-            &map,
-            self.fill,
-            self.linear,
             write,
-            t0,
-        )
+            force,
+        };
+        let how = (&self.map, &map, self.fill, self.linear, self.nonfinite);
+        on_files(&files, how, |p| self.run(&p[0], progress))
     }
+}
+
+/// The files of a photo route: its photos, the map and its mask, how they are written and
+/// whether an output may be an input.
+struct Files<'a> {
+    inputs: &'a [&'a str],
+    output: &'a str,
+    mask: Option<&'a str>,
+    write: &'a WriteOptions,
+    force: bool,
+}
+
+/// Reads the photos of `files`, runs `run` on them and writes its map; `how`: the output map
+/// as asked and resolved, the fill, and how photos are read (`linear`, `nonfinite`).
+fn on_files(
+    files: &Files,
+    how: (&MapRequest, &ResolvedMap, Fill, bool, NonFinite),
+    run: impl FnOnce(Vec<Photo>) -> Result<PhotoOutput>,
+) -> Result<PhotoRunReport> {
+    let t0 = std::time::Instant::now();
+    let (request, map, fill, linear, nonfinite) = how;
+    check_outputs(files.inputs, files.output, files.mask, map, files.force)?;
+    let photos = files
+        .inputs
+        .iter()
+        .map(|p| Photo::read(p, linear, nonfinite))
+        .collect::<Result<Vec<_>>>()?;
+    let out = run(photos)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let wopts = WriteOptions {
+        linear,
+        ..*files.write
+    };
+    let mut written = write_env(
+        files.output,
+        map.mapping,
+        &out.map,
+        map.layout,
+        &map.view,
+        &wopts,
+    )?;
+    if let Some(m) = files.mask {
+        // The mask is data: linear whatever the format.
+        let mopts = WriteOptions {
+            linear: true,
+            ..*files.write
+        };
+        written.extend(write_env(
+            m,
+            map.mapping,
+            &out.mask,
+            map.layout,
+            &map.view,
+            &mopts,
+        )?);
+    }
+    let losses = Format::from_extension(Path::new(&written[0]))
+        .map(|f| Losses::of(&out.map, f, &wopts))
+        .unwrap_or_default();
+    Ok(PhotoRunReport {
+        inputs: files.inputs.iter().map(|i| i.to_string()).collect(),
+        output: written,
+        models: out.models,
+        to: map.mapping.name(),
+        preset: map.mapping.preset_name(),
+        size: request.size,
+        samples: request.samples,
+        fill,
+        seconds,
+        summary: out.report.summary(),
+        losses: losses.into(),
+    })
 }
 
 /// Refuses outputs that would overwrite an input (unless `force`), or that cannot hold the
@@ -483,55 +538,6 @@ fn check_outputs(
         o.check_output(map.mapping)?;
     }
     Ok(())
-}
-
-/// Writes the map (and the mask: data, so linear whatever the format) and reports.
-#[allow(clippy::too_many_arguments)]
-fn finish(
-    out: PhotoOutput,
-    inputs: &[&str],
-    output: &str,
-    mask: Option<&str>,
-    request: &MapRequest,
-    map: &ResolvedMap,
-    fill: Fill,
-    linear: bool,
-    write: &WriteOptions,
-    t0: std::time::Instant,
-) -> Result<PhotoRunReport> {
-    let seconds = t0.elapsed().as_secs_f64();
-    let wopts = WriteOptions { linear, ..*write };
-    let mut written = write_env(output, map.mapping, &out.map, map.layout, &map.view, &wopts)?;
-    if let Some(m) = mask {
-        let mopts = WriteOptions {
-            linear: true,
-            ..*write
-        };
-        written.extend(write_env(
-            m,
-            map.mapping,
-            &out.mask,
-            map.layout,
-            &map.view,
-            &mopts,
-        )?);
-    }
-    let losses = Format::from_extension(Path::new(&written[0]))
-        .map(|f| Losses::of(&out.map, f, &wopts))
-        .unwrap_or_default();
-    Ok(PhotoRunReport {
-        inputs: inputs.iter().map(|i| i.to_string()).collect(),
-        output: written,
-        models: out.models,
-        to: map.mapping.name(),
-        preset: map.mapping.preset_name(),
-        size: request.size,
-        samples: request.samples,
-        fill,
-        seconds,
-        summary: out.report.summary(),
-        losses: losses.into(),
-    })
 }
 
 impl PhotoOutput {
