@@ -68,10 +68,7 @@ class Scene:
         ball of radius 1 at the origin, `reflectance` 0.75 by default, to photograph inside an
         environment). Other keyword arguments as load."""
         _name("scene", name, "name")
-        reflectance = _finite(reflectance, "reflectance")
-        if not 0 <= reflectance <= 1:
-            raise ValueError(f"reflectance: expected a number in [0, 1], got {reflectance!r}")
-        scene = cls(_ext.Scene.builtin(name, reflectance=reflectance))
+        scene = cls(_ext.Scene.builtin(name, reflectance=_finite(reflectance, "reflectance")))
         if kwargs:
             source: dict[str, Any] = dict(src="latlong", src_preset=None, src_look=None, src_up=None)
             args: dict[str, Any] = dict(

@@ -95,7 +95,7 @@ impl RaySource for SceneRef<'_> {
 /// Loads --scene (a file or builtin:NAME).
 fn load_scene(name: &str) -> anyhow::Result<Scene> {
     Ok(match name.strip_prefix("builtin:") {
-        Some(b) => scene::Builtin::parse_as(b, "--scene")?.scene(0.75),
+        Some(b) => scene::Builtin::parse_as(b, "--scene")?.scene(0.75)?,
         None => Scene::load(Path::new(name))?,
     })
 }

@@ -52,7 +52,8 @@ impl Scene {
     fn builtin(name: &str, reflectance: f32) -> PyResult<Scene> {
         let inner = scene::Builtin::parse(name)
             .map_err(to_py)?
-            .scene(reflectance);
+            .scene(reflectance)
+            .map_err(to_py)?;
         Ok(Scene { inner })
     }
 

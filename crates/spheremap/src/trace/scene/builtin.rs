@@ -17,13 +17,19 @@ crate::base::named::named_enum! {
 }
 
 impl Builtin {
-    /// The scene (`reflectance`: the mirror ball's).
-    pub fn scene(self, reflectance: f32) -> Scene {
-        match self {
+    /// The scene (`reflectance`: the mirror ball's, in [0, 1]).
+    pub fn scene(self, reflectance: f32) -> crate::base::error::Result<Scene> {
+        if !(0.0..=1.0).contains(&reflectance) {
+            return Err(crate::base::error::Error::param(
+                "reflectance",
+                format!("expected a number in [0, 1], got {reflectance}"),
+            ));
+        }
+        Ok(match self {
             Builtin::Demo => demo_scene(),
             Builtin::Octants => octant_sphere_scene(10.0, 16),
             Builtin::MirrorBall => mirror_ball_scene(reflectance),
-        }
+        })
     }
 }
 
