@@ -133,7 +133,8 @@ def irradiance_sh(
     window: None, "auto" or a size in bands: Filament's deringing window.
     """
     kw = _fields(locals(), drop=("env", "src_layout"))
-    report: dict[str, Any] = _ext.irradiance_sh(image=_env_array(_floats(env, "env"), src, "env", src_layout), request=kw)
+    a = _env_array(_floats(env, "env"), src, "env", src_layout)
+    report: dict[str, Any] = _ext.irradiance_sh(image=a, request=kw)
     return report
 
 
