@@ -84,10 +84,7 @@ def convert(
     if src_layout is not None and src != "cube":
         raise ValueError(f"src_layout: only for src='cube', not {src!r}")
     if src == "cube":
-        a = _cube_faces(a, src_layout, "image")
-        if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2] or not 1 <= a.shape[3] <= 4:
-            raise ValueError(f"image: a cube map is (6, F, F, C) with C in 1..4, got shape {a.shape}")
-        a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
+        a = _ext.env_array(image=a, cube=True, layout=src_layout, name="image")
     else:
         if a.ndim == 2:
             a = a[:, :, None]
@@ -104,49 +101,12 @@ def convert(
     return res
 
 
-def _cube_layout_of(shape, name: str) -> str:
-    """The cube layout an image's shape implies, by the core's rule (images::cube_layout::Layout::from_shape)."""
-    layout, why = _ext.cube_layout_of(width=int(shape[1]), height=int(shape[0]))
-    if layout is not None:
-        return layout
-    why = why or "its shape is no layout's"
-    if "could be" in why:  # 6:1: hstrip or horizon
-        raise ValueError(f"{name}: {why}")
-    raise ValueError(f"{name}: a cube map is (6, F, F, C) faces or one image in a layout, and {why}")
-
-
-def _cube_faces(a: np.ndarray, layout: str | None, name: str) -> np.ndarray:
-    """A cube map given as faces or as one image in a layout -> (6, F, F, C) (or the array
-    unchanged when it is neither, for the caller's shape error)."""
-    if layout is not None:
-        _name("layout", layout, f"{name} layout")
-        if a.ndim not in (2, 3):
-            raise ValueError(f"{name}: a cube map in a layout is (H, W) or (H, W, C), got shape {a.shape}")
-        return cube_from_layout(a, layout)
-    if a.ndim == 3 and a.shape[0] == 6 and a.shape[1] == a.shape[2]:
-        return a[..., None]  # six one-channel faces
-    if a.ndim == 2 or (a.ndim == 3 and 1 <= a.shape[2] <= 4):
-        return cube_from_layout(a, _cube_layout_of(a.shape, name))
-    return a
-
-
 def _env_array(a: np.ndarray, mapping: str, name: str, layout: str | None = None) -> np.ndarray:
-    """An environment map array as the native side takes it: (H, W, C) float32, C-contiguous,
-    a cube map as its face stack (6F, F, C) — given as faces (6, F, F[, C]), a stack, or one
-    image in a layout — and no NaN/Inf (errors name `name`)."""
-    if mapping == "cube":
-        if layout is not None or (a.ndim == 3 and a.shape[1] * 6 != a.shape[0]):
-            a = _cube_faces(a, layout, name)
-        if a.ndim == 4:
-            if a.shape[0] != 6 or a.shape[1] != a.shape[2]:
-                raise ValueError(f"{name}: a cube map is (6, F, F, C), got shape {a.shape}")
-            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
-    elif a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-        raise ValueError(f"{name}: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
-    a = _nonfinite(a, "error", name)
-    return np.ascontiguousarray(a, dtype=np.float32)
+    """An environment map array as the native side takes it, by the core's rules
+    (images::cube_layout::env_array: (H, W, C) float32, a cube map as its face stack (6F, F, C),
+    given as faces, a stack or one image in a layout), and no NaN/Inf (errors name `name`)."""
+    a = _ext.env_array(image=a, cube=mapping == "cube", layout=layout, name=name)
+    return _nonfinite(a, "error", name)
 
 
 def cube_from_layout(image: npt.ArrayLike, layout: str) -> npt.NDArray[np.float32]:

@@ -891,6 +891,30 @@ fn layout_to_stack<'py>(
         .into_any())
 }
 
+/// An environment map array as the core reads it ([`spheremap::images::cube_layout::env_array`]):
+/// (H, W, C) float32, a cube map (`cube`) as its face stack, from faces, a stack or a layout.
+#[pyfunction]
+#[pyo3(signature = (image, cube, layout, name))]
+fn env_array<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    cube: bool,
+    layout: Option<&str>,
+    name: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let a = FArr::extract(image, name)?;
+    let shape = a.shape();
+    let data: Vec<f32> = match &a {
+        FArr::F32(x) => x.as_array().iter().copied().collect(),
+        FArr::F64(x) => x.as_array().iter().map(|&v| v as f32).collect(),
+    };
+    let img = spheremap::images::cube_layout::env_array(&shape, data, cube, layout, name)
+        .map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, img.data)
+        .reshape([img.height, img.width, img.channels])?
+        .into_any())
+}
+
 /// Face stack (6F, F, C) float32 -> cube layout image.
 #[pyfunction]
 fn stack_to_layout<'py>(
@@ -1007,17 +1031,6 @@ fn mapping_for(
     Ok((m.name(), m.preset_name(), layout))
 }
 
-/// The cube layout a `width`×`height` image's shape implies (the core's rule,
-/// `images::cube_layout::Layout::from_shape`): (name, None), or (None, why not).
-#[pyfunction]
-fn cube_layout_of(width: usize, height: usize) -> (Option<&'static str>, Option<String>) {
-    match spheremap::images::cube_layout::Layout::from_shape(width, height) {
-        Ok(l) => (Some(l.name()), None),
-        Err(spheremap::Error::InvalidParameter { reason, .. }) => (None, Some(reason)),
-        Err(e) => (None, Some(e.to_string())),
-    }
-}
-
 /// The note ([`spheremap::images::note`]) that records a map's mapping, preset, cube layout and
 /// view, or None; `request`: a `NoteRequest`'s fields, checked by the core.
 #[pyfunction]
@@ -1101,7 +1114,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(map_note, m)?)?;
     m.add_function(wrap_pyfunction!(mapping_for, m)?)?;
-    m.add_function(wrap_pyfunction!(cube_layout_of, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(bake_matcap, m)?)?;
     m.add_function(wrap_pyfunction!(irradiance_sh, m)?)?;
@@ -1110,6 +1122,7 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_texture, m)?)?;
     m.add_function(wrap_pyfunction!(write_texture, m)?)?;
     m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
+    m.add_function(wrap_pyfunction!(env_array, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(_cli_main, m)?)?;

@@ -860,8 +860,10 @@ fn uastc_and_astc_hdr_repair_keeps_every_level_s_power() {
 }
 
 /// Warnings the core gave, for the tests that look for one.
+#[cfg(feature = "basisu")]
 static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
 
+#[cfg(feature = "basisu")]
 fn keep_warning(w: &str) {
     WARNINGS.lock().unwrap().push(w.to_string());
 }

@@ -251,6 +251,79 @@ pub const FACE_TOKENS: [(&str, [&str; 6]); 4] = [
     ("{index}", ["0", "1", "2", "3", "4", "5"]),
 ];
 
+/// An environment map handed over as an array (Python's): its `shape` and row-major `data`,
+/// as the canvas the core reads.  A map of another mapping is (H, W) or (H, W, C); a cube map
+/// (`cube`) is one image in `layout` (a layout's name, read as `{name} layout`), six faces
+/// (6, F, F) or (6, F, F, C) in GL order, their (6F, F, C) stack, or one image in the layout its
+/// shape implies, and becomes the stack.  C is 1 to 4.  Errors name `name`.
+pub fn env_array(
+    shape: &[usize],
+    data: Vec<f32>,
+    cube: bool,
+    layout: Option<&str>,
+    name: &str,
+) -> Result<Image> {
+    let channels_ok = |c: usize| (1..=4).contains(&c);
+    let image = |h: usize, w: usize, c: usize, data: Vec<f32>| Image {
+        width: w,
+        height: h,
+        channels: c,
+        data,
+    };
+    let plain = |data: Vec<f32>| match *shape {
+        [h, w] => Ok(image(h, w, 1, data)),
+        [h, w, c] if channels_ok(c) => Ok(image(h, w, c, data)),
+        _ => Err(Error::param(
+            name,
+            format!("expected (H, W) or (H, W, C) with C in 1..4, got shape {shape:?}"),
+        )),
+    };
+    if !cube {
+        return plain(data);
+    }
+    if let Some(l) = layout {
+        let l = Layout::parse(l).map_err(|e| e.named(&format!("{name} layout")))?;
+        if !matches!(shape.len(), 2 | 3) {
+            return Err(Error::param(
+                name,
+                format!("a cube map in a layout is (H, W) or (H, W, C), got shape {shape:?}"),
+            ));
+        }
+        return l
+            .to_stack(&plain(data)?)
+            .map_err(|e| e.renamed("layout", name));
+    }
+    match *shape {
+        [6, f, g, c] if f == g && channels_ok(c) => Ok(image(6 * f, f, c, data)),
+        [_, _, _, _] => Err(Error::param(
+            name,
+            format!("a cube map is (6, F, F, C), got shape {shape:?}"),
+        )),
+        [6, f, g] if f == g => Ok(image(6 * f, f, 1, data)),
+        [h, w, c] if h == 6 * w && channels_ok(c) => Ok(image(h, w, c, data)),
+        [h, w] | [h, w, _] => {
+            let img = plain(data)?;
+            match Layout::from_shape(w, h) {
+                Ok(l) => l.to_stack(&img),
+                Err(Error::InvalidParameter { reason, .. }) if reason.contains("could be") => {
+                    Err(Error::param(name, reason))
+                }
+                Err(e) => Err(Error::param(
+                    name,
+                    format!(
+                        "a cube map is (6, F, F, C) faces or one image in a layout, and {}",
+                        match e {
+                            Error::InvalidParameter { reason, .. } => reason,
+                            e => e.to_string(),
+                        }
+                    ),
+                )),
+            }
+        }
+        _ => plain(data),
+    }
+}
+
 /// Six face files: expands a pattern holding a face token ([`FACE_TOKENS`]: `{face}`,
 /// `{posx}`, `{side}` or `{index}`) into the six paths, GL order.  Every token in the pattern
 /// is replaced, each by its own scheme's name for the face.
@@ -303,6 +376,70 @@ pub fn split_stack(stack: &Image) -> Vec<Image> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn an_environment_array_becomes_the_canvas_by_its_shape() {
+        let f = 4;
+        let data = |n: usize| (0..n).map(|v| v as f32).collect::<Vec<f32>>();
+        // Faces (6, F, F, C) are their stack as they lie; so are six one-channel faces.
+        let st = env_array(&[6, f, f, 3], data(6 * f * f * 3), true, None, "env").unwrap();
+        assert_eq!((st.width, st.height, st.channels), (f, 6 * f, 3));
+        assert_eq!(st.data, data(6 * f * f * 3));
+        let st = env_array(&[6, f, f], data(6 * f * f), true, None, "env").unwrap();
+        assert_eq!((st.width, st.height, st.channels), (f, 6 * f, 1));
+        // A stack stays one; a cross is read by its layout, as Layout::to_stack reads it.
+        let st = env_array(&[6 * f, f, 2], data(12 * f * f), true, None, "env").unwrap();
+        assert_eq!(st.data, data(12 * f * f));
+        let cross = Layout::HCross.from_stack(&st).unwrap();
+        let shape = [cross.height, cross.width, 2];
+        let back = env_array(&shape, cross.data.clone(), true, None, "env").unwrap();
+        assert_eq!(back.data, st.data);
+        let named = env_array(&shape, cross.data, true, Some("hcross"), "env").unwrap();
+        assert_eq!(named.data, st.data);
+        // Other mappings: (H, W) or (H, W, C).
+        let ll = env_array(&[2, 4], data(8), false, None, "env").unwrap();
+        assert_eq!((ll.width, ll.height, ll.channels), (4, 2, 1));
+        for (shape, cube, layout, start) in [
+            (
+                vec![2, 4, 7],
+                false,
+                None,
+                "env: expected (H, W) or (H, W, C)",
+            ),
+            (
+                vec![5, 4, 4, 3],
+                true,
+                None,
+                "env: a cube map is (6, F, F, C)",
+            ),
+            (
+                vec![16, 96, 3],
+                true,
+                None,
+                "env: a 96x16 image could be 'hstrip'",
+            ),
+            (
+                vec![4, 8, 3],
+                true,
+                None,
+                "env: a cube map is (6, F, F, C) faces or one image",
+            ),
+            (vec![16, 96, 3], true, Some("dice9"), "env layout: "),
+            (
+                vec![6, 4, 4, 3],
+                true,
+                Some("hcross"),
+                "env: a cube map in a layout",
+            ),
+        ] {
+            let n = shape.iter().product();
+            let e = env_array(&shape, data(n), cube, layout, "env")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(start), "{shape:?}: {e}");
+        }
+    }
+
     use super::*;
     use crate::mappings::cube::face_st_to_dir;
 
