@@ -57,10 +57,10 @@ pub const PLACEHOLDERS: [&str; 4] = ["stem", "name", "ext", "index"];
 pub const MANIFEST: &str = "manifest.jsonl";
 /// Keys every output table takes besides its operation's own.
 const COMMON_KEYS: [&str; 2] = ["op", "name"];
-/// Output encoding keys the lighting operations take (`convert` has them among its own).
+/// Output encoding keys every operation but `convert` takes (`convert` has them among its own).
 const WRITE_KEYS: [&str; 5] = ["half", "clamp_half", "png16", "encode", "zstd"];
 
-/// How the lighting operations write their images.
+/// How the operations other than `convert` write their images.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WriteFlags {

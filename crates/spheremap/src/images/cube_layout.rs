@@ -263,6 +263,12 @@ pub fn env_array(
     layout: Option<&str>,
     name: &str,
 ) -> Result<Image> {
+    if data.len() != shape.iter().product::<usize>() {
+        return Err(Error::param(
+            name,
+            format!("{} values for shape {shape:?}", data.len()),
+        ));
+    }
     let channels_ok = |c: usize| (1..=4).contains(&c);
     let image = |h: usize, w: usize, c: usize, data: Vec<f32>| Image {
         width: w,
