@@ -110,7 +110,7 @@ def test_nonfinite_pixels(tmp_path):
     r = cli("convert", src, out, "--from", "latlong", "--to", "sphere", "--size", "16", "--nonfinite", "zero", "-q")
     assert r.returncode == 0, r.stderr
     assert np.isfinite(sm.read_image(out)).all()
-    with pytest.raises(ValueError, match=r"^image: 2 NaN/Inf values \(the first at index \(3, 5, 1\)\)"):
+    with pytest.raises(ValueError, match=r"^image: 2 NaN/Inf values \(the first at pixel x=5, y=3\)"):
         sm.convert(img, "latlong", "sphere", size=16)
     assert np.isfinite(sm.convert(img, "latlong", "sphere", size=16, nonfinite="zero")).all()
     assert np.isnan(sm.convert(img, "latlong", "sphere", size=16, nonfinite="keep")).any()

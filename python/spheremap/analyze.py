@@ -10,9 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _fields, _finite, _floats, _name, _size_any
-from .images import read_image
-from .render import _camera, _mesh_arrays
+from ._args import _Photo, _fields
+from .render import _camera
 
 
 def analyze(
@@ -45,24 +44,7 @@ def analyze(
     "uniform_split", "triangles_after_adaptive", "unfixable", "pixel_error_deg" ((H, W), NaN
     where no surface)}.
     """
-    _name("mapping", mapping, "mapping")
-    if map is not None:
-        a = read_image(map) if isinstance(map, (str, os.PathLike)) else _floats(map, "map")
-        if mapping == "cube" and a.ndim == 4:
-            h, w = 6 * a.shape[1], a.shape[2]
-        elif a.ndim in (2, 3):
-            h, w = a.shape[:2]
-        else:
-            raise ValueError(f"map: expected an image (H, W[, C]), got shape {a.shape}")
-    else:
-        w = h = None
-    (sa, an, res), summary = _ext.analyze_mapping(
-        mapping=mapping,
-        preset=preset,
-        width=w,
-        height=h,
-        size=None if map is not None else _size_any(size, "size"),
-    )
+    (sa, an, res), summary = _ext.analyze_mapping(mapping=mapping, preset=preset, map=map, size=size)
     h, w = sa.shape
     out = {
         "mapping": mapping,
@@ -79,11 +61,8 @@ def analyze(
         "summary": summary,
     }
     if mesh is not None:
-        p, nrm, t = _mesh_arrays(mesh)
         cam = _camera(eye, target, up, fovy, near, far, view_size, "view_size")
-        m = _ext.analyze_mesh(
-            positions=p, normals=nrm, triangles=t, request=_fields(cam), threshold=_finite(threshold, "threshold")
-        )
+        m = _ext.analyze_mesh(mesh=mesh, request=_fields(cam), threshold=threshold)
         err, in_view, heat, ms = m["triangle_error_deg"], m["in_view"], m["heat"], m["summary"]
         out["mesh"] = {
             "triangle_error_deg": err,

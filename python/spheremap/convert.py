@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _fields, _floats, _name, _nonfinite, _source_aliases
+from ._args import _fields, _source_aliases
 
 
 @_source_aliases
@@ -78,58 +78,18 @@ def convert(
 
     Returns float32 (H', W', C), or (6, N, N, C) for dst="cube". Ctrl-C cancels.
     """
-    job = _fields(locals(), drop=("image", "out", "src_layout", "nonfinite"))
-    job["to"], job["preset"] = job.pop("dst"), job.pop("dst_preset", None)
-    a = _floats(image, "image")
-    if src_layout is not None and src != "cube":
-        raise ValueError(f"src_layout: only for src='cube', not {src!r}")
-    if src == "cube":
-        a = _ext.env_array(image=a, cube=True, layout=src_layout, name="image")
-    else:
-        if a.ndim == 2:
-            a = a[:, :, None]
-        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-            raise ValueError(f"image: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
-    a = _nonfinite(a, nonfinite, "image")
-    if out is not None and np.shares_memory(out, a):
-        raise ValueError("out: overlaps image")
     # The core's conversion request (spheremap::jobs::convert::ConvertJob) checks every field.
-    res = _ext.convert(image=np.ascontiguousarray(a, dtype=np.float32), job=job, out=out)
-    if out is None and dst == "cube":  # (an `out` is returned as the caller shaped it)
-        f = res.shape[1]
-        res = res.reshape(6, f, f, res.shape[2])
-    return res
-
-
-def _env_array(a: np.ndarray, mapping: str, name: str, layout: str | None = None) -> np.ndarray:
-    """An environment map array as the native side takes it, by the core's rules
-    (images::cube_layout::env_array: (H, W, C) float32, a cube map as its face stack (6F, F, C),
-    given as faces, a stack or one image in a layout), and no NaN/Inf (errors name `name`)."""
-    a = _ext.env_array(image=a, cube=mapping == "cube", layout=layout, name=name)
-    return _nonfinite(a, "error", name)
+    job = _fields(locals(), drop=("image", "out"))
+    job["to"], job["preset"] = job.pop("dst"), job.pop("dst_preset", None)
+    return _ext.convert(image=image, job=job, out=out)
 
 
 def cube_from_layout(image: npt.ArrayLike, layout: str) -> npt.NDArray[np.float32]:
     """A cube-map image in `layout` (one of CUBE_LAYOUTS) -> (6, F, F, C) faces in GL order and
     GL face orientation (the crosses and "horizon" hold views from inside; see the README)."""
-    _name("layout", layout, "layout")
-    a = _floats(image, "image")
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-        raise ValueError(f"image: expected (H, W, C) with C in 1..4, got shape {a.shape}")
-    st = _ext.layout_to_stack(image=np.ascontiguousarray(a, dtype=np.float32), layout=layout)
-    f = st.shape[1]
-    return st.reshape(6, f, f, st.shape[2])
+    return _ext.env_array(image=image, cube=True, layout=layout, name="image")
 
 
 def cube_to_layout(faces: npt.ArrayLike, layout: str = "hcross") -> npt.NDArray[np.float32]:
     """(6, F, F, C) faces in GL order -> one image in `layout` (unused cells of a cross are 0)."""
-    _name("layout", layout, "layout")
-    a = _floats(faces, "faces")
-    if a.ndim == 3:
-        a = a[..., None]
-    if a.ndim != 4 or a.shape[0] != 6 or a.shape[1] != a.shape[2] or not 1 <= a.shape[3] <= 4:
-        raise ValueError(f"faces: expected (6, F, F, C) with C in 1..4, got shape {a.shape}")
-    st = np.ascontiguousarray(a, dtype=np.float32).reshape(6 * a.shape[1], a.shape[2], a.shape[3])
-    return _ext.stack_to_layout(stack=st, layout=layout)
+    return _ext.stack_to_layout(faces=faces, layout=layout)

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _fields, _floats, _size_any
+from ._args import _ArrayLike, _fields
 
 
 def read_image(
@@ -26,8 +26,6 @@ def read_image(
     one whose header claims more than `max_pixels` (default 2**28) pixels.
     """
 
-    if max_pixels is not None:
-        max_pixels = _size_any(max_pixels, "max_pixels")
     return _ext.read_image(path=os.fspath(path), linear=bool(linear), max_pixels=max_pixels)
 
 
@@ -84,25 +82,9 @@ def write_image(
     convert` reads the file without --from.
     """
 
-    a = _floats(array, "array")
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or a.shape[0] == 0 or a.shape[1] == 0:
-        raise ValueError(f"array: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
-    if bits not in (8, 16):
-        raise ValueError(f"bits: must be 8 or 16, got {bits!r}")
     note = _ext.map_note(request=_fields(dict(mapping=mapping, preset=preset, layout=layout, look=look, up=up)))
-    clipped, clamped = _ext.write_image(
-        path=os.fspath(path),
-        array=np.ascontiguousarray(a, dtype=np.float32),
-        linear=bool(linear),
-        png16=bits == 16,
-        half=bool(half),
-        clamp_half=bool(clamp_half),
-        note=note,
-        encode=encode,
-    )
-    return {"clipped": clipped, "clamped_half": clamped}
+    return _ext.write_image(path=os.fspath(path), array=array, linear=bool(linear), bits=bits, half=bool(half),
+                            clamp_half=bool(clamp_half), note=note, encode=encode)
 
 
 def read_texture(
@@ -118,11 +100,7 @@ def read_texture(
     BasisLZ or zlib supercompression, 3D or array textures are refused with the reason).
     """
 
-    if max_pixels is not None:
-        max_pixels = _size_any(max_pixels, "max_pixels")
     levels, cube = _ext.read_texture(path=os.fspath(path), max_pixels=max_pixels)
-    if cube:
-        levels = [x.reshape(6, x.shape[1], x.shape[1], x.shape[2]) for x in levels]
     return list(levels), bool(cube)
 
 
@@ -157,23 +135,11 @@ def write_texture(
     clamped, range_loss; else None. zstd: KTX2 Zstandard supercompression level (1-22).
     """
 
-    arrays = []
-    for i, lv in enumerate(levels):
-        a = _floats(lv, f"levels[{i}]")
-        if cube and a.ndim == 4 and a.shape[0] == 6:
-            a = a.reshape(6 * a.shape[1], a.shape[2], a.shape[3])
-        if a.ndim == 2:
-            a = a[:, :, None]
-        if a.ndim != 3 or not 1 <= a.shape[2] <= 4:
-            raise ValueError(f"levels[{i}]: expected (H, W) or (H, W, C) with C in 1..4, got shape {a.shape}")
-        arrays.append(np.ascontiguousarray(a, dtype=np.float32))
-    if not arrays:
-        raise ValueError("levels: a texture needs at least one level")
     layout = "vstrip" if cube and mapping is not None else None
     note = _ext.map_note(request=_fields(dict(mapping=mapping, preset=preset, layout=layout, look=look, up=up)))
     return _ext.write_texture(
         path=os.fspath(path),
-        levels=arrays,
+        levels=list(levels),
         cube=bool(cube),
         half=bool(half),
         clamp_half=bool(clamp_half),

@@ -9,8 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _fields, _floats, _source_aliases
-from .convert import _env_array
+from ._args import _fields, _source_aliases
 
 
 @_source_aliases
@@ -48,8 +47,7 @@ def bake_matcap(
     look, up: the MatCap's view (world directions of the eye's -Z and +Y).
     src_look, src_up: the environment's view when it was made for one.
     """
-    kw = _fields(locals(), drop=("env", "src_layout"))
-    return _ext.bake_matcap(image=_env_array(_floats(env, "env"), src, "env", src_layout), request=kw)
+    return _ext.bake_matcap(image=env, request=_fields(locals(), drop=("env",)))
 
 
 @_source_aliases
@@ -103,12 +101,7 @@ def prefilter(
     from a cube mip pyramid with `lobe_samples` GGX samples per texel, as Filament's cmgen:
     fast, approximate).
     """
-    kw = _fields(locals(), drop=("env", "src_layout", "report"))
-    a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    arrays, reports = _ext.prefilter(image=a, request=kw)
-    if to == "cube":
-        # Faces (6, F, F, C), as convert returns a cube.
-        arrays = [x.reshape(6, x.shape[1], x.shape[1], x.shape[2]) for x in arrays]
+    arrays, reports = _ext.prefilter(image=env, request=_fields(locals(), drop=("env", "report")))
     if report:
         return list(arrays), list(reports)
     return list(arrays)
@@ -132,9 +125,7 @@ def irradiance_sh(
 
     window: None, "auto" or a size in bands: Filament's deringing window.
     """
-    kw = _fields(locals(), drop=("env", "src_layout"))
-    a = _env_array(_floats(env, "env"), src, "env", src_layout)
-    report: dict[str, Any] = _ext.irradiance_sh(image=a, request=kw)
+    report: dict[str, Any] = _ext.irradiance_sh(image=env, request=_fields(locals(), drop=("env",)))
     return report
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _floats, _name, _size_any
+from ._args import _ArrayLike
 
 
 def dir_to_uv(
@@ -19,9 +19,7 @@ def dir_to_uv(
     "angular" (Debevec light probe: centre -Z ahead, rim +Z; preset "debevec") or
     "octahedral" (pbrt-v4 equal-area, pbrt's Z-up frame = ours (x, z, y); preset "pbrt").
     NaN where a direction has no single position."""
-    d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
-    _name("mapping", mapping, "mapping")
-    return _ext.dir_to_uv(dirs=d, mapping=mapping, preset=preset)
+    return _ext.dir_to_uv(dirs=dirs, mapping=mapping, preset=preset)
 
 
 def uv_to_dir(
@@ -29,9 +27,7 @@ def uv_to_dir(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
     """Image coordinates (u, v) (..., 2), v down -> (unit directions (..., 3), valid (...)).
     Lat-long u wraps; points outside a mapping's domain are NaN and invalid."""
-    a = _floats(uv, "uv", last=(2,)).astype(np.float64, copy=False)
-    _name("mapping", mapping, "mapping")
-    d = _ext.uv_to_dir(uv=a, mapping=mapping, preset=preset)
+    d = _ext.uv_to_dir(uv=uv, mapping=mapping, preset=preset)
     return d, ~np.isnan(d[..., 0])
 
 
@@ -42,12 +38,4 @@ def texel_solid_angles(
     defaults to width/2 for "latlong" and "paraboloid", 6*width for "cube" — the face stack —
     else width); sums to 4 pi (angular and paraboloid: to 1e-7, by quadrature; the others
     exactly)."""
-    _name("mapping", mapping, "mapping")
-    width = _size_any(width, "width")
-    if height is None:
-        height = {"latlong": max(1, width // 2), "paraboloid": max(1, width // 2), "cube": 6 * width}.get(
-            mapping, width
-        )
-    return _ext.texel_solid_angles(
-        mapping=mapping, width=width, height=_size_any(height, "height"), preset=preset
-    )
+    return _ext.texel_solid_angles(mapping=mapping, width=width, height=height, preset=preset)

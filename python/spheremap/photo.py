@@ -4,28 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import os
-
-import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _PhotoResult, _fields, _floats
-
-
-def _photo(x, name: str):
-    """A photo as the native calls take it: a path, or float32 (H, W, C) texels."""
-    if x is None or isinstance(x, (str, os.PathLike)):
-        return x
-    a = _floats(x, name)
-    return np.ascontiguousarray(a[:, :, None] if a.ndim == 2 else a, dtype=np.float32)
-
-
-def _cube_out(to: str, a: np.ndarray) -> np.ndarray:
-    if to == "cube":
-        f = a.shape[1]
-        return a.reshape(6, f, f, a.shape[2])
-    return a
+from ._args import _Photo, _PhotoResult, _fields
 
 
 def find_ball(image: _Photo, *, fov: float | None = None, linear: bool = False) -> dict[str, Any]:
@@ -46,18 +28,7 @@ def find_ball(image: _Photo, *, fov: float | None = None, linear: bool = False) 
     corner, pixel centres at i + 1/2). Raises spheremap.DataError when no ball is found with
     confidence ("no mirror ball found ...; pass --circle CX CY R").
     """
-    cx, cy, r, rms, n, confidence, reflectance, uncertainty = _ext.find_ball(
-        _photo(image, "image"), fov=fov, linear=linear
-    )
-    return {
-        "circle": (cx, cy, r),
-        "fit_rms": rms,
-        "fit_rms_px": rms if fov is None else None,
-        "fit_points": n,
-        "confidence": confidence,
-        "reflectance": reflectance,
-        "uncertainty_px": uncertainty,
-    }
+    return _ext.find_ball(image, fov=fov, linear=linear)
 
 
 def from_mirror_ball(
@@ -110,9 +81,7 @@ def from_mirror_ball(
     confidence, 0 where no photo sees, info dict — the fitted circles, distances, unseen cone,
     second shot's rotation, gain and alignment residual, seen fraction).
     """
-    kw = _fields(locals(), drop=("image", "second"))
-    m, mask, info = _ext.from_mirror_ball(_photo(image, "image"), _photo(second, "second"), kw)
-    return _cube_out(to, m), _cube_out(to, mask), info
+    return _ext.from_mirror_ball(image, second, _fields(locals(), drop=("image", "second")))
 
 
 def from_fisheye(
@@ -147,6 +116,4 @@ def from_fisheye(
     Other arguments and the result as from_mirror_ball; the mask is the covered fraction of each
     texel (0 for the directions the lens did not see).
     """
-    kw = _fields(locals(), drop=("image",))
-    m, mask, info = _ext.from_fisheye(_photo(image, "image"), kw)
-    return _cube_out(to, m), _cube_out(to, mask), info
+    return _ext.from_fisheye(image, _fields(locals(), drop=("image",)))

@@ -8,9 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _Photo, _fields, _floats, _size_any, _source_aliases
-from .convert import _env_array
-from .images import read_image
+from ._args import _Photo, _fields, _source_aliases
 
 
 def load_mesh(
@@ -20,29 +18,6 @@ def load_mesh(
     triangles (M, 3) uint32): faces triangulated, glTF node transforms applied, the file's
     vertex normals or else angle-weighted ones (see the README)."""
     return _ext.load_mesh(os.fspath(path))
-
-
-def _mesh_arrays(mesh):
-    """A mesh argument (a path, or (positions, normals or None, triangles)) as the arrays the
-    extension takes."""
-    if isinstance(mesh, (str, os.PathLike)):
-        return load_mesh(mesh)
-    try:
-        p, n, t = mesh
-    except (TypeError, ValueError):
-        raise ValueError("mesh: expected a path or (positions, normals, triangles)") from None
-    p = np.ascontiguousarray(_floats(p, "positions", last=(3,), ndim=2), dtype=np.float32)
-    if n is not None:
-        n = np.ascontiguousarray(_floats(n, "normals", last=(3,), ndim=2), dtype=np.float32)
-    t = np.asarray(t)
-    if t.ndim != 2 or t.shape[1] != 3 or not np.issubdtype(t.dtype, np.integer) or (t.size and t.min() < 0):
-        raise ValueError(f"triangles: expected (M, 3) non-negative integers, got {t.dtype} {t.shape}")
-    return p, n, np.ascontiguousarray(t, dtype=np.uint32)
-
-
-def _env_image(env, env_format: str, linear: bool, layout: str | None = None) -> np.ndarray:
-    a = read_image(env, linear=linear) if isinstance(env, (str, os.PathLike)) else _floats(env, "env")
-    return _env_array(a, env_format, "env", layout)
 
 
 @_source_aliases
@@ -89,33 +64,20 @@ def render(
     Returns linear float32 (H, W, 3), row 0 at the top; for mode="error" (H, W, 2): the angle
     in degrees between the per-vertex and per-pixel lookup directions, and the coverage.
     """
-    if isinstance(env, (str, os.PathLike)):
-        src, src_preset, noted_layout = _ext.mapping_for(
-            path=os.fspath(env), mapping=src, preset=src_preset, default="sphere"
-        )
-        src_layout = src_layout if src_layout is not None else noted_layout
-    elif src is None:
-        src = "sphere"
-    if src_layout is not None and src != "cube":
-        raise ValueError(f"src_layout: only for src='cube', not {src!r}")
-    p, n, t = _mesh_arrays(mesh)
-    e = None if env is None else _env_image(env, src, linear, src_layout)
     # The core's render request (spheremap::jobs::render::RenderRequest) checks every field.
     request = _fields(
         dict(mode=mode, matcap_variant=matcap_variant, background=background, aa=aa,
              subpixel_bits=subpixel_bits, wrap=wrap, **_camera(eye, target, up, fovy, near, far, size, "size"))
     )
-    return _ext.render(
-        positions=p, normals=n, triangles=t, env=e, env_mapping=src, env_preset=src_preset, request=request
-    )
+    return _ext.render(mesh=mesh, env=env, src=src, src_preset=src_preset, src_layout=src_layout, linear=linear,
+                       request=request)
 
 
 def _camera(eye, target, up, fovy, near, far, size, size_name: str) -> dict:
     """The camera fields of the core's render request (as gluLookAt and gluPerspective; `size`
     is (width, height), named `size_name` in errors); the core checks them."""
     try:
-        w, h = (int(v) for v in size)
+        w, h = size
     except (TypeError, ValueError):
         raise ValueError(f"{size_name}: expected (width, height), got {size!r}") from None
-    return dict(eye=eye, target=target, up=up, fovy=fovy, near=near, far=far,
-                width=_size_any(w, size_name), height=_size_any(h, size_name))
+    return dict(eye=eye, target=target, up=up, fovy=fovy, near=near, far=far, width=w, height=h)

@@ -10,8 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _fields, _finite, _floats, _name, _size_any, _source_aliases, _vec3
-from .convert import _env_array
+from ._args import _fields, _name, _source_aliases
 
 
 class Scene:
@@ -68,7 +67,7 @@ class Scene:
         ball of radius 1 at the origin, `reflectance` 0.75 by default, to photograph inside an
         environment). Other keyword arguments as load."""
         _name("scene", name, "name")
-        scene = cls(_ext.Scene.builtin(name, reflectance=_finite(reflectance, "reflectance")))
+        scene = cls(_ext.Scene.builtin(name, reflectance=reflectance))
         if kwargs:
             source: dict[str, Any] = dict(src="latlong", src_preset=None, src_look=None, src_up=None)
             args: dict[str, Any] = dict(
@@ -92,19 +91,13 @@ class Scene:
         indirect_samples,
         seed,
     ):
-        _name("shading", shading, "shading")
         if background is not None and environment is not None:
             raise ValueError("environment: give background or environment, not both")
         if background is not None:
             self.set_background(background)
         if environment is not None:
             self.set_environment(environment, **source)
-        for v, n in ((max_depth, "max_depth"), (indirect_samples, "indirect_samples"), (seed, "seed")):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-                raise ValueError(f"{n}: expected a non-negative integer, got {v!r}")
-        self._inner.set_options(
-            shading=shading, max_depth=int(max_depth), indirect_samples=int(indirect_samples), seed=int(seed)
-        )
+        self._inner.set_options(shading=shading, max_depth=max_depth, indirect_samples=indirect_samples, seed=seed)
 
     @property
     def triangle_count(self) -> int:
@@ -120,7 +113,7 @@ class Scene:
         return self._inner.bounds
 
     def set_background(self, colour: npt.ArrayLike) -> None:
-        self._inner.set_background([float(x) for x in _vec3(colour, "background")])
+        self._inner.set_background(colour)
 
     @_source_aliases
     def set_environment(
@@ -136,34 +129,22 @@ class Scene:
         `src_preset`; a cube as (6, F, F, C) faces in GL order), made for the view `src_look`,
         `src_up` when it is not the world's (the scene's lookups are turned by it)."""
         request = _fields(dict(src=src, src_preset=src_preset, src_look=src_look, src_up=src_up))
-        a = _env_array(_floats(image, "environment"), src, "environment")
-        self._inner.set_environment(image=a, request=request)
+        self._inner.set_environment(image=image, request=request)
 
     def add_point_light(self, position: npt.ArrayLike, intensity: npt.ArrayLike) -> None:
-        self._inner.add_point_light(
-            position=list(_vec3(position, "position")), intensity=list(_vec3(intensity, "intensity"))
-        )
+        self._inner.add_point_light(position=position, intensity=intensity)
 
     def add_directional_light(self, direction: npt.ArrayLike, irradiance: npt.ArrayLike) -> None:
         """direction: the way the light travels (e.g. (0, -1, 0) for a sun overhead)."""
-        self._inner.add_directional_light(
-            direction=list(_vec3(direction, "direction")), irradiance=list(_vec3(irradiance, "irradiance"))
-        )
-
-    def _rays(self, origins, directions):
-        o = np.ascontiguousarray(_floats(origins, "origins", last=(3,), ndim=2), dtype=np.float32)
-        d = np.ascontiguousarray(_floats(directions, "directions", last=(3,), ndim=2), dtype=np.float32)
-        if len(o) != len(d):
-            raise ValueError(f"origins: {len(o)} rays but directions has {len(d)}")
-        return o, d
+        self._inner.add_directional_light(direction=direction, irradiance=irradiance)
 
     def __call__(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float32]:
         """Radiance along each ray: (K, 3) float32."""
-        return self._inner.trace(*self._rays(origins, directions))
+        return self._inner.trace(origins, directions)
 
     def intersect(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float32]:
         """Distance to the closest hit along each ray ((K,) float32, inf on a miss)."""
-        return self._inner.intersect(*self._rays(origins, directions))
+        return self._inner.intersect(origins, directions)
 
     def preview(
         self,
@@ -183,12 +164,12 @@ class Scene:
         except "polynomial") a fisheye whose image circle fills the shorter side and spans `fov`
         degrees. samples: rays per pixel on a jittered grid (1 = through the pixel centre)."""
         try:
-            w, h = (int(v) for v in size)
+            w, h = size
         except (TypeError, ValueError):
             raise ValueError(f"size: expected (width, height), got {size!r}") from None
         # The core's preview request (spheremap::trace::camera::PreviewRequest) checks every field.
         request = _fields(dict(eye=eye, target=target, up=up, fov=fov, lens=lens, samples=samples, seed=seed,
-                               width=_size_any(w, "size"), height=_size_any(h, "size")))
+                               width=w, height=h))
         return _ext.render_camera(scene=self._inner, request=request)
 
     def __repr__(self) -> str:
@@ -230,27 +211,4 @@ def generate(
     # The core's map request (spheremap::trace::generate::MapRequest) checks every field.
     request = _fields(locals(), drop=("fire_ray", "mapping"))
     request["to"] = mapping
-    p = _vec3(pos, "pos")
-    if isinstance(fire_ray, Scene):
-        out = _ext.generate(source=fire_ray._inner, channels=3, request=request)
-    elif callable(fire_ray):
-
-        def colours(o, d):
-            r = np.asarray(fire_ray(o, d), dtype=np.float32)
-            if r.ndim == 1:
-                r = r[:, None]
-            if r.ndim != 2 or r.shape[0] != len(o) or not 1 <= r.shape[1] <= 4:
-                raise ValueError(
-                    f"fire_ray: returned shape {r.shape} for {len(o)} rays; "
-                    "expected (K,) or (K, C) with C in 1..4"
-                )
-            return np.ascontiguousarray(r)
-
-        probe = colours(np.asarray([p], np.float32), np.asarray([[0.0, 0.0, 1.0]], np.float32))
-        out = _ext.generate(source=colours, channels=probe.shape[1], request=request)
-    else:
-        raise TypeError(f"fire_ray: expected a spheremap.Scene or a callable, got {type(fire_ray).__name__}")
-    if mapping == "cube":
-        f = out.shape[1]
-        out = out.reshape(6, f, f, out.shape[2])
-    return out
+    return _ext.generate(source=fire_ray._inner if isinstance(fire_ray, Scene) else fire_ray, request=request)

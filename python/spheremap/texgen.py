@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
-from ._args import _ArrayLike, _Float, _floats, _name, _size_any, _stack3
+from ._args import _ArrayLike, _Float
 
 
 def sphere_texgen(
@@ -39,27 +39,7 @@ def sphere_texgen(
 
     Returns (N, 2) (s, t). float64 input is rounded to float32 on the f32 path, as GL does.
     """
-    pos = _floats(positions, "positions", last=(3, 4), ndim=2)
-    nrm = _floats(normals, "normals", last=(3,), ndim=2)
-    if nrm.shape[0] != pos.shape[0]:
-        raise ValueError(f"normals: expected {pos.shape[0]} rows to match positions, got shape {nrm.shape}")
-    mv = _floats(modelview, "modelview", ndim=2)
-    if mv.shape != (4, 4):
-        raise ValueError(f"modelview: expected shape (4, 4), got {mv.shape}")
-    _name("normalize", normalize, "normalize")
-    _name("singular", singular, "singular")
-    _name("precision", precision, "precision")
-    if out is not None and not isinstance(out, np.ndarray):
-        raise ValueError("out: expected a numpy array")
-    return _ext.sphere_texgen(
-        positions=pos,
-        normals=nrm,
-        modelview=mv.astype(np.float64, copy=False),
-        normalize=normalize,
-        singular=singular,
-        precision=precision,
-        out=out,
-    )
+    return _ext.sphere_texgen(**locals())
 
 
 def dir_to_sphere(dirs: _ArrayLike, *, singular: Literal["nan", "center"] = "nan") -> npt.NDArray[_Float]:
@@ -69,8 +49,7 @@ def dir_to_sphere(dirs: _ArrayLike, *, singular: Literal["nan", "center"] = "nan
     give NaN; directions parallel to (0,0,-1) (the rim) give NaN or (1/2, 1/2) per `singular`.
     Uses a cancellation-free form of GL's formula near the rim.
     """
-    d = _floats(dirs, "dirs", last=(3,))
-    return _ext.dir_to_sphere(dirs=d, singular=_name("singular", singular, "singular"))
+    return _ext.dir_to_sphere(dirs=dirs, singular=singular)
 
 
 def sphere_to_dir(st: _ArrayLike) -> tuple[npt.NDArray[_Float], npt.NDArray[np.bool_]]:
@@ -78,15 +57,14 @@ def sphere_to_dir(st: _ArrayLike) -> tuple[npt.NDArray[_Float], npt.NDArray[np.b
 
     Outside the disc (and for non-finite input) the direction is NaN and valid is False.
     """
-    a = _floats(st, "st", last=(2,))
-    dirs = _ext.sphere_to_dir(a)
+    dirs = _ext.sphere_to_dir(st)
     return dirs, ~np.isnan(dirs[..., 0])
 
 
 def reflect(incident: _ArrayLike, normal: _ArrayLike) -> npt.NDArray[_Float]:
     """Mirror reflection ``u - 2 (n.u) n`` of incident directions (..., 3) about normals (..., 3)
     (broadcast against each other). Normals are used as given, as GL does."""
-    return _ext.reflect(_stack3(incident, "incident", normal, "normal"))
+    return _ext.reflect(incident=incident, normal=normal)
 
 
 def matcap_uv(
@@ -104,17 +82,7 @@ def matcap_uv(
         "perspective"; None means an orthographic view (view ray -Z everywhere).
     scale: radius factor (default 0.5, or 0.495 for "threejs").
     """
-    n = _floats(normals, "normals", last=(3,))
-    _name("matcap", variant, "variant")
-    if positions is None:
-        stacked = np.concatenate([n, np.zeros_like(n)], axis=-1)
-    else:
-        stacked = _stack3(n, "normals", positions, "positions")
-    if scale is not None:
-        scale = float(scale)
-    return _ext.matcap_uv(
-        normals_positions=stacked, has_positions=positions is not None, variant=variant, scale=scale
-    )
+    return _ext.matcap_uv(normals=normals, positions=positions, variant=variant, scale=scale)
 
 
 def sphere_texel_solid_angle(size: int) -> npt.NDArray[np.float64]:
@@ -123,7 +91,6 @@ def sphere_texel_solid_angle(size: int) -> npt.NDArray[np.float64]:
     Texels wholly inside the disc subtend 16/size**2 sr (the map is equal-area); texels cut by
     the rim get 16 x their area inside the disc; the total is 4 pi.
     """
-    size = _size_any(size, "size")
     return _ext.sphere_texel_solid_angle(size)
 
 
@@ -150,10 +117,7 @@ def dir_to_pixel(
     """Directions (..., 3) in `preset`'s frame -> continuous pixel coordinates (x, y) (..., 2) in
     that preset's size x size image: (0, 0) is the top-left corner of row 0, pixel centres are at
     i + 1/2. NaN where a direction has no single pixel."""
-    d = _floats(dirs, "dirs", last=(3,)).astype(np.float64, copy=False)
-    return _ext.dir_to_pixel(
-        dirs=d, size=_size_any(size, "size"), preset=preset, singular=_name("singular", singular, "singular")
-    )
+    return _ext.dir_to_pixel(dirs=dirs, size=size, preset=preset, singular=singular)
 
 
 def pixel_to_dir(
@@ -161,6 +125,5 @@ def pixel_to_dir(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
     """Continuous pixel coordinates (..., 2) in `preset`'s size x size image -> (unit directions
     in the preset's frame (..., 3), valid (...) bool)."""
-    a = _floats(xy, "xy", last=(2,)).astype(np.float64, copy=False)
-    dirs = _ext.pixel_to_dir(xy=a, size=_size_any(size, "size"), preset=preset)
+    dirs = _ext.pixel_to_dir(xy=xy, size=size, preset=preset)
     return dirs, ~np.isnan(dirs[..., 0])

@@ -1,10 +1,9 @@
 //! PyO3 glue for the ray-traced generator: the `Scene` class and `generate` with a scene or a
 //! Python callable as `fire_ray`.  No maths here.
 
+use super::args::{image_out, nonnegative, rows_f32, vec3, FArr};
 use super::{run_cancellable, to_py};
-use numpy::{
-    PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -17,15 +16,6 @@ use std::sync::Mutex;
 #[pyclass(module = "spheremap._spheremap", name = "Scene")]
 pub struct Scene {
     inner: scene::Scene,
-}
-
-fn rgb(v: Vec<f32>, name: &str) -> PyResult<[f32; 3]> {
-    match v.as_slice() {
-        [r, g, b] if v.iter().all(|x| x.is_finite()) => Ok([*r, *g, *b]),
-        _ => Err(PyValueError::new_err(format!(
-            "{name}: expected 3 finite numbers"
-        ))),
-    }
 }
 
 impl Scene {
@@ -72,22 +62,23 @@ impl Scene {
         self.inner.bounds()
     }
 
-    fn set_background(&mut self, colour: Vec<f32>) -> PyResult<()> {
-        self.inner.environment = Environment::Constant(rgb(colour, "background")?);
+    fn set_background(&mut self, colour: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.inner.environment = Environment::Constant(vec3(colour, "background")?);
         Ok(())
     }
 
-    /// An environment map (H, W, C) float32 (cube: the (6F, F, C) face stack) read as
-    /// `request` says (an `EnvRequest` as a dict: `src`, `src_preset`, `src_look`, `src_up`).
+    /// An environment map (H, W, C) (a cube map as faces, their stack or one image in a
+    /// layout) read as `request` says (an `EnvRequest` as a dict: `src`, `src_preset`,
+    /// `src_layout`, `src_look`, `src_up`).
     #[pyo3(signature = (image, request))]
     fn set_environment(
         &mut self,
-        image: PyReadonlyArrayDyn<'_, f32>,
+        image: &Bound<'_, PyAny>,
         request: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
         let req: spheremap::jobs::source::EnvRequest = super::request_of(request)?;
         let r = req.resolve(None, "environment").map_err(to_py)?;
-        let img = super::image_of(&image, "environment")?;
+        let img = super::source_arg(image, &req.source, req.nonfinite, "environment")?;
         rs::EnvMap::new(r.mapping, &img, "environment").map_err(to_py)?;
         self.inner.environment = Environment::Map {
             image: img,
@@ -97,37 +88,54 @@ impl Scene {
         Ok(())
     }
 
-    fn add_point_light(&mut self, position: Vec<f32>, intensity: Vec<f32>) -> PyResult<()> {
+    fn add_point_light(
+        &mut self,
+        position: &Bound<'_, PyAny>,
+        intensity: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
         self.inner.lights.push(Light::Point {
-            position: rgb(position, "position")?,
-            intensity: rgb(intensity, "intensity")?,
+            position: vec3(position, "position")?,
+            intensity: vec3(intensity, "intensity")?,
         });
         Ok(())
     }
 
-    fn add_directional_light(&mut self, direction: Vec<f32>, irradiance: Vec<f32>) -> PyResult<()> {
-        let d = rgb(direction, "direction")?;
+    fn add_directional_light(
+        &mut self,
+        direction: &Bound<'_, PyAny>,
+        irradiance: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let d = vec3(direction, "direction")?;
         if d == [0.0; 3] {
             return Err(PyValueError::new_err("direction: must not be zero"));
         }
         self.inner.lights.push(Light::Directional {
             direction: d,
-            irradiance: rgb(irradiance, "irradiance")?,
+            irradiance: vec3(irradiance, "irradiance")?,
         });
         Ok(())
     }
 
+    /// The tracer's options; each integer is non-negative.
+    #[pyo3(signature = (shading="full", max_depth=None, indirect_samples=None, seed=None))]
     fn set_options(
         &mut self,
         shading: &str,
-        max_depth: u32,
-        indirect_samples: u32,
-        seed: u64,
+        max_depth: Option<&Bound<'_, PyAny>>,
+        indirect_samples: Option<&Bound<'_, PyAny>>,
+        seed: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
-        self.inner.options.shading = Shading::parse(shading).map_err(to_py)?;
-        self.inner.options.max_depth = max_depth;
-        self.inner.options.indirect_samples = indirect_samples;
-        self.inner.options.seed = seed;
+        let o = &mut self.inner.options;
+        o.shading = Shading::parse(shading).map_err(to_py)?;
+        if let Some(v) = max_depth {
+            o.max_depth = nonnegative(v, "max_depth")? as u32;
+        }
+        if let Some(v) = indirect_samples {
+            o.indirect_samples = nonnegative(v, "indirect_samples")? as u32;
+        }
+        if let Some(v) = seed {
+            o.seed = nonnegative(v, "seed")?;
+        }
         Ok(())
     }
 
@@ -135,10 +143,11 @@ impl Scene {
     fn trace<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (o, d) = rays(&origins, &directions)?;
+        let (o, d) = rays(origins, directions)?;
+        let (o, d): RayPair<'_> = (bytemuck::cast_slice(&o), bytemuck::cast_slice(&d));
         let mut out = vec![0f32; d.len() * 3];
         py.detach(|| {
             out.par_chunks_mut(3 * 1024)
@@ -155,10 +164,11 @@ impl Scene {
     fn intersect<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f32>,
-        directions: PyReadonlyArray2<'py, f32>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (o, d) = rays(&origins, &directions)?;
+        let (o, d) = rays(origins, directions)?;
+        let (o, d): RayPair<'_> = (bytemuck::cast_slice(&o), bytemuck::cast_slice(&d));
         let t: Vec<f32> = py.detach(|| {
             o.par_iter()
                 .zip(d.par_iter())
@@ -170,35 +180,38 @@ impl Scene {
     }
 }
 
-/// (K, 3) arrays as slices of 3-vectors.
 /// Origins and directions as 3-vectors.
 type RayPair<'a> = (&'a [[f32; 3]], &'a [[f32; 3]]);
 
-fn rays<'a>(
-    o: &'a PyReadonlyArray2<'_, f32>,
-    d: &'a PyReadonlyArray2<'_, f32>,
-) -> PyResult<RayPair<'a>> {
-    let check = |a: &'a PyReadonlyArray2<'_, f32>, name: &str| -> PyResult<&'a [[f32; 3]]> {
-        if a.shape()[1] != 3 {
-            return Err(PyValueError::new_err(format!(
-                "{name}: expected shape (K, 3)"
-            )));
-        }
-        let s = a
-            .as_slice()
-            .map_err(|_| PyValueError::new_err(format!("{name}: array must be C-contiguous")))?;
-        // (K, 3) contiguous f32 is K [f32; 3] in place (no copy).
-        Ok(bytemuck::cast_slice(s))
-    };
-    let (o, d) = (check(o, "origins")?, check(d, "directions")?);
+/// (K, 3) origins and directions, as many of each, as float32.
+fn rays(o: &Bound<'_, PyAny>, d: &Bound<'_, PyAny>) -> PyResult<(Vec<f32>, Vec<f32>)> {
+    let (o, d) = (rows_f32(o, "origins", 3)?, rows_f32(d, "directions", 3)?);
     if o.len() != d.len() {
         return Err(PyValueError::new_err(format!(
             "origins: {} rays but directions has {}",
-            o.len(),
-            d.len()
+            o.len() / 3,
+            d.len() / 3
         )));
     }
     Ok((o, d))
+}
+
+/// What a `fire_ray` callable returned for `k` rays, as (K, C) float32 values with C in 1..4
+/// (a (K,) result is one channel): (values, C).
+fn colours(res: &Bound<'_, PyAny>, k: usize) -> PyResult<(Vec<f32>, usize)> {
+    let a = FArr::extract(res, "fire_ray")?;
+    let shape = a.shape();
+    let c = match shape.as_slice() {
+        [n] if *n == k => 1,
+        [n, c] if *n == k && (1..=4).contains(c) => *c,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "fire_ray: returned shape {} for {k} rays; expected (K,) or (K, C) with C in 1..4",
+                super::args::shape_text(&shape)
+            )))
+        }
+    };
+    Ok((a.to_f32(), c))
 }
 
 /// A Python callable as the ray source: called with (K, 3) float32 origins and directions
@@ -226,15 +239,14 @@ impl RaySource for CallableSource {
             let o = PyArray1::from_slice(py, origins.as_flattened()).reshape([k, 3])?;
             let d = PyArray1::from_slice(py, dirs.as_flattened()).reshape([k, 3])?;
             let res = self.f.call1(py, (o, d))?;
-            let arr: PyReadonlyArray2<f32> = res.extract(py)?;
-            if arr.shape() != [k, self.channels] {
+            let (v, c) = colours(res.bind(py), k)?;
+            if c != self.channels {
                 return Err(PyValueError::new_err(format!(
-                    "fire_ray: returned shape {:?} for {k} rays; expected ({k}, {})",
-                    arr.shape(),
+                    "fire_ray: returned {c} channels; the first call returned {}",
                     self.channels
                 )));
             }
-            out.copy_from_slice(arr.as_slice()?);
+            out.copy_from_slice(&v);
             Ok(())
         });
         r.map_err(|e| {
@@ -263,25 +275,33 @@ fn run<'py>(
             Some(p),
         )
     })?;
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([img.height, img.width, img.channels])?
-        .into_any())
+    image_out(py, img, map.mapping.name() == "cube")
 }
 
-/// Generates with `source`: a `Scene` (traced natively) or a callable with `channels` outputs;
-/// `request` is the core's `MapRequest` as a dict of its fields.
+/// Generates with `source`: a `Scene` (traced natively) or a callable `fire_ray(origins,
+/// directions)`, called first with one ray from `pos` to learn its channels; `request` is the
+/// core's `MapRequest` as a dict of its fields.  A cube map comes back as its faces.
 #[pyfunction]
-#[pyo3(signature = (source, channels, request))]
+#[pyo3(signature = (source, request))]
 pub fn generate<'py>(
     py: Python<'py>,
     source: Bound<'py, PyAny>,
-    channels: usize,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let map = map_request(request)?;
+    let req: spheremap::trace::generate::MapRequest = super::request_of(request)?;
+    let map = req.resolve().map_err(to_py)?;
     if let Ok(scene) = source.cast::<Scene>() {
         return run(py, &map, &scene.borrow().inner);
     }
+    if !source.is_callable() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "fire_ray: expected a spheremap.Scene or a callable, got {}",
+            source.get_type().name()?
+        )));
+    }
+    let o = PyArray1::from_slice(py, &req.pos).reshape([1, 3])?;
+    let d = PyArray1::from_slice(py, &[0f32, 0.0, 1.0]).reshape([1, 3])?;
+    let (_, channels) = colours(&source.call1((o, d))?, 1)?;
     let callable = CallableSource {
         f: source.unbind(),
         channels,
@@ -298,12 +318,4 @@ pub fn generate<'py>(
         return Err(e);
     }
     r
-}
-
-/// A dict of the core's `MapRequest` fields, checked by the core.
-pub(crate) fn map_request(
-    request: &Bound<'_, PyAny>,
-) -> PyResult<spheremap::trace::generate::ResolvedMap> {
-    let r: spheremap::trace::generate::MapRequest = super::request_of(request)?;
-    r.resolve().map_err(to_py)
 }

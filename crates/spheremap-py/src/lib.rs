@@ -1,20 +1,20 @@
 //! PyO3 glue for `spheremap`: translate numpy arrays and strings to core calls, release the GIL
 //! while the core works, map core errors to Python exceptions.  No maths here.
 //!
-//! The public Python API (argument checking with argument names, docstrings) is
-//! `python/spheremap/__init__.py`; it always hands this module C-contiguous float32/float64
-//! arrays.
+//! The public Python API (signatures, docstrings) is `python/spheremap`; it forwards its
+//! arguments as given, and [`args`] reads them (arrays of any memory order, Python sequences,
+//! positive integers), each error naming the argument.
 
-use numpy::{
-    PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn,
-    PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use spheremap::mappings::texgen::{Elem, ModelviewState, NormalMode, TexgenOptions};
 use spheremap::{MatcapVariant, Singular, SpherePreset};
 
+use args::{image_arg, image_out, positive, FArr};
+
+mod args;
 mod batch;
 mod generate;
 mod photo;
@@ -90,32 +90,6 @@ pub(crate) fn to_py(e: spheremap::Error) -> PyErr {
     }
 }
 
-/// A float32 or float64 C-contiguous array.
-enum FArr<'py> {
-    F32(PyReadonlyArrayDyn<'py, f32>),
-    F64(PyReadonlyArrayDyn<'py, f64>),
-}
-
-impl<'py> FArr<'py> {
-    fn extract(ob: &Bound<'py, PyAny>, name: &str) -> PyResult<Self> {
-        if let Ok(a) = ob.extract::<PyReadonlyArrayDyn<f32>>() {
-            return Ok(FArr::F32(a));
-        }
-        if let Ok(a) = ob.extract::<PyReadonlyArrayDyn<f64>>() {
-            return Ok(FArr::F64(a));
-        }
-        Err(PyValueError::new_err(format!(
-            "{name}: expected a float32 or float64 numpy array"
-        )))
-    }
-    fn shape(&self) -> Vec<usize> {
-        match self {
-            FArr::F32(a) => a.shape().to_vec(),
-            FArr::F64(a) => a.shape().to_vec(),
-        }
-    }
-}
-
 fn contiguous<'a, T: numpy::Element>(
     a: &'a PyReadonlyArrayDyn<'_, T>,
     name: &str,
@@ -152,20 +126,23 @@ fn out_shape(shape: &[usize], last: usize) -> Vec<usize> {
     s
 }
 
-/// Maps each row of `I` f64 values of `arr` to `O` values, into a new array of the same leading
-/// shape, in parallel and without the GIL.
+/// Maps each row of `I` values of the array argument `ob` (read as float64; its last dimension
+/// must be `I`) to `O` values, into a new float64 array of the same leading shape, in parallel
+/// and without the GIL.
 fn map_f64_rows<'py, const I: usize, const O: usize>(
     py: Python<'py>,
-    arr: &PyReadonlyArrayDyn<'py, f64>,
+    ob: &Bound<'py, PyAny>,
     name: &str,
     f: impl Fn([f64; I]) -> [f64; O] + Sync + Send,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let shape = arr.shape().to_vec();
-    let inp = contiguous(arr, name)?;
+    let arr = FArr::extract(ob, name)?;
+    arr.check(name, None, &[I])?;
+    let shape = arr.shape();
+    let inp = arr.to_f64();
     let out = PyArrayDyn::<f64>::zeros(py, out_shape(&shape, O), false);
     let mut w = out.readwrite();
     let o = w.as_slice_mut().expect("fresh array is contiguous");
-    py.detach(|| map_rows::<f64, f64, I, O>(inp, o, f));
+    py.detach(|| map_rows::<f64, f64, I, O>(&inp, o, f));
     drop(w);
     Ok(out.into_any())
 }
@@ -177,7 +154,7 @@ fn sphere_texgen<'py>(
     py: Python<'py>,
     positions: &Bound<'py, PyAny>,
     normals: &Bound<'py, PyAny>,
-    modelview: PyReadonlyArray2<'py, f64>,
+    modelview: &Bound<'py, PyAny>,
     normalize: &str,
     singular: &str,
     precision: &str,
@@ -187,20 +164,29 @@ fn sphere_texgen<'py>(
         normalize: NormalMode::parse_as(normalize, "normalize").map_err(to_py)?,
         singular: Singular::parse_as(singular, "singular").map_err(to_py)?,
     };
-    let m = modelview.as_array();
+    let m = FArr::extract(modelview, "modelview")?;
     if m.shape() != [4, 4] {
-        return Err(PyValueError::new_err("modelview: expected shape (4, 4)"));
+        return Err(PyValueError::new_err(format!(
+            "modelview: expected shape (4, 4), got {}",
+            args::shape_text(&m.shape())
+        )));
     }
-    let mv = ModelviewState::new(std::array::from_fn(|r| std::array::from_fn(|c| m[[r, c]])))
-        .map_err(to_py)?;
+    let m = m.to_f64();
+    let mv = ModelviewState::new(std::array::from_fn(|r| {
+        std::array::from_fn(|c| m[4 * r + c])
+    }))
+    .map_err(to_py)?;
     let pos = FArr::extract(positions, "positions")?;
+    pos.check("positions", Some(2), &[3, 4])?;
     let nrm = FArr::extract(normals, "normals")?;
+    nrm.check("normals", Some(2), &[3])?;
     let (ps, ns) = (pos.shape(), nrm.shape());
     let n = ps[0];
     let pw = ps[1];
-    if ns != [n, 3] {
+    if ns[0] != n {
         return Err(PyValueError::new_err(format!(
-            "normals: expected shape ({n}, 3), got {ns:?}"
+            "normals: expected {n} rows to match positions, got shape {}",
+            args::shape_text(&ns)
         )));
     }
     #[allow(clippy::too_many_arguments)]
@@ -256,15 +242,8 @@ fn sphere_texgen<'py>(
             Ok(out.into_any().unbind())
         }
     }
-    let f64_out = match precision {
-        "f32" => false,
-        "f64" => true,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "precision: unknown value {other:?}; expected f32 or f64"
-            )))
-        }
-    };
+    use spheremap::resample::Precision;
+    let f64_out = Precision::parse_as(precision, "precision").map_err(to_py)? == Precision::F64;
     let r = match (&pos, &nrm) {
         (FArr::F32(p), FArr::F32(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
         (FArr::F32(p), FArr::F64(q)) => go(py, p, q, pw, &mv, opts, f64_out, out.clone()),
@@ -325,19 +304,55 @@ fn sphere_to_dir<'py>(py: Python<'py>, st: &Bound<'py, PyAny>) -> PyResult<Bound
     Ok(rowwise!(py, st, "st", 2 -> 3, |r: T| spheremap::st_to_dir::<T>(r).unwrap_or([T::NAN; 3])))
 }
 
+/// Two (..., 3) array arguments broadcast together and stacked to (..., 6), in one dtype
+/// (float64 when theirs differ).
+fn stack3<'py>(
+    a: &Bound<'py, PyAny>,
+    a_name: &str,
+    b: &Bound<'py, PyAny>,
+    b_name: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let py = a.py();
+    let np = py.import("numpy")?;
+    let (x, y) = (FArr::extract(a, a_name)?, FArr::extract(b, b_name)?);
+    x.check(a_name, None, &[3])?;
+    y.check(b_name, None, &[3])?;
+    let dtype = match (&x, &y) {
+        (FArr::F32(_), FArr::F32(_)) => "float32",
+        _ => "float64",
+    };
+    let (xs, ys) = (x.shape(), y.shape());
+    let pair = np.call_method1("broadcast_arrays", (a, b)).map_err(|_| {
+        PyValueError::new_err(format!(
+            "{b_name}: shape {} does not broadcast with {a_name} {}",
+            args::shape_text(&ys),
+            args::shape_text(&xs)
+        ))
+    })?;
+    let kw = pyo3::types::PyDict::new(py);
+    kw.set_item("axis", -1)?;
+    let stacked = np.call_method("concatenate", (pair,), Some(&kw))?;
+    stacked.call_method1("astype", (dtype,))
+}
+
 #[pyfunction]
-fn reflect<'py>(py: Python<'py>, un: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-    // `un` holds (..., 6): incident (3) then normal (3), stacked by the Python wrapper.
+fn reflect<'py>(
+    py: Python<'py>,
+    incident: &Bound<'py, PyAny>,
+    normal: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let un = stack3(incident, "incident", normal, "normal")?;
     Ok(
-        rowwise!(py, un, "incident/normal", 6 -> 3, |r: T| spheremap::reflect::<T>([r[0], r[1], r[2]], [r[3], r[4], r[5]])),
+        rowwise!(py, &un, "incident/normal", 6 -> 3, |r: T| spheremap::reflect::<T>([r[0], r[1], r[2]], [r[3], r[4], r[5]])),
     )
 }
 
 #[pyfunction]
+#[pyo3(signature = (normals, positions, variant, scale))]
 fn matcap_uv<'py>(
     py: Python<'py>,
-    normals_positions: &Bound<'py, PyAny>,
-    has_positions: bool,
+    normals: &Bound<'py, PyAny>,
+    positions: Option<&Bound<'py, PyAny>>,
     variant: &str,
     scale: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -346,8 +361,13 @@ fn matcap_uv<'py>(
     if !sc.is_finite() {
         return Err(PyValueError::new_err("scale: must be finite"));
     }
+    let has_positions = positions.is_some();
     // (..., 6): normal then position (ignored unless has_positions).
-    Ok(rowwise!(py, normals_positions, "normals", 6 -> 2, |r: T| {
+    let stacked = match positions {
+        Some(p) => stack3(normals, "normals", p, "positions")?,
+        None => stack3(normals, "normals", normals, "normals")?,
+    };
+    Ok(rowwise!(py, &stacked, "normals", 6 -> 2, |r: T| {
         let p = if has_positions { Some([r[3], r[4], r[5]]) } else { None };
         spheremap::matcap_uv::<T>([r[0], r[1], r[2]], p, v, <T as spheremap::base::real::Real>::from_f64(sc))
     }))
@@ -360,8 +380,11 @@ fn image_side(what: &str, n: usize) -> PyResult<usize> {
 }
 
 #[pyfunction]
-fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound<'py, PyAny>> {
-    let size = image_side("size", size)?;
+fn sphere_texel_solid_angle<'py>(
+    py: Python<'py>,
+    size: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let size = image_side("size", positive(size, "size")?)?;
     let v = py.detach(|| spheremap::mappings::sphere::solid_angle_map(size));
     Ok(PyArray1::from_vec(py, v).reshape([size, size])?.into_any())
 }
@@ -369,15 +392,15 @@ fn sphere_texel_solid_angle<'py>(py: Python<'py>, size: usize) -> PyResult<Bound
 #[pyfunction]
 fn dir_to_pixel<'py>(
     py: Python<'py>,
-    dirs: PyReadonlyArrayDyn<'py, f64>,
-    size: usize,
+    dirs: &Bound<'py, PyAny>,
+    size: &Bound<'py, PyAny>,
     preset: &str,
     singular: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let size = image_side("size", size)?;
+    let size = image_side("size", positive(size, "size")?)?;
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
     let sg = Singular::parse_as(singular, "singular").map_err(to_py)?;
-    map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| {
+    map_f64_rows(py, dirs, "dirs", |d: [f64; 3]| {
         let (x, y) = p.dir_to_pixel(d, size, sg);
         [x, y]
     })
@@ -386,13 +409,13 @@ fn dir_to_pixel<'py>(
 #[pyfunction]
 fn pixel_to_dir<'py>(
     py: Python<'py>,
-    xy: PyReadonlyArrayDyn<'py, f64>,
-    size: usize,
+    xy: &Bound<'py, PyAny>,
+    size: &Bound<'py, PyAny>,
     preset: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let size = image_side("size", size)?;
+    let size = image_side("size", positive(size, "size")?)?;
     let p = SpherePreset::by_name(preset).map_err(to_py)?;
-    map_f64_rows(py, &xy, "xy", |q: [f64; 2]| {
+    map_f64_rows(py, xy, "xy", |q: [f64; 2]| {
         p.pixel_to_dir(q[0], q[1], size).unwrap_or([f64::NAN; 3])
     })
 }
@@ -429,40 +452,48 @@ fn parse_mapping(mapping: &str, preset: Option<&str>) -> PyResult<spheremap::Map
 #[pyo3(signature = (dirs, mapping, preset=None))]
 fn dir_to_uv<'py>(
     py: Python<'py>,
-    dirs: PyReadonlyArrayDyn<'py, f64>,
+    dirs: &Bound<'py, PyAny>,
     mapping: &str,
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
-    map_f64_rows(py, &dirs, "dirs", |d: [f64; 3]| m.dir_to_uv(d))
+    map_f64_rows(py, dirs, "dirs", |d: [f64; 3]| m.dir_to_uv(d))
 }
 
 #[pyfunction]
 #[pyo3(signature = (uv, mapping, preset=None))]
 fn uv_to_dir<'py>(
     py: Python<'py>,
-    uv: PyReadonlyArrayDyn<'py, f64>,
+    uv: &Bound<'py, PyAny>,
     mapping: &str,
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
-    map_f64_rows(py, &uv, "uv", |q: [f64; 2]| {
+    map_f64_rows(py, uv, "uv", |q: [f64; 2]| {
         m.uv_to_dir(q).unwrap_or([f64::NAN; 3])
     })
 }
 
-/// Exact texel solid angles of a `height`×`width` canvas of `mapping` (cube: the F×6F stack).
+/// Exact texel solid angles of a `height`×`width` canvas of `mapping` (cube: the F×6F stack);
+/// `height` defaults to the mapping's canvas for that width (lat-long W/2, cube 6W).
 #[pyfunction]
-#[pyo3(signature = (mapping, width, height, preset=None))]
+#[pyo3(signature = (mapping, width, height=None, preset=None))]
 fn texel_solid_angles<'py>(
     py: Python<'py>,
     mapping: &str,
-    width: usize,
-    height: usize,
+    width: &Bound<'py, PyAny>,
+    height: Option<&Bound<'py, PyAny>>,
     preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = parse_mapping(mapping, preset)?;
-    image_side("width", width)?;
+    let width = image_side("width", positive(width, "width")?)?;
+    let height = match height {
+        Some(h) => positive(h, "height")?,
+        None => {
+            let (w1, h1) = m.canvas(1);
+            (width * h1 / w1).max(1)
+        }
+    };
     image_side("height", height)?;
     m.size_of(width, height, "height")
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
@@ -470,26 +501,6 @@ fn texel_solid_angles<'py>(
     Ok(PyArray1::from_vec(py, v)
         .reshape([height, width])?
         .into_any())
-}
-
-/// A numpy (H, W, C) float32 array as an `Image` (copied); `name` is the argument's name in
-/// errors.  The one numpy -> Image conversion of the glue.
-pub(crate) fn image_of(
-    a: &PyReadonlyArrayDyn<'_, f32>,
-    name: &str,
-) -> PyResult<spheremap::images::Image> {
-    let shape = a.shape().to_vec();
-    if shape.len() != 3 {
-        return Err(PyValueError::new_err(format!(
-            "{name}: expected (H, W, C), got shape {shape:?}"
-        )));
-    }
-    Ok(spheremap::images::Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data: contiguous(a, name)?.to_vec(),
-    })
 }
 
 /// A core request read from a dict of its fields (Python's keywords) by the core's
@@ -543,40 +554,35 @@ fn check_name(kind: &str, value: &str, arg: &str) -> PyResult<String> {
         .map_err(to_py)
 }
 
-/// Whether every value of a float32 array is finite (the fast check before NaN/Inf policies).
-#[pyfunction]
-fn _all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f32>) -> PyResult<bool> {
-    let data = contiguous(&a, "a")?;
-    Ok(py.detach(|| spheremap::images::codec::all_finite(data)))
-}
-
-/// Resamples a canvas (H, W, C) float32 of `src` into `dst` of size N -> (H', W', C) float32.
-/// Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
 /// Converts `image` as `job` says: `job` is a `ConvertJob` (the core's conversion request) as a
-/// dict of its fields; `image` holds the source ((H, W, C), a cube map as its face stack
-/// (6F, F, C)).  Into `out` when given ((H', W', C), or (6, N, N, C) for a cube), which is
-/// returned; else a new array.
+/// dict of its fields; `image` the source in its mapping (a cube map as faces, their stack or
+/// one image in a layout), read by the job's source fields and NaN/Inf rule.  Into `out` when
+/// given ((H', W', C), or (6, N, N, C) for a cube), which is returned; else a new array (a
+/// cube's as its faces).  Runs on a worker thread; Ctrl-C (KeyboardInterrupt) cancels it.
 #[pyfunction]
 #[pyo3(signature = (image, job, out=None))]
 fn convert<'py>(
     py: Python<'py>,
-    image: PyReadonlyArrayDyn<'py, f32>,
+    image: &Bound<'py, PyAny>,
     job: &Bound<'py, PyAny>,
     out: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::jobs::convert::ConvertJob;
     use spheremap::resample::Progress;
     let job: ConvertJob = request_of(job)?;
-    let shape = image.shape().to_vec();
-    let img = spheremap::images::Image {
-        height: shape[0],
-        width: shape[1],
-        channels: shape[2],
-        data: contiguous(&image, "image")?.to_vec(),
-    };
-    let progress = Progress::default();
     let named = |e: spheremap::Error| to_py(python_names(e));
+    let r = job.resolve(None, "image").map_err(named)?;
+    let (cube, layout) = (r.src.name() == "cube", r.from_layout.map(|l| l.name()));
+    let img = args::env_arg_with(image, cube, layout, "image", job.nonfinite)?;
+    let progress = Progress::default();
     if let Some(out) = out {
+        let np = py.import("numpy")?;
+        if np
+            .call_method1("shares_memory", (&out, image))?
+            .is_truthy()?
+        {
+            return Err(PyValueError::new_err("out: overlaps image"));
+        }
         let arr = out.cast_into::<PyArrayDyn<f32>>().map_err(|e| {
             let got = e.into_inner().get_type().name().map(|n| n.to_string());
             PyValueError::new_err(format!(
@@ -586,7 +592,6 @@ fn convert<'py>(
         })?;
         // The caller's buffer: (H', W', C) float32, C-contiguous, writeable (for a cube also
         // (6, N, N, C)); the result is written into it and it is returned.
-        let r = job.resolve(None, "image").map_err(named)?;
         let n = job
             .size_for(
                 &r,
@@ -598,15 +603,14 @@ fn convert<'py>(
         let (dw, dh) = r.dst.canvas(n);
         let c = img.channels;
         let shape = arr.shape().to_vec();
-        let cube_shape = [6, dw, dw, c];
-        if shape != [dh, dw, c] && !(r.dst.name() == "cube" && shape == cube_shape) {
+        let (plain, faces) = ([dh, dw, c], [6, dw, dw, c]);
+        let cube = r.dst.name() == "cube";
+        if shape != plain && !(cube && shape == faces) {
+            let want: &[usize] = if cube { &faces } else { &plain };
             return Err(PyValueError::new_err(format!(
-                "out: expected shape {:?}, got {shape:?}",
-                if r.dst.name() == "cube" {
-                    cube_shape.to_vec()
-                } else {
-                    vec![dh, dw, c]
-                }
+                "out: expected shape {}, got {}",
+                args::shape_text(want),
+                args::shape_text(&shape)
             )));
         }
         {
@@ -628,10 +632,29 @@ fn convert<'py>(
         job.run_image(&img, Some(p), None).map_err(python_names)
     })?;
     emit_warnings(py)?;
-    let img = img.expect("no buffer given: a new image");
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([img.height, img.width, img.channels])?
-        .into_any())
+    image_out(
+        py,
+        img.expect("no buffer given: a new image"),
+        r.dst.name() == "cube",
+    )
+}
+
+/// An environment argument of a request that reads one through `source`, with its NaN/Inf
+/// rule; errors name `name`.
+fn source_arg(
+    ob: &Bound<'_, PyAny>,
+    source: &spheremap::jobs::source::Source,
+    nonfinite: spheremap::images::codec::NonFinite,
+    name: &str,
+) -> PyResult<spheremap::images::Image> {
+    let r = source.resolve(None, name, Some("latlong")).map_err(to_py)?;
+    args::env_arg_with(
+        ob,
+        r.mapping.name() == "cube",
+        r.layout.map(|l| l.name()),
+        name,
+        nonfinite,
+    )
 }
 
 /// Bakes a MatCap: `request` is a `MatcapRequest` (the core's bake request) as a dict of its
@@ -640,47 +663,43 @@ fn convert<'py>(
 #[pyo3(signature = (image, request))]
 fn bake_matcap<'py>(
     py: Python<'py>,
-    image: PyReadonlyArrayDyn<'py, f32>,
+    image: &Bound<'py, PyAny>,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use spheremap::jobs::bake_matcap::MatcapRequest;
     use spheremap::resample::Progress;
     let req: MatcapRequest = request_of(request)?;
-    let img = image_of(&image, "env")?;
+    let img = source_arg(image, &req.source, req.nonfinite, "env")?;
     let progress = Progress::default();
     let (out, _) = run_cancellable(py, &progress, "the bake", |p| req.run_image(&img, Some(p)))?;
-    Ok(PyArray1::from_vec(py, out.data)
-        .reshape([out.height, out.width, out.channels])?
-        .into_any())
+    image_out(py, out, false)
 }
 
 /// Arrays and their report dicts.
 type PyLevels<'py> = (Vec<Bound<'py, PyAny>>, Vec<Bound<'py, PyAny>>);
 
-/// The prefiltered levels of an environment array (level 0 first; a cube's as F x 6F face
-/// stacks) and their reports as dicts; `request` is a `PrefilterRequest` as a dict.
+/// The prefiltered levels of an environment array (level 0 first; a cube's as its (6, F, F, C)
+/// faces) and their reports as dicts; `request` is a `PrefilterRequest` as a dict.
 #[pyfunction]
 #[pyo3(signature = (image, request))]
 fn prefilter<'py>(
     py: Python<'py>,
-    image: PyReadonlyArrayDyn<'py, f32>,
+    image: &Bound<'py, PyAny>,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<PyLevels<'py>> {
     use spheremap::jobs::prefilter::PrefilterRequest;
     use spheremap::resample::Progress;
     let req: PrefilterRequest = request_of(request)?;
-    let img = image_of(&image, "env")?;
+    let img = source_arg(image, &req.source, req.nonfinite, "env")?;
+    let cube =
+        spheremap::Mapping::parse(&req.to, req.preset.as_deref()).is_ok_and(|m| m.name() == "cube");
     let progress = Progress::default();
     let made = run_cancellable(py, &progress, "the prefilter", |p| {
         req.run_image(&img, Some(p))
     })?;
     let (mut arrays, mut reports) = (Vec::new(), Vec::new());
     for (out, rep) in made {
-        arrays.push(
-            PyArray1::from_vec(py, out.data)
-                .reshape([out.height, out.width, out.channels])?
-                .into_any(),
-        );
+        arrays.push(image_out(py, out, cube)?);
         reports.push(
             pythonize::pythonize(py, &rep)
                 .map_err(|e| PyValueError::new_err(e.to_string()))?
@@ -690,20 +709,28 @@ fn prefilter<'py>(
     Ok((arrays, reports))
 }
 
+/// The pixel limit of a read: `max_pixels` when given, else the core's.
+fn read_limits(
+    max_pixels: Option<&Bound<'_, PyAny>>,
+) -> PyResult<spheremap::images::codec::Limits> {
+    let mut limits = spheremap::images::codec::Limits::default();
+    if let Some(m) = max_pixels {
+        limits.max_pixels = positive(m, "max_pixels")?;
+    }
+    Ok(limits)
+}
+
 /// Reads a KTX2 or DDS texture: (levels as (H, W, C) float32 arrays, level 0 first; whether it
-/// is a cube, whose levels are F x 6F face stacks).
+/// is a cube, whose levels are (6, F, F, C) faces).
 #[pyfunction]
-#[pyo3(signature = (path, max_pixels))]
+#[pyo3(signature = (path, max_pixels=None))]
 fn read_texture<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
-    max_pixels: Option<usize>,
+    max_pixels: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Vec<Bound<'py, PyAny>>, bool)> {
-    use spheremap::images::codec::{Limits, ReadOptions};
-    let mut limits = Limits::default();
-    if let Some(m) = max_pixels {
-        limits.max_pixels = m;
-    }
+    use spheremap::images::codec::ReadOptions;
+    let limits = read_limits(max_pixels)?;
     let tex = py
         .detach(|| {
             spheremap::images::codec::read_texture(
@@ -715,18 +742,16 @@ fn read_texture<'py>(
             )
         })
         .map_err(to_py)?;
-    let mut levels = Vec::new();
-    for l in tex.levels {
-        levels.push(
-            PyArray1::from_vec(py, l.data)
-                .reshape([l.height, l.width, l.channels])?
-                .into_any(),
-        );
-    }
+    let levels = tex
+        .levels
+        .into_iter()
+        .map(|l| image_out(py, l, tex.cube))
+        .collect::<PyResult<Vec<_>>>()?;
     Ok((levels, tex.cube))
 }
 
-/// Writes levels (level 0 first; a cube's as F x 6F face stacks) as a KTX2 or DDS texture;
+/// Writes levels (level 0 first, each (H, W[, C]); a cube's as faces, their stack or one image
+/// in a layout) as a KTX2 or DDS texture;
 /// with an `encode` other than "float", returns what encoding did to each level's light (a
 /// list of dicts), else None.
 #[pyfunction]
@@ -735,7 +760,7 @@ fn read_texture<'py>(
 fn write_texture<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
-    levels: Vec<PyReadonlyArrayDyn<'py, f32>>,
+    levels: Vec<Bound<'py, PyAny>>,
     cube: bool,
     half: bool,
     clamp_half: bool,
@@ -747,7 +772,12 @@ fn write_texture<'py>(
     let levels = levels
         .iter()
         .enumerate()
-        .map(|(i, a)| image_of(a, &format!("levels[{i}]")))
+        .map(|(i, a)| {
+            let name = format!("levels[{i}]");
+            let a = FArr::extract(a, &name)?;
+            spheremap::images::cube_layout::env_array(&a.shape(), a.to_f32(), cube, None, &name)
+                .map_err(to_py)
+        })
         .collect::<PyResult<Vec<_>>>()?;
     let tex = spheremap::images::container::Texture { cube, levels };
     let encode =
@@ -774,25 +804,18 @@ fn write_texture<'py>(
 #[pyo3(signature = (image, request))]
 fn irradiance_sh<'py>(
     py: Python<'py>,
-    image: PyReadonlyArrayDyn<'py, f32>,
+    image: &Bound<'py, PyAny>,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let req: spheremap::jobs::irradiance::IrradianceRequest = request_of(request)?;
-    let shape = image.shape().to_vec();
-    if shape.len() != 3 {
-        return Err(PyValueError::new_err(format!(
-            "env: expected (H, W, C), got shape {shape:?}"
-        )));
-    }
-    let data = contiguous(&image, "env")?;
+    let img = source_arg(image, &req.source, req.nonfinite, "env")?;
     let r = req.resolve(None, "env").map_err(to_py)?;
-    // The array's texels as they are (no copy: a 2048×1024 map is read in a few ms).
     let env = spheremap::resample::EnvMap::from_slice(
         r.env.mapping,
-        shape[1],
-        shape[0],
-        shape[2],
-        data,
+        img.width,
+        img.height,
+        img.channels,
+        &img.data,
         "env",
     )
     .map_err(to_py)?;
@@ -874,25 +897,9 @@ fn run_cancellable<T: Send>(
     }
 }
 
-/// Cube layout image (H, W, C) float32 -> face stack (6F, F, C), GL order.
-#[pyfunction]
-fn layout_to_stack<'py>(
-    py: Python<'py>,
-    image: PyReadonlyArrayDyn<'py, f32>,
-    layout: &str,
-) -> PyResult<Bound<'py, PyAny>> {
-    let l = spheremap::images::cube_layout::Layout::parse(layout).map_err(to_py)?;
-    let img = image_of(&image, "image")?;
-    let st = l
-        .to_stack(&img)
-        .map_err(|e| PyValueError::new_err(format!("image: {e}")))?;
-    Ok(PyArray1::from_vec(py, st.data)
-        .reshape([st.height, st.width, st.channels])?
-        .into_any())
-}
-
 /// An environment map array as the core reads it ([`spheremap::images::cube_layout::env_array`]):
-/// (H, W, C) float32, a cube map (`cube`) as its face stack, from faces, a stack or a layout.
+/// (H, W, C) float32; a cube map (`cube`), given as faces, a stack or one image in `layout` (or
+/// the layout its shape implies), as its (6, F, F, C) faces.
 #[pyfunction]
 #[pyo3(signature = (image, cube, layout, name))]
 fn env_array<'py>(
@@ -903,55 +910,47 @@ fn env_array<'py>(
     name: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let a = FArr::extract(image, name)?;
-    let shape = a.shape();
-    let data: Vec<f32> = match &a {
-        FArr::F32(x) => x.as_array().iter().copied().collect(),
-        FArr::F64(x) => x.as_array().iter().map(|&v| v as f32).collect(),
-    };
-    let img = spheremap::images::cube_layout::env_array(&shape, data, cube, layout, name)
+    let img = spheremap::images::cube_layout::env_array(&a.shape(), a.to_f32(), cube, layout, name)
         .map_err(to_py)?;
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([img.height, img.width, img.channels])?
-        .into_any())
+    image_out(py, img, cube)
 }
 
-/// Face stack (6F, F, C) float32 -> cube layout image.
+/// A cube map's faces (6, F, F[, C]), in GL order, as one image in `layout`.
 #[pyfunction]
 fn stack_to_layout<'py>(
     py: Python<'py>,
-    stack: PyReadonlyArrayDyn<'py, f32>,
+    faces: &Bound<'py, PyAny>,
     layout: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let l = spheremap::images::cube_layout::Layout::parse(layout).map_err(to_py)?;
-    let img = image_of(&stack, "faces")?;
-    let out = l.from_stack(&img).map_err(to_py)?;
-    Ok(PyArray1::from_vec(py, out.data)
-        .reshape([out.height, out.width, out.channels])?
-        .into_any())
+    let a = FArr::extract(faces, "faces")?;
+    let shape = a.shape();
+    if !matches!(shape.as_slice(), [6, f, g] | [6, f, g, _] if f == g) {
+        return Err(PyValueError::new_err(format!(
+            "faces: expected (6, F, F, C) with C in 1..4, got shape {}",
+            args::shape_text(&shape)
+        )));
+    }
+    let img = spheremap::images::cube_layout::env_array(&shape, a.to_f32(), true, None, "faces")
+        .map_err(to_py)?;
+    image_out(py, l.from_stack(&img).map_err(to_py)?, false)
 }
 
 /// Reads an image file -> (H, W, C) float32, linear, row 0 at the top.
 #[pyfunction]
-#[pyo3(signature = (path, linear, max_pixels))]
+#[pyo3(signature = (path, linear, max_pixels=None))]
 fn read_image<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
     linear: bool,
-    max_pixels: Option<usize>,
+    max_pixels: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::images::codec::{Limits, ReadOptions};
-    let mut limits = Limits::default();
-    if let Some(m) = max_pixels {
-        limits.max_pixels = m;
-    }
+    use spheremap::images::codec::ReadOptions;
+    let limits = read_limits(max_pixels)?;
     let img =
         py.detach(|| spheremap::images::codec::read_image(&path, &ReadOptions { linear, limits }));
     emit_warnings(py)?;
-    let img = img.map_err(to_py)?;
-    let (h, w, c) = (img.height, img.width, img.channels);
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([h, w, c])?
-        .into_any())
+    image_out(py, img.map_err(to_py)?, false)
 }
 
 /// Describes an image file: what `spheremap info --json` prints, as a dict.
@@ -973,25 +972,31 @@ fn info<'py>(
     Ok(pythonize::pythonize(py, &report)?)
 }
 
-/// Writes (H, W, C) float32 (C-contiguous, C in 1..=4) to `path`; the format follows the
-/// extension.
+/// Writes an (H, W[, C]) array (C in 1..=4) to `path`; the format follows the extension.
+/// Returns what the format lost: {"clipped", "clamped_half"}.
 #[pyfunction]
-#[pyo3(signature = (path, array, linear, png16, half, clamp_half, note, encode))]
+#[pyo3(signature = (path, array, linear, bits, half, clamp_half, note, encode))]
 #[allow(clippy::too_many_arguments)]
 fn write_image(
     py: Python<'_>,
     path: std::path::PathBuf,
-    array: PyReadonlyArrayDyn<'_, f32>,
+    array: &Bound<'_, PyAny>,
     linear: bool,
-    png16: bool,
+    bits: u32,
     half: bool,
     clamp_half: bool,
     note: Option<String>,
     encode: String,
-) -> PyResult<(u64, u64)> {
+) -> PyResult<std::collections::BTreeMap<&'static str, u64>> {
     use spheremap::images::codec::{Losses, WriteOptions};
     use spheremap::images::format::Format;
-    let img = image_of(&array, "array")?;
+    let img = image_arg(array, "array")?;
+    if bits != 8 && bits != 16 {
+        return Err(PyValueError::new_err(format!(
+            "bits: must be 8 or 16, got {bits}"
+        )));
+    }
+    let png16 = bits == 16;
     let encode =
         spheremap::images::compress::Encoding::parse_as(&encode, "encode").map_err(to_py)?;
     let opts = WriteOptions {
@@ -1007,28 +1012,10 @@ fn write_image(
         let l = Format::from_extension(&path)
             .map(|f| Losses::of(&img, f, &opts))
             .unwrap_or_default();
-        Ok((l.clipped, l.beyond_half))
+        Ok([("clipped", l.clipped), ("clamped_half", l.beyond_half)].into())
     });
     emit_warnings(py)?;
     done.map_err(to_py)
-}
-
-/// What to read the map at `path` as: (mapping, preset, layout) from the `mapping`/`preset`
-/// given, each one absent taken from the file's note ([`spheremap::images::envmap::mapping_for`]), else
-/// `default`; the layout is the note's when the mapping is its cube.
-#[pyfunction]
-#[pyo3(signature = (path, mapping, preset, default))]
-fn mapping_for(
-    path: &str,
-    mapping: Option<&str>,
-    preset: Option<&str>,
-    default: &str,
-) -> PyResult<(&'static str, &'static str, Option<&'static str>)> {
-    let (m, layout) =
-        spheremap::images::envmap::env_mapping_of(path, mapping, preset, None, default)
-            .map_err(to_py)?;
-    let layout = layout.map(|l| l.name());
-    Ok((m.name(), m.preset_name(), layout))
 }
 
 /// The note ([`spheremap::images::note`]) that records a map's mapping, preset, cube layout and
@@ -1098,7 +1085,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(limits, m)?)?;
     m.add_function(wrap_pyfunction!(check_name, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_texgen, m)?)?;
-    m.add_function(wrap_pyfunction!(_all_finite, m)?)?;
     m.add_function(wrap_pyfunction!(dir_to_sphere, m)?)?;
     m.add_function(wrap_pyfunction!(sphere_to_dir, m)?)?;
     m.add_function(wrap_pyfunction!(reflect, m)?)?;
@@ -1113,7 +1099,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(info, m)?)?;
     m.add_function(wrap_pyfunction!(map_note, m)?)?;
-    m.add_function(wrap_pyfunction!(mapping_for, m)?)?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(bake_matcap, m)?)?;
     m.add_function(wrap_pyfunction!(irradiance_sh, m)?)?;
@@ -1121,7 +1106,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(prefilter, m)?)?;
     m.add_function(wrap_pyfunction!(read_texture, m)?)?;
     m.add_function(wrap_pyfunction!(write_texture, m)?)?;
-    m.add_function(wrap_pyfunction!(layout_to_stack, m)?)?;
     m.add_function(wrap_pyfunction!(env_array, m)?)?;
     m.add_function(wrap_pyfunction!(stack_to_layout, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;

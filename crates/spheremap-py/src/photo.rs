@@ -2,23 +2,15 @@
 //! (`spheremap::trace::camera`).  No maths and no checks here: photos (paths or arrays) and a
 //! request's fields in, the core's run, arrays and a report dictionary out.
 
+use super::args::{image_arg, image_out};
 use super::generate::Scene;
-use super::{image_of, run_cancellable, to_py};
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn};
-use pyo3::exceptions::PyValueError;
+use super::{run_cancellable, to_py};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use spheremap::images::codec::NonFinite;
-use spheremap::images::Image;
 use spheremap::jobs::photo::{self, BallRequest, FisheyeRequest, Photo, PhotoOutput};
 use spheremap::resample::Progress;
 use spheremap::trace::camera;
-
-fn array<'py>(py: Python<'py>, img: Image) -> PyResult<Bound<'py, PyAny>> {
-    Ok(PyArray1::from_vec(py, img.data)
-        .reshape([img.height, img.width, img.channels])?
-        .into_any())
-}
 
 /// A photo argument: a path (read by the request's rules, its bytes kept for EXIF) or float32
 /// texels (H, W, C).
@@ -31,19 +23,21 @@ fn photo_arg(
     if let Ok(path) = x.extract::<std::path::PathBuf>() {
         return Photo::read(&path.to_string_lossy(), linear, nonfinite).map_err(to_py);
     }
-    let a: PyReadonlyArrayDyn<'_, f32> = x.extract().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{name}: expected a path or a float32 (H, W, C) array"
-        ))
-    })?;
-    Photo::texels(image_of(&a, name)?, name, nonfinite).map_err(to_py)
+    Photo::texels(image_arg(x, name)?, name, nonfinite).map_err(to_py)
 }
 
 type PhotoResult<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyDict>);
 
 /// The map, its mask and the report as a dict (the CLI's `--json` keys, and for a mirror ball
 /// `fov`: each photo's (field of view, where it came from), None when orthographic).
-fn finish<'py>(py: Python<'py>, out: PhotoOutput, fov: bool) -> PyResult<PhotoResult<'py>> {
+fn finish<'py>(
+    py: Python<'py>,
+    out: PhotoOutput,
+    fov: bool,
+    map: &spheremap::trace::generate::MapRequest,
+) -> PyResult<PhotoResult<'py>> {
+    let cube =
+        spheremap::Mapping::parse(&map.to, map.preset.as_deref()).is_ok_and(|m| m.name() == "cube");
     let d = pythonize::pythonize(py, &out.summary())?.cast_into::<PyDict>()?;
     if fov {
         let fovs: Vec<Option<(f64, &str)>> = out
@@ -53,7 +47,11 @@ fn finish<'py>(py: Python<'py>, out: PhotoOutput, fov: bool) -> PyResult<PhotoRe
             .collect();
         d.set_item("fov", fovs)?;
     }
-    Ok((array(py, out.map)?, array(py, out.mask)?, d))
+    Ok((
+        image_out(py, out.map, cube)?,
+        image_out(py, out.mask, cube)?,
+        d,
+    ))
 }
 
 /// Mirror-ball photo(s) -> (map, mask, report); `request`: a `BallRequest`'s fields.
@@ -73,7 +71,7 @@ pub fn from_mirror_ball<'py>(
     let progress = Progress::default();
     let (req, p1, p2) = (&req, &p1, p2.as_ref());
     let out = run_cancellable(py, &progress, "the unwarp", |p| req.run(p1, p2, Some(p)))?;
-    finish(py, out, true)
+    finish(py, out, true, &req.map)
 }
 
 /// A fisheye photo -> (map, mask, report); `request`: a `FisheyeRequest`'s fields.
@@ -89,20 +87,21 @@ pub fn from_fisheye<'py>(
     let progress = Progress::default();
     let (req, photo) = (&req, &photo);
     let out = run_cancellable(py, &progress, "the unwarp", |p| req.run(photo, Some(p)))?;
-    finish(py, out, false)
+    finish(py, out, false, &req.map)
 }
 
-/// The ball's outline in a photo: (cx, cy, r, rms, points, confidence, reflectance,
-/// uncertainty); with a horizontal field of view, by the perspective rim model.
+/// The ball's outline in a photo, as a dict: "circle" (cx, cy, r), "fit_rms" (also
+/// "fit_rms_px" for the edge fit, None for the rim model), "fit_points", "confidence",
+/// "reflectance", "uncertainty_px"; with a horizontal field of view, by the perspective rim
+/// model.
 #[pyfunction]
 #[pyo3(signature = (image, fov, linear))]
-#[allow(clippy::type_complexity)]
-pub fn find_ball(
-    py: Python<'_>,
-    image: &Bound<'_, PyAny>,
+pub fn find_ball<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
     fov: Option<f64>,
     linear: bool,
-) -> PyResult<(f64, f64, f64, f64, usize, f64, Option<f64>, Option<f64>)> {
+) -> PyResult<Bound<'py, PyDict>> {
     let img = photo_arg(image, "image", linear, NonFinite::Error)?.image;
     let fit = py
         .detach(|| match fov {
@@ -110,16 +109,16 @@ pub fn find_ball(
             None => photo::find_circle(&img, None),
         })
         .map_err(to_py)?;
-    Ok((
-        fit.circle.cx,
-        fit.circle.cy,
-        fit.circle.r,
-        fit.rms,
-        fit.points.len(),
-        fit.confidence,
-        fit.reflectance,
-        fit.uncertainty,
-    ))
+    let d = PyDict::new(py);
+    let c = &fit.circle;
+    d.set_item("circle", (c.cx, c.cy, c.r))?;
+    d.set_item("fit_rms", fit.rms)?;
+    d.set_item("fit_rms_px", fov.is_none().then_some(fit.rms))?;
+    d.set_item("fit_points", fit.points.len())?;
+    d.set_item("confidence", fit.confidence)?;
+    d.set_item("reflectance", fit.reflectance)?;
+    d.set_item("uncertainty_px", fit.uncertainty)?;
+    Ok(d)
 }
 
 /// What a camera sees of a scene: (H, W, 3) float32.
@@ -137,5 +136,5 @@ pub fn render_camera<'py>(
     let img = run_cancellable(py, &progress, "the render", |p| {
         camera::render(cam, source, req.samples, req.seed, false, Some(p))
     })?;
-    array(py, img)
+    image_out(py, img, false)
 }

@@ -12,8 +12,8 @@
 //! * **Mapping**: `src` (with `src_preset`), else what the file's note records, else the job's
 //!   default (a conversion has none: a file without a note must name it).  A `src` that differs
 //!   from the note is read as given, with a notice.
-//! * **Cube layout**: `src_layout`, else the note's when the note is of the mapping read, else
-//!   from the image's shape.
+//! * **Cube layout**: `src_layout` (only for a cube map), else the note's when the note is of
+//!   the mapping read, else from the image's shape.
 //! * **View**: `src_look`/`src_up`, else the view the note records when the note is what the
 //!   input is read as; none: the world's.
 
@@ -126,6 +126,12 @@ impl Source {
         });
         let layout = layout_for(self.src_layout.as_deref(), note, mapping)
             .map_err(|e| e.named("src_layout"))?;
+        if self.src_layout.is_some() && mapping.name() != "cube" {
+            return Err(Error::param(
+                "src_layout",
+                format!("only for src='cube', not {:?}", mapping.name()),
+            ));
+        }
         let noted_view = note.filter(same_as_note).and_then(|t| t.view);
         if self.src_look.is_none() && self.src_up.is_some() {
             return Err(Error::param(
@@ -234,6 +240,22 @@ mod tests {
         let mut fields = fields.to_vec();
         fields.sort();
         assert_eq!(written, fields);
+    }
+
+    #[test]
+    fn a_cube_layout_is_taken_for_a_cube_map_only() {
+        let src = |mapping: &str| Source {
+            src: Some(mapping.into()),
+            src_layout: Some("hcross".into()),
+            ..Default::default()
+        };
+        let r = src("cube").resolve(None, "in", None).unwrap();
+        assert_eq!(r.layout, Some(Layout::HCross));
+        let e = src("latlong").resolve(None, "in", None).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            r#"src_layout: only for src='cube', not "latlong""#
+        );
     }
 
     #[test]
