@@ -442,9 +442,7 @@ def test_the_example_recipe_is_valid():
     """examples/library.toml (the documented recipe) passes the recipe checks; the docs' bench
     recipe too."""
     for path in ("examples/library.toml", "bench/batch.toml"):
-        with open(path) as f:
-            digest = sm._spheremap._batch_recipe(f.read(), False, path)
-        assert len(digest) == 64
+        assert sm._spheremap._batch_recipe(path)["output"], path
 
 
 def test_photos_unwarped_in_batch_match_from_photo_alone(tmp_path):

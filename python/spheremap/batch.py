@@ -56,70 +56,7 @@ class Manifest:
         return f"<spheremap.batch.Manifest {self.path}: {len(self.done)} done, {len(self.failed)} failed>"
 
 
-def _recipe_arg(recipe: Any) -> tuple[str, bool, str]:
-    """(text, is_json, source) of a recipe given as a path or as a mapping."""
-    if isinstance(recipe, Mapping):
-        return json.dumps(recipe), True, "recipe"
-    if isinstance(recipe, (str, os.PathLike)):
-        path = os.fspath(recipe)
-        try:
-            with open(path, "rb") as f:
-                raw = f.read()
-        except FileNotFoundError:
-            raise FileNotFoundError(f"recipe: {path}: no such file") from None
-        try:
-            return raw.decode("utf-8"), False, path
-        except UnicodeDecodeError:
-            raise ValueError(f"recipe: {path}: the recipe is not UTF-8 text") from None
-    raise TypeError(f"recipe: expected a path or a dict, got {type(recipe).__name__}")
-
-
-def _inputs_arg(inputs: Any) -> list[str]:
-    if isinstance(inputs, (str, os.PathLike)):
-        return [os.fspath(inputs)]
-    if isinstance(inputs, Iterable):
-        out = []
-        for i in inputs:
-            if not isinstance(i, (str, os.PathLike)):
-                raise TypeError(f"inputs: expected paths, got {type(i).__name__}")
-            out.append(os.fspath(i))
-        return out
-    raise TypeError(f"inputs: expected a path or a list of paths, got {type(inputs).__name__}")
-
-
-class _Progress:
-    """A one-line progress report on stderr: inputs done / failed, throughput, ETA."""
-
-    def __init__(self, total: int, skipped: int, show: bool) -> None:
-        self.total, self.done, self.failed, self.show = total, skipped, 0, show
-        self.start = time.perf_counter()
-        self.new = 0
-
-    def record(self, rec: dict[str, Any]) -> None:
-        self.done += 1
-        self.new += 1
-        if rec.get("error"):
-            self.failed += 1
-            if self.show:
-                sys.stderr.write("\r\033[K")
-            print(f"spheremap: {rec['error']}", file=sys.stderr)
-        if self.show:
-            dt = time.perf_counter() - self.start
-            rate = self.new / dt if dt > 0 else 0.0
-            eta = (self.total - self.done) / rate if rate > 0 else float("nan")
-            sys.stderr.write(
-                f"\r\033[K{self.done}/{self.total} inputs ({self.failed} failed), {rate:.2f} files/s, "
-                f"{eta:.0f} s left"
-            )
-            sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.show:
-            sys.stderr.write("\r\033[K")
-            sys.stderr.flush()
-
-
-def _dask_task(task: dict[str, Any], text: str, is_json: bool, source: str, out_dir: str) -> dict[str, Any]:
+def _dask_task(task: dict[str, Any], recipe: dict[str, Any], out_dir: str) -> dict[str, Any]:
     """One input on a Dask worker (spheremap installed there; the output folder shared)."""
     try:
         from distributed import get_worker
@@ -127,7 +64,7 @@ def _dask_task(task: dict[str, Any], text: str, is_json: bool, source: str, out_
         worker = get_worker().address
     except (ImportError, ValueError):
         worker = "dask"
-    return _ext._batch_run_task(task, text, is_json, source, out_dir, worker)
+    return _ext._batch_run_task(task=task, recipe=recipe, out_dir=out_dir, worker=worker)
 
 
 def run(
@@ -152,23 +89,18 @@ def run(
     A bad input fails alone: its error is in its record (``Manifest.failed``). The recipe and
     the inputs are checked before any work (ValueError, FileNotFoundError naming them).
     """
-    names = _inputs_arg(inputs)
-    text, is_json, source = _recipe_arg(recipe)
-    if not isinstance(out_dir, (str, os.PathLike)):
-        raise TypeError(f"out_dir: expected a path, got {type(out_dir).__name__}")
-    out = os.fspath(out_dir)
-    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"workers: expected a positive integer, got {workers!r}")
     if client is not None and workers is not None:
         raise ValueError("workers: give workers or client, not both (a Dask cluster has its own)")
-    plan = _ext._batch_plan(names, text, is_json, source, out, bool(force))
+    recipe = _ext._batch_recipe(recipe=recipe)  # checked, and as a dict the workers take
+    plan = _ext._batch_plan(inputs=inputs, recipe=recipe, out_dir=out_dir, force=bool(force))
+    out = os.fspath(out_dir)
     if client is None:
-        got = _ext._batch_run_local(plan, text, is_json, source, workers or 0)
+        got = _ext._batch_run_local(plan=plan, recipe=recipe, workers=workers)
         if got["summary"]["cancelled"]:
             # Ctrl-C: the inputs in progress finished and were recorded; a rerun resumes.
             raise KeyboardInterrupt
         return Manifest(out, _records_of(out, plan), got["summary"])
-    return _run_dask(plan, text, is_json, source, out, client, progress)
+    return _run_dask(plan, recipe, out, client, progress)
 
 
 def _records_of(out: str, plan: dict[str, Any]) -> list[dict[str, Any]]:
@@ -177,7 +109,7 @@ def _records_of(out: str, plan: dict[str, Any]) -> list[dict[str, Any]]:
     return [by_input[t["input"]] for t in plan["tasks"] if t["input"] in by_input]
 
 
-def _run_dask(plan, text, is_json, source, out, client, progress) -> Manifest:
+def _run_dask(plan, recipe, out, client, progress) -> Manifest:
     from distributed import as_completed
 
     t0 = time.perf_counter()
@@ -186,20 +118,11 @@ def _run_dask(plan, text, is_json, source, out, client, progress) -> Manifest:
     todo = [t for t, skip in zip(plan["tasks"], plan["skip"]) if not skip]
     run_id = uuid.uuid4().hex[:8]
     futures = {
-        client.submit(
-            _dask_task,
-            t,
-            text,
-            is_json,
-            source,
-            out_abs,
-            key=f"spheremap-batch-{run_id}-{t['index']}",
-            pure=False,
-            retries=2,
-        ): t
+        client.submit(_dask_task, t, recipe, out_abs, key=f"spheremap-batch-{run_id}-{t['index']}", pure=False,
+                      retries=2): t
         for t in todo
     }
-    bar = _Progress(len(plan["tasks"]), len(plan["tasks"]) - len(todo), progress)
+    bar = _ext.BatchProgress(len(plan["tasks"]), len(plan["tasks"]) - len(todo), bool(progress))
     results: dict[int, dict[str, Any] | None] = {t["index"]: None for t in todo}
     try:
         for fut in as_completed(list(futures)):
@@ -275,17 +198,11 @@ def _main(argv: list[str]) -> int:
         client.close()
         if cluster is not None:
             cluster.close()
-    s = m.summary
+    line, failed = _ext._batch_report(summary=m.summary, out_dir=spec["out"])
     if spec["json"]:
-        print(json.dumps(s))
+        print(json.dumps(m.summary))
     elif not spec["quiet"]:
-        print(
-            f"{s['inputs']} inputs: {s['done']} done, {s['skipped']} skipped, {s['failed']} failed in "
-            f"{s['seconds']:.1f} s ({s['files_per_second']:.2f} files/s) on {s['workers']} Dask workers; "
-            f"manifest {s['manifest']}",
-            file=sys.stderr,
-        )
-    if s["failed"]:
-        print(f"spheremap: {s['failed']} input(s) failed (see {s['manifest']})", file=sys.stderr)
-        return 1
-    return 0
+        print(line, file=sys.stderr)
+    if failed:
+        print(f"spheremap: {failed}", file=sys.stderr)
+    return 1 if failed else 0

@@ -19,14 +19,6 @@ from ._args import _fields, _source_aliases
 DEFAULT_MAX_UPLOAD: int = _ext.VIEW_MAX_UPLOAD
 
 
-def _path(v, name: str) -> str | None:
-    if v is None:
-        return None
-    if not isinstance(v, (str, os.PathLike)):
-        raise TypeError(f"{name}: expected a path or None, got {type(v).__name__}")
-    return os.fspath(v)
-
-
 class Viewer:
     """A running viewer. ``url`` is its page; ``close()`` (or leaving a ``with`` block) stops it.
     In Jupyter the object shows the page inline."""
@@ -165,22 +157,8 @@ def view(
     """
     # The environment's fields of the core's EnvRequest, which checks them.
     request = _fields(dict(src=src, src_preset=src_preset, src_layout=src_layout, src_look=src_look, src_up=src_up))
-    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-        raise ValueError(f"port: expected an integer from 0 to 65535, got {port!r}")
-    if isinstance(max_upload, bool) or not isinstance(max_upload, int) or max_upload < 1:
-        raise ValueError(f"max_upload: expected a positive number of bytes, got {max_upload!r}")
-    if not isinstance(host, str) or not host:
-        raise ValueError(f"host: expected an address, got {host!r}")
-    server = _ext.ViewServer(
-        mesh=_path(mesh, "mesh"),
-        env=_path(env, "env"),
-        matcap=_path(matcap, "matcap"),
-        request=request,
-        host=host,
-        port=port,
-        max_upload=max_upload,
-    )
-    v = Viewer(server)
+    v = Viewer(_ext.ViewServer(mesh=mesh, env=env, matcap=matcap, request=request, host=host, port=port,
+                               max_upload=max_upload))
     if open_browser:
         v.open()
     return v

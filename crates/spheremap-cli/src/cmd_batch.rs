@@ -52,38 +52,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let plan = batch::plan(&a.inputs, &recipe, out, a.force)?;
     let total = plan.tasks.len() as u64;
     let skipped = plan.skip.iter().filter(|s| **s).count() as u64;
-    let bar = (!a.quiet).then(|| {
-        use indicatif::{ProgressBar, ProgressStyle};
-        let b = ProgressBar::new(total);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{bar:30}] {pos}/{len} inputs ({msg}), {per_sec}, {eta} left",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        b.set_position(skipped);
-        b.set_message(format!("{skipped} skipped, 0 failed"));
-        b.enable_steady_tick(Duration::from_millis(200));
-        b
-    });
-    let failed = AtomicUsize::new(0);
-    let on_record = |r: &Record| {
-        if let Some(e) = &r.error {
-            failed.fetch_add(1, Ordering::Relaxed);
-            // (suspend, not println: a hidden bar, stderr not a terminal, prints nothing)
-            match &bar {
-                Some(b) => b.suspend(|| eprintln!("spheremap: {e}")),
-                None => eprintln!("spheremap: {e}"),
-            }
-        }
-        if let Some(b) = &bar {
-            b.inc(1);
-            b.set_message(format!(
-                "{skipped} skipped, {} failed",
-                failed.load(Ordering::Relaxed)
-            ));
-        }
-    };
+    let bar = Progress::new(total, skipped, !a.quiet);
+    let on_record = |r: &Record| bar.record(r);
     let cancel = AtomicBool::new(false);
     let summary = std::thread::scope(|s| {
         let work = s.spawn(|| {
@@ -92,19 +62,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         while !work.is_finished() {
             std::thread::sleep(Duration::from_millis(20));
             if INTERRUPTED.load(Ordering::Relaxed) && !cancel.swap(true, Ordering::Relaxed) {
-                let say = || eprintln!("spheremap: interrupted: finishing the inputs in progress");
-                match &bar {
-                    Some(b) => b.suspend(say),
-                    None => say(),
-                }
+                bar.say("spheremap: interrupted: finishing the inputs in progress");
             }
         }
         work.join()
             .unwrap_or_else(|_| Err(spheremap::Error::param("batch", "a worker panicked")))
     })?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     report(
         &a,
         &serde_json::to_value(&summary)?,
@@ -124,35 +88,112 @@ fn report(
     if a.json {
         crate::out(&format!("{summary}\n"));
     } else if !a.quiet {
-        let g = |k: &str| summary[k].as_u64().unwrap_or(0);
-        eprintln!(
-            "{} inputs: {} done, {} skipped, {} failed{} in {:.1} s ({:.2} files/s); manifest {}",
-            g("inputs"),
-            g("done"),
-            g("skipped"),
-            g("failed"),
-            if cancelled > 0 {
-                format!(", {cancelled} not started (interrupted)")
-            } else {
-                String::new()
-            },
-            summary["seconds"].as_f64().unwrap_or(0.0),
-            summary["files_per_second"].as_f64().unwrap_or(0.0),
-            summary["manifest"].as_str().unwrap_or(""),
-        );
+        eprintln!("{}", summary_line(summary));
     }
     if cancelled > 0 {
         std::process::exit(130);
     }
     if failed > 0 {
-        return Err(crate::FoundProblem(format!(
-            "{failed} input{} failed (see {})",
-            if failed == 1 { "" } else { "s" },
-            Manifest::path(Path::new(&a.out)).display()
-        ))
-        .into());
+        return Err(crate::FoundProblem(failed_line(failed, Path::new(&a.out))).into());
     }
     Ok(())
+}
+
+/// The closing line of a run: its summary (the JSON summary's fields).
+pub fn summary_line(summary: &serde_json::Value) -> String {
+    let g = |k: &str| summary[k].as_u64().unwrap_or(0);
+    let cancelled = g("cancelled");
+    format!(
+        "{} inputs: {} done, {} skipped, {} failed{} in {:.1} s ({:.2} files/s) on {} workers; \
+         manifest {}",
+        g("inputs"),
+        g("done"),
+        g("skipped"),
+        g("failed"),
+        if cancelled > 0 {
+            format!(", {cancelled} not started (interrupted)")
+        } else {
+            String::new()
+        },
+        summary["seconds"].as_f64().unwrap_or(0.0),
+        summary["files_per_second"].as_f64().unwrap_or(0.0),
+        g("workers"),
+        summary["manifest"].as_str().unwrap_or(""),
+    )
+}
+
+/// The error a run ends with when `failed` inputs failed.
+pub fn failed_line(failed: usize, out_dir: &Path) -> String {
+    format!(
+        "{failed} input{} failed (see {})",
+        if failed == 1 { "" } else { "s" },
+        Manifest::path(out_dir).display()
+    )
+}
+
+/// A batch run's progress line on stderr (inputs done, skipped and failed, files per second,
+/// time left), each failed input's error printed above it; nothing when not shown.
+pub struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    skipped: u64,
+    failed: AtomicUsize,
+}
+
+impl Progress {
+    /// For `total` inputs of which `skipped` are done already.
+    pub fn new(total: u64, skipped: u64, show: bool) -> Progress {
+        let bar = show.then(|| {
+            use indicatif::{ProgressBar, ProgressStyle};
+            let b = ProgressBar::new(total);
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} [{bar:30}] {pos}/{len} inputs ({msg}), {per_sec}, {eta} left",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            b.set_position(skipped);
+            b.set_message(format!("{skipped} skipped, 0 failed"));
+            b.enable_steady_tick(Duration::from_millis(200));
+            b
+        });
+        Progress {
+            bar,
+            skipped,
+            failed: AtomicUsize::new(0),
+        }
+    }
+
+    /// One input finished (its error, if any, is printed).
+    pub fn record(&self, r: &Record) {
+        if let Some(e) = &r.error {
+            self.failed.fetch_add(1, Ordering::Relaxed);
+            self.say(&format!("spheremap: {e}"));
+        }
+        if let Some(b) = &self.bar {
+            b.inc(1);
+            b.set_message(format!(
+                "{} skipped, {} failed",
+                self.skipped,
+                self.failed.load(Ordering::Relaxed)
+            ));
+        }
+    }
+
+    /// A line on stderr above the bar.
+    pub fn say(&self, line: &str) {
+        // (suspend, not println: a hidden bar, stderr not a terminal, prints nothing)
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{line}")),
+            None => eprintln!("{line}"),
+        }
+    }
+
+    /// Clears the bar.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
 }
 
 /// `--dask`: the Python package runs the batch (`python -m spheremap._dask_cli --spec JSON`), with

@@ -8,7 +8,7 @@
 
 mod camera_args;
 mod cmd_analyze;
-mod cmd_batch;
+pub mod cmd_batch;
 mod cmd_conventions;
 mod cmd_convert;
 mod cmd_demo;

@@ -234,3 +234,22 @@ pub(crate) fn vec3(ob: &Bound<'_, PyAny>, name: &str) -> PyResult<[f32; 3]> {
     }
     Ok([v[0] as f32, v[1] as f32, v[2] as f32])
 }
+
+/// An optional path argument (a str or an os.PathLike; None).
+pub(crate) fn path_arg(
+    ob: Option<&Bound<'_, PyAny>>,
+    name: &str,
+) -> PyResult<Option<std::path::PathBuf>> {
+    let Some(ob) = ob.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    ob.extract().map(Some).map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "{name}: expected a path or None, got {}",
+            ob.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ))
+    })
+}

@@ -1079,6 +1079,8 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::_batch_run_local, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_summary, m)?)?;
     m.add_function(wrap_pyfunction!(batch::_batch_read_manifest, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::_batch_report, m)?)?;
+    m.add_class::<batch::BatchProgress>()?;
     m.add_function(wrap_pyfunction!(names, m)?)?;
     m.add_function(wrap_pyfunction!(source_aliases, m)?)?;
     m.add_function(wrap_pyfunction!(defaults, m)?)?;

@@ -2,9 +2,9 @@
 //! object (translation only).
 
 use crate::to_py;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use spheremap::jobs::source::EnvRequest;
-use std::path::Path;
 
 /// A running viewer: its address, and `close()` to stop it.
 #[pyclass(module = "spheremap._spheremap")]
@@ -15,28 +15,45 @@ pub struct ViewServer {
 
 #[pymethods]
 impl ViewServer {
-    /// Loads the data and starts serving. `request` is an `EnvRequest` as a dict.
+    /// Loads the data and starts serving. `request` is an `EnvRequest` as a dict; `port` 0 to
+    /// 65535 (0: a free one), `max_upload` a positive number of bytes.
     #[new]
     #[pyo3(signature = (mesh, env, matcap, request, host, port, max_upload))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
-        mesh: Option<String>,
-        env: Option<String>,
-        matcap: Option<String>,
+        mesh: Option<&Bound<'_, PyAny>>,
+        env: Option<&Bound<'_, PyAny>>,
+        matcap: Option<&Bound<'_, PyAny>>,
         request: &Bound<'_, PyAny>,
         host: String,
-        port: u16,
-        max_upload: u64,
+        port: &Bound<'_, PyAny>,
+        max_upload: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         let req: EnvRequest = super::request_of(request)?;
+        let port = super::args::nonnegative(port, "port")
+            .ok()
+            .and_then(|p| u16::try_from(p).ok())
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "port: expected an integer from 0 to 65535, got {}",
+                    port.repr().map(|r| r.to_string()).unwrap_or_default()
+                ))
+            })?;
+        let max_upload = super::args::positive(max_upload, "max_upload")? as u64;
+        if host.is_empty() {
+            return Err(PyValueError::new_err("host: expected an address, got ''"));
+        }
+        use super::args::path_arg;
+        let (mesh, matcap) = (path_arg(mesh, "mesh")?, path_arg(matcap, "matcap")?);
+        let env = path_arg(env, "env")?.map(|e| e.to_string_lossy().into_owned());
         let server = py
             .detach(|| {
                 let data = spheremap::view::ViewData::load(
-                    mesh.as_deref().map(Path::new),
+                    mesh.as_deref(),
                     env.as_deref(),
                     &req,
-                    matcap.as_deref().map(Path::new),
+                    matcap.as_deref(),
                 )?;
                 spheremap_view::Server::start(
                     data,

@@ -158,6 +158,8 @@ pub struct Step {
 pub struct Recipe {
     /// The recipe file, as named in errors.
     pub source: String,
+    /// The recipe as written (`{"output": [{…}, …]}`): what Python hands to its Dask workers.
+    pub table: toml::Table,
     pub steps: Vec<Step>,
     /// Hex digest of the steps with every default filled in and spheremap's version: a rerun
     /// with another recipe (or another spheremap) redoes its inputs.
@@ -209,9 +211,9 @@ impl Recipe {
         Self::from_table(&table, source)
     }
 
-    /// The same recipe written as JSON (`{"output": [{…}, …]}`: Python passes a dict so).
-    pub fn parse_json(text: &str, source: &str) -> Result<Recipe> {
-        let table: toml::Table = serde_json::from_str(text)
+    /// The same recipe as JSON data (`{"output": [{…}, …]}`: Python passes a dict so).
+    pub fn from_json(value: &serde_json::Value, source: &str) -> Result<Recipe> {
+        let table = <toml::Table as serde::Deserialize>::deserialize(value)
             .map_err(|e| Error::data(source, format!("not a recipe: {e}")))?;
         Self::from_table(&table, source)
     }
@@ -267,6 +269,7 @@ impl Recipe {
         );
         Ok(Recipe {
             source: source.to_string(),
+            table: table.clone(),
             steps,
             hash,
         })
