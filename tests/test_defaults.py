@@ -17,6 +17,7 @@ CASES = [
     (sm.irradiance_sh, "irradiance", {}),
     (sm.dfg_lut, "dfg", {}),
     (sm.render, "render", {}),
+    (sm.analyze, "analyze", {}),
     (sm.generate, "generate", {"mapping": "to"}),
     (sm.from_mirror_ball, "from-photo", {}),
     (sm.from_fisheye, "from-fisheye", {}),

@@ -28,8 +28,7 @@ __all__ = [
     "_batch_run_task",
     "_batch_summary",
     "_cli_main",
-    "analyze_mapping",
-    "analyze_mesh",
+    "analyze",
     "bake_matcap",
     "check_name",
     "convert",
@@ -139,15 +138,7 @@ def _batch_summary(
     plan: dict[str, Any], results: list[dict[str, Any] | None], seconds: float, workers: int
 ) -> dict[str, Any]: ...
 def _batch_read_manifest(out_dir: str) -> list[dict[str, Any]]: ...
-def analyze_mapping(
-    mapping: str,
-    preset: str | None,
-    map: Any = None,
-    size: Any = None,
-) -> tuple[
-    tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]], dict[str, Any]
-]: ...
-def analyze_mesh(mesh: Any, request: dict[str, Any], threshold: float) -> dict[str, Any]: ...
+def analyze(map: Any, mesh: Any, request: dict[str, Any]) -> dict[str, Any]: ...
 def bake_matcap(image: Any, request: dict[str, Any]) -> Any: ...
 def check_name(kind: str, value: str, arg: str) -> str: ...
 def convert(image: Any, job: dict[str, Any], out: npt.NDArray[np.float32] | None = None) -> Any: ...

@@ -6,7 +6,6 @@ from typing import Any
 
 import os
 
-import numpy as np
 import numpy.typing as npt
 
 from . import _spheremap as _ext
@@ -44,36 +43,7 @@ def analyze(
     "uniform_split", "triangles_after_adaptive", "unfixable", "pixel_error_deg" ((H, W), NaN
     where no surface)}.
     """
-    (sa, an, res), summary = _ext.analyze_mapping(mapping=mapping, preset=preset, map=map, size=size)
-    h, w = sa.shape
-    out = {
-        "mapping": mapping,
-        "width": w,
-        "height": h,
-        "solid_angle": sa,
-        "anisotropy": an,
-        "resolution_deg": res,
-        "stats": {
-            "solid_angle": summary["solid_angle_sr"],
-            "anisotropy": summary["anisotropy"],
-            "resolution_deg": summary["resolution_deg"],
-        },
-        "summary": summary,
-    }
-    if mesh is not None:
-        cam = _camera(eye, target, up, fovy, near, far, view_size, "view_size")
-        m = _ext.analyze_mesh(mesh=mesh, request=_fields(cam), threshold=threshold)
-        err, in_view, heat, ms = m["triangle_error_deg"], m["in_view"], m["heat"], m["summary"]
-        out["mesh"] = {
-            "triangle_error_deg": err,
-            "in_view": in_view,
-            "split": m["split"],
-            "over": np.nonzero(in_view & (err > threshold))[0],
-            "uniform_split": ms["uniform_split"],
-            "triangles_after_adaptive": ms["triangles_after_adaptive"],
-            "unfixable": ms["unfixable"],
-            "max_split": ms["max_split"],
-            "pixel_error_deg": np.where(heat[..., 1] > 0, heat[..., 0], np.nan),
-        }
-        summary["mesh"] = ms
-    return out
+    # The core's analysis request (spheremap::jobs::analyze::AnalyzeRequest) checks every field.
+    cam = _camera(eye, target, up, fovy, near, far, view_size, "view_size")
+    request = _fields(dict(mapping=mapping, preset=preset, size=size, threshold=threshold, **cam))
+    return _ext.analyze(map=map, mesh=mesh, request=request)

@@ -2,7 +2,7 @@
 //! `gluPerspective` arguments, each defaulting to a framing of the mesh.
 
 use crate::job::vec3;
-use spheremap::jobs::render::RenderRequest;
+use spheremap::jobs::render::CameraRequest;
 
 #[derive(clap::Args, Debug)]
 pub struct CameraArgs {
@@ -19,7 +19,7 @@ pub struct CameraArgs {
     #[arg(long, conflicts_with_all = ["eye", "target", "up"])]
     camera: Option<String>,
     /// Vertical field of view in degrees, as gluPerspective.
-    #[arg(long, default_value_t = RenderRequest::default().fovy)]
+    #[arg(long, default_value_t = CameraRequest::default().fovy)]
     fovy: f64,
     /// Near plane distance (default: from the bounding sphere).
     #[arg(long)]
@@ -30,9 +30,9 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
-    /// The camera part of the core's render request, for an image of `size`.
-    pub fn request(&self, size: (usize, usize)) -> RenderRequest {
-        RenderRequest {
+    /// The core's camera request, for an image of `size`.
+    pub fn request(&self, size: (usize, usize)) -> CameraRequest {
+        CameraRequest {
             eye: vec3(&self.eye),
             target: vec3(&self.target),
             up: vec3(&self.up),
@@ -42,7 +42,6 @@ impl CameraArgs {
             far: self.far,
             width: size.0,
             height: size.1,
-            ..Default::default()
         }
     }
 }

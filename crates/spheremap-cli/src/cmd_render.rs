@@ -35,7 +35,7 @@ pub struct Args {
     #[command(flatten)]
     camera: CameraArgs,
     /// Image size in pixels.
-    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [RenderRequest::default().width, RenderRequest::default().height])]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [RenderRequest::default().view.width, RenderRequest::default().view.height])]
     size: Vec<usize>,
     /// Colour where no triangle is (linear RGB).
     #[arg(long, num_args = 3, value_names = ["R", "G", "B"], default_values_t = [0.0, 0.0, 0.0])]
@@ -86,7 +86,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         aa: a.aa,
         subpixel_bits: a.subpixel_bits,
         wrap: a.wrap,
-        ..a.camera.request((a.size[0], a.size[1]))
+        view: a.camera.request((a.size[0], a.size[1])),
     };
     let mode = request.mode();
     let wrap = request.wrap;

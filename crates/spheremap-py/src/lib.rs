@@ -1120,7 +1120,6 @@ fn _spheremap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(photo::render_camera, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::load_mesh, m)?)?;
-    m.add_function(wrap_pyfunction!(render::analyze_mapping, m)?)?;
-    m.add_function(wrap_pyfunction!(render::analyze_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(render::analyze, m)?)?;
     Ok(())
 }

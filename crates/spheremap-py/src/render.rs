@@ -1,7 +1,7 @@
 //! PyO3 glue for the rasterizer (`spheremap::jobs::render`) and the mesh loader. No maths here.
 
 use super::args::{env_arg, image_out, rows_f32};
-use super::{parse_mapping, to_py};
+use super::to_py;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -182,22 +182,26 @@ fn render_request(request: &Bound<'_, PyAny>) -> PyResult<RenderRequest> {
     super::request_of(request)
 }
 
-/// A mapping's texel maps -> (solid angle, anisotropy, resolution in degrees), each (H, W) f64,
-/// on the canvas of `map` (a path or an array: (H, W[, C]), a cube's (6, F, F, C) faces), or
-/// on the mapping's canvas of `size` N (the core's bounds), and their summary (the core's
-/// `AnalyzeSummary`, as `spheremap analyze --json` prints it).
+/// Sampling analytics (`spheremap analyze`): `request` is an `AnalyzeRequest`'s fields; `map`
+/// (a path or an array: (H, W[, C]), a cube's (6, F, F, C) faces) gives the canvas's size,
+/// else the request's `size` does; `mesh` a path or (positions, normals or None, triangles).
+/// -> a dict: "mapping", "width", "height", "solid_angle", "anisotropy", "resolution_deg"
+/// ((H, W) float64, NaN off the map), "stats", "summary" (the core's `AnalyzeSummary`) and with
+/// a mesh "mesh": "triangle_error_deg", "in_view", "split", "over", "uniform_split",
+/// "triangles_after_adaptive", "unfixable", "max_split", "pixel_error_deg" ((H, W), NaN where
+/// no surface).
 #[pyfunction]
-#[pyo3(signature = (mapping, preset, map=None, size=None))]
-pub fn analyze_mapping<'py>(
+#[pyo3(signature = (map, mesh, request))]
+pub fn analyze<'py>(
     py: Python<'py>,
-    mapping: &str,
-    preset: Option<&str>,
     map: Option<&Bound<'py, PyAny>>,
-    size: Option<&Bound<'py, PyAny>>,
-) -> PyResult<(MeshArrays<'py>, Bound<'py, PyAny>)> {
-    let m = parse_mapping(mapping, preset)?;
-    let (width, height) = match (map, size) {
-        (Some(map), _) => {
+    mesh: Option<&Bound<'py, PyAny>>,
+    request: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let req: spheremap::jobs::analyze::AnalyzeRequest = super::request_of(request)?;
+    let mapping = req.resolve().map_err(to_py)?;
+    let size = match map {
+        Some(map) => {
             let shape = match map.extract::<std::path::PathBuf>() {
                 Ok(path) => {
                     let opts = spheremap::images::codec::ReadOptions::default();
@@ -208,8 +212,8 @@ pub fn analyze_mapping<'py>(
                 }
                 Err(_) => super::args::FArr::extract(map, "map")?.shape(),
             };
-            match shape.as_slice() {
-                [6, f, _, _] if m.name() == "cube" => (*f, 6 * f),
+            Some(match shape.as_slice() {
+                [6, f, _, _] if mapping.name() == "cube" => (*f, 6 * f),
                 [h, w] | [h, w, _] => (*w, *h),
                 _ => {
                     return Err(PyValueError::new_err(format!(
@@ -217,70 +221,55 @@ pub fn analyze_mapping<'py>(
                         super::args::shape_text(&shape)
                     )))
                 }
-            }
+            })
         }
-        (None, Some(n)) => {
-            let n = super::args::positive(n, "size")?;
-            spheremap::jobs::analyze::canvas(m, "size", n).map_err(to_py)?
-        }
-        (None, None) => return Err(PyValueError::new_err("size: expected a size or a map")),
+        None => None,
     };
+    let mesh = mesh.map(|m| mesh_arg(py, m)).transpose()?;
     let a = py
-        .detach(|| spheremap::jobs::analyze::mapping_maps(m, width, height))
+        .detach(|| req.run(size.map(|s| (s, "map")), mesh.as_ref().map(|m| (m, None))))
         .map_err(to_py)?;
-    let summary = pythonize::pythonize(py, &a.summary(m))?;
-    let arr = |v: Vec<f64>| -> PyResult<Bound<'py, PyAny>> {
-        Ok(PyArray1::from_vec(py, v)
-            .reshape([height, width])?
-            .into_any())
+    let (w, h) = (a.maps.width, a.maps.height);
+    let arr = |v: Vec<f64>, shape: [usize; 2]| -> PyResult<Bound<'py, PyAny>> {
+        Ok(PyArray1::from_vec(py, v).reshape(shape)?.into_any())
     };
-    Ok((
-        (
-            arr(a.solid_angle)?,
-            arr(a.anisotropy)?,
-            arr(a.resolution_deg)?,
-        ),
-        summary,
-    ))
-}
-
-/// Per-triangle and per-pixel error of a mesh and camera (the core's `mesh_report`) -> a dict:
-/// "triangle_error_deg" (M,), "in_view" (M,) bool, "split" (M,) u32, "heat" (H, W, 2)
-/// (degrees, coverage) and "summary" (the core's `MeshSummary`).
-#[pyfunction]
-#[pyo3(signature = (mesh, request, threshold))]
-pub fn analyze_mesh<'py>(
-    py: Python<'py>,
-    mesh: &Bound<'py, PyAny>,
-    request: &Bound<'py, PyAny>,
-    threshold: f64,
-) -> PyResult<Bound<'py, PyDict>> {
-    if !threshold.is_finite() {
-        return Err(PyValueError::new_err(format!(
-            "threshold: expected a finite number, got {threshold}"
-        )));
-    }
-    let mesh = mesh_arg(py, mesh)?;
-    let cam = render_request(request)?
-        .camera(&mesh.positions)
-        .map_err(to_py)?;
-    let (e, heat) = py
-        .detach(|| spheremap::jobs::analyze::mesh_report(&mesh, &cam, threshold))
-        .map_err(to_py)?;
     let d = PyDict::new(py);
-    d.set_item(
-        "summary",
-        pythonize::pythonize(py, &e.summary(None, &heat))?,
+    let s = &a.summary;
+    d.set_item("mapping", s.mapping)?;
+    d.set_item("width", w)?;
+    d.set_item("height", h)?;
+    d.set_item("solid_angle", arr(a.maps.solid_angle, [h, w])?)?;
+    d.set_item("anisotropy", arr(a.maps.anisotropy, [h, w])?)?;
+    d.set_item("resolution_deg", arr(a.maps.resolution_deg, [h, w])?)?;
+    let stats = PyDict::new(py);
+    stats.set_item("solid_angle", pythonize::pythonize(py, &s.solid_angle_sr)?)?;
+    stats.set_item("anisotropy", pythonize::pythonize(py, &s.anisotropy)?)?;
+    stats.set_item(
+        "resolution_deg",
+        pythonize::pythonize(py, &s.resolution_deg)?,
     )?;
-    d.set_item(
-        "heat",
-        PyArray1::from_vec(py, heat.data).reshape([heat.height, heat.width, 2])?,
-    )?;
-    d.set_item(
-        "triangle_error_deg",
-        PyArray1::from_vec(py, e.triangle_error_deg),
-    )?;
-    d.set_item("in_view", PyArray1::from_vec(py, e.in_view))?;
-    d.set_item("split", PyArray1::from_vec(py, e.split))?;
+    d.set_item("stats", stats)?;
+    d.set_item("summary", pythonize::pythonize(py, s)?)?;
+    if let (Some((err, heat)), Some(ms)) = (a.mesh, &s.mesh) {
+        let m = PyDict::new(py);
+        let pixel: Vec<f64> = heat
+            .data
+            .chunks_exact(2)
+            .map(|p| if p[1] > 0.0 { p[0] as f64 } else { f64::NAN })
+            .collect();
+        m.set_item(
+            "triangle_error_deg",
+            PyArray1::from_vec(py, err.triangle_error_deg.clone()),
+        )?;
+        m.set_item("in_view", PyArray1::from_vec(py, err.in_view.clone()))?;
+        m.set_item("split", PyArray1::from_vec(py, err.split.clone()))?;
+        m.set_item("over", PyArray1::from_vec(py, err.over()))?;
+        m.set_item("uniform_split", ms.uniform_split)?;
+        m.set_item("triangles_after_adaptive", ms.triangles_after_adaptive)?;
+        m.set_item("unfixable", ms.unfixable)?;
+        m.set_item("max_split", ms.max_split)?;
+        m.set_item("pixel_error_deg", arr(pixel, [heat.height, heat.width])?)?;
+        d.set_item("mesh", m)?;
+    }
     Ok(d)
 }

@@ -459,6 +459,207 @@ pub fn mesh_error(mesh: &Mesh, cam: &GlCamera, threshold_deg: f64) -> Result<Mes
     })
 }
 
+/// `spheremap analyze` and Python's `analyze` as one request: the mapping whose canvas is
+/// analysed (of a map's size, else of `size`), and for a mesh the camera, its heat map's size
+/// and the error threshold.  `Default` gives every documented default.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AnalyzeRequest {
+    /// sphere, latlong, cube, angular, paraboloid or octahedral, and its preset.
+    pub mapping: String,
+    pub preset: Option<String>,
+    /// The canvas size N without a map (sphere N×N, latlong 2N×N, cube faces N×N, ...).
+    pub size: usize,
+    /// The mesh's camera and its heat map's `width` × `height`.
+    #[serde(flatten)]
+    pub view: crate::jobs::render::CameraRequest,
+    /// The error threshold in degrees of the triangle list and the tessellation advice.
+    pub threshold: f64,
+}
+
+impl Default for AnalyzeRequest {
+    fn default() -> Self {
+        AnalyzeRequest {
+            mapping: "sphere".into(),
+            preset: None,
+            size: 256,
+            view: Default::default(),
+            threshold: 1.0,
+        }
+    }
+}
+
+/// What an analysis found: the mapping's texel maps and, with a mesh, its error and the error
+/// render (degrees and coverage per pixel); `summary` is the report.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    pub maps: MappingMaps,
+    pub mesh: Option<(MeshError, Image)>,
+    pub summary: AnalyzeSummary,
+}
+
+impl AnalyzeRequest {
+    /// The mapping, checked with the other fields; errors name the field.
+    pub fn resolve(&self) -> Result<Mapping> {
+        if !(self.threshold.is_finite() && self.threshold >= 0.0) {
+            return Err(Error::param(
+                "threshold",
+                format!(
+                    "expected a non-negative number of degrees, got {}",
+                    self.threshold
+                ),
+            ));
+        }
+        Mapping::parse(&self.mapping, self.preset.as_deref())
+            .map_err(|e| crate::mappings::mapping::name_fields(e, "mapping", "preset"))
+    }
+
+    /// Analyses the mapping's canvas — that of a `width` × `height` map (`map`: its size and
+    /// its name in errors; checked against the mapping), else that of `size` — and a mesh (with
+    /// its file's name for the report) through the camera.
+    pub fn run(
+        &self,
+        map: Option<((usize, usize), &str)>,
+        mesh: Option<(&Mesh, Option<&str>)>,
+    ) -> Result<Analysis> {
+        let mapping = self.resolve()?;
+        let (w, h) = match map {
+            Some(((w, h), map)) => {
+                mapping.size_of(w, h, map)?;
+                (w, h)
+            }
+            None => canvas(mapping, "size", self.size)?,
+        };
+        let maps = mapping_maps(mapping, w, h)?;
+        let mut summary = maps.summary(mapping);
+        let mesh = match mesh {
+            Some((mesh, name)) => {
+                let cam = self.view.camera(&mesh.positions)?;
+                let (err, heat) = mesh_report(mesh, &cam, self.threshold)?;
+                summary.mesh = Some(err.summary(name, &heat));
+                Some((err, heat))
+            }
+            None => None,
+        };
+        Ok(Analysis {
+            maps,
+            mesh,
+            summary,
+        })
+    }
+
+    /// The figure of an analysis: the mapping's panels and, with its mesh, the error heat map
+    /// (clipped at twice the threshold) and the triangles over the threshold.
+    pub fn figure(&self, a: &Analysis, mesh: Option<&Mesh>) -> Result<Image> {
+        use crate::jobs::render::{self, Env, Mode, RenderOptions};
+        let mut panels = vec![figure::mapping_figure(&a.maps, a.summary.mapping)];
+        if let (Some((err, heat)), Some(mesh)) = (&a.mesh, mesh) {
+            let top = (2.0 * self.threshold).max(1e-6);
+            let deg: Vec<f64> = heat
+                .data
+                .chunks_exact(2)
+                .map(|p| match p[0] as f64 {
+                    _ if p[1] <= 0.0 => f64::NAN,
+                    d => d.min(top),
+                })
+                .collect();
+            panels.push(figure::panel(
+                &deg,
+                heat.width,
+                heat.height,
+                0.0,
+                top,
+                false,
+                &format!(
+                    "per-vertex vs per-pixel lookup angle (threshold {}°)",
+                    self.threshold
+                ),
+                "deg",
+            ));
+            let cam = self.view.camera(&mesh.positions)?;
+            let normals_opts = RenderOptions {
+                mode: Mode::Normals,
+                ..Default::default()
+            };
+            let (normals, _) = render::render(mesh, &cam, Env::None, &normals_opts)?;
+            let ids = render::triangle_ids(mesh, &cam)?;
+            panels.push(figure::triangles_panel(&ids, &normals, err));
+        }
+        Ok(if panels.len() == 1 {
+            panels.remove(0)
+        } else {
+            let items: Vec<_> = panels.iter().map(|p| (p, String::new())).collect();
+            crate::images::draw::contact_sheet(&items, 1, [0.02; 3], [0.9; 3])
+        })
+    }
+
+    /// `spheremap analyze`: analyses the map at `map` (its size) or the canvas of `size`, and
+    /// the mesh at `mesh`, and writes the figure to `output`; the report.
+    pub fn run_files(
+        &self,
+        map: Option<&str>,
+        mesh: Option<&str>,
+        output: &str,
+        write: &crate::images::codec::WriteOptions,
+    ) -> Result<AnalyzeSummary> {
+        use crate::images::codec::{read_image, write_image, ReadOptions};
+        use std::path::Path;
+        let size = match map {
+            Some(path) => {
+                let img = read_image(Path::new(path), &ReadOptions::default())?;
+                Some(((img.width, img.height), path))
+            }
+            None => None,
+        };
+        let mesh_data = mesh
+            .map(|p| crate::mesh::load_mesh(Path::new(p)))
+            .transpose()?;
+        let a = self.run(size, mesh_data.as_ref().zip(Some(mesh)))?;
+        write_image(
+            Path::new(output),
+            &self.figure(&a, mesh_data.as_ref())?,
+            write,
+        )?;
+        Ok(a.summary)
+    }
+}
+
+impl AnalyzeSummary {
+    /// The report in words, a line for the mapping and one for the mesh.
+    pub fn lines(&self) -> Vec<String> {
+        let (sa, an, re) = (self.solid_angle_sr, self.anisotropy, self.resolution_deg);
+        let mut lines = vec![format!(
+            "{} {}x{}: texel solid angle {}..{} sr (max/min {:.3}), anisotropy up to {:.3}, \
+             coarsest step {:.4}..{:.4} deg/texel",
+            self.mapping,
+            self.width,
+            self.height,
+            figure::num(sa.min),
+            figure::num(sa.max),
+            sa.max / sa.min,
+            an.max,
+            re.min,
+            re.max
+        )];
+        if let Some(m) = &self.mesh {
+            lines.push(format!(
+                "{}: {} of {} triangles in view over {}°; split each edge in {} \
+                 ({} triangles) or adaptively ({} triangles); {} cannot get under it (they \
+                 reflect toward the sphere map's rim)",
+                m.file.as_deref().unwrap_or("mesh"),
+                m.over,
+                m.in_view,
+                m.threshold_deg,
+                m.uniform_split,
+                m.triangles_after_uniform,
+                m.triangles_after_adaptive,
+                m.unfixable
+            ));
+        }
+        lines
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -515,6 +716,70 @@ mod tests {
     }
 
     use crate::jobs::render::tests::uv_sphere;
+
+    #[test]
+    fn the_request_checks_its_fields_and_reports_the_canvas_and_the_mesh() {
+        let r = AnalyzeRequest::default();
+        assert_eq!(
+            (r.mapping.as_str(), r.size, r.threshold),
+            ("sphere", 256, 1.0)
+        );
+        let bad = AnalyzeRequest {
+            threshold: f64::NAN,
+            ..Default::default()
+        };
+        assert!(bad
+            .resolve()
+            .unwrap_err()
+            .to_string()
+            .starts_with("threshold: "));
+        let bad = AnalyzeRequest {
+            mapping: "mercator".into(),
+            ..Default::default()
+        };
+        assert!(bad
+            .resolve()
+            .unwrap_err()
+            .to_string()
+            .starts_with("mapping: "));
+        let r = AnalyzeRequest {
+            mapping: "latlong".into(),
+            size: 16,
+            view: crate::jobs::render::CameraRequest {
+                width: 32,
+                height: 24,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mesh = uv_sphere(8, 16);
+        let a = r.run(None, Some((&mesh, Some("ball.obj")))).unwrap();
+        assert_eq!((a.summary.width, a.summary.height), (32, 16));
+        let (err, heat) = a.mesh.as_ref().unwrap();
+        assert_eq!((heat.width, heat.height), (32, 24));
+        assert_eq!(err.in_view.len(), mesh.triangles.len());
+        let m = a.summary.mesh.as_ref().unwrap();
+        assert_eq!(m.file.as_deref(), Some("ball.obj"));
+        let lines = a.summary.lines();
+        assert!(
+            lines[0].starts_with("latlong 32x16: texel solid angle"),
+            "{lines:?}"
+        );
+        assert!(lines[1].starts_with("ball.obj: "), "{lines:?}");
+        // A map's own size is the canvas, checked against the mapping.
+        let a = r.run(Some(((64, 32), "map.exr")), None).unwrap();
+        assert_eq!(
+            (a.maps.width, a.maps.height, a.mesh.is_none()),
+            (64, 32, true)
+        );
+        let sphere = AnalyzeRequest::default();
+        let e = sphere.run(Some(((64, 32), "map.exr")), None).unwrap_err();
+        assert!(e.to_string().starts_with("map.exr: "), "{e}");
+        let fig = r
+            .figure(&r.run(None, Some((&mesh, None))).unwrap(), Some(&mesh))
+            .unwrap();
+        assert!(fig.width > 0 && fig.height > 0);
+    }
 
     /// Splits every triangle k × k (flat positions, interpolated renormalized normals).
     fn subdivide(m: &Mesh, k: usize) -> Mesh {

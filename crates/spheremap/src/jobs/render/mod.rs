@@ -49,7 +49,7 @@ mod request;
 mod shade;
 
 pub use draw::{render, triangle_ids};
-pub use request::RenderRequest;
+pub use request::{CameraRequest, RenderRequest};
 pub use shade::{heat_colour, Texture, Wrap};
 
 use crate::base::error::{Error, Result};

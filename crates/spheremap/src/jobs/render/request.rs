@@ -10,14 +10,11 @@ use crate::mappings::mapping::Mapping;
 use crate::mappings::matcap::MatcapVariant;
 use serde::{Deserialize, Serialize};
 
-/// The camera and shading of a render.  `Default` gives every documented default.
+/// A camera looking at a mesh, as `gluLookAt` and `gluPerspective` take it, and its image's
+/// size: what `render` and `analyze` share.  `Default` gives every documented default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RenderRequest {
-    /// per-vertex, per-pixel, matcap, normals or error.
-    pub mode: ModeName,
-    /// The MatCap lookup of `matcap` mode: classic, threejs or perspective.
-    pub matcap_variant: MatcapVariant,
+#[serde(default)]
+pub struct CameraRequest {
     /// The camera as `gluLookAt` takes it (each defaulting to a framing of the mesh), or the
     /// three at once as `lookat:EX,EY,EZ,TX,TY,TZ,UX,UY,UZ`.
     pub eye: Option<[f64; 3]>,
@@ -32,6 +29,36 @@ pub struct RenderRequest {
     /// The image in pixels.
     pub width: usize,
     pub height: usize,
+}
+
+impl Default for CameraRequest {
+    fn default() -> Self {
+        CameraRequest {
+            eye: None,
+            target: None,
+            up: None,
+            camera: None,
+            fovy: 40.0,
+            near: None,
+            far: None,
+            width: 512,
+            height: 512,
+        }
+    }
+}
+
+/// The camera and shading of a render.  `Default` gives every documented default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderRequest {
+    /// per-vertex, per-pixel, matcap, normals or error.
+    pub mode: ModeName,
+    /// The MatCap lookup of `matcap` mode: classic, threejs or perspective.
+    pub matcap_variant: MatcapVariant,
+    /// The camera (`eye`, `target`, `up`, `camera`, `fovy`, `near`, `far`) and the image's
+    /// `width` and `height`.
+    #[serde(flatten)]
+    pub view: CameraRequest,
     /// Linear RGB where no triangle is.
     pub background: [f32; 3],
     /// K × K samples per pixel.
@@ -47,15 +74,7 @@ impl Default for RenderRequest {
         RenderRequest {
             mode: ModeName::PerPixel,
             matcap_variant: MatcapVariant::Classic,
-            eye: None,
-            target: None,
-            up: None,
-            camera: None,
-            fovy: 40.0,
-            near: None,
-            far: None,
-            width: 512,
-            height: 512,
+            view: CameraRequest::default(),
             background: [0.0; 3],
             aa: 1,
             subpixel_bits: super::SUB_BITS,
@@ -80,6 +99,31 @@ impl RenderRequest {
         })
     }
 
+    /// The camera for a mesh of `positions` ([`CameraRequest::camera`]).
+    pub fn camera(&self, positions: &[[f32; 3]]) -> Result<GlCamera> {
+        self.view.camera(positions)
+    }
+
+    /// The environment as the modes read it: a sphere map in another preset than GL's is
+    /// resampled into the GL sphere map texgen addresses ([`gl_sphere_for`]); anything else is
+    /// returned as it is.  `what` names the map in errors.
+    pub fn environment(
+        &self,
+        mapping: Mapping,
+        image: Option<Image>,
+        what: &str,
+    ) -> Result<(Mapping, Option<Image>)> {
+        let Some(img) = image else {
+            return Ok((mapping, None));
+        };
+        Ok(match gl_sphere_for(self.mode(), mapping, &img, what)? {
+            Some(gl) => (Mapping::parse("sphere", None)?, Some(gl)),
+            None => (mapping, Some(img)),
+        })
+    }
+}
+
+impl CameraRequest {
     /// The camera for a mesh of `positions`: what is given, the rest framing the mesh.
     pub fn camera(&self, positions: &[[f32; 3]]) -> Result<GlCamera> {
         let (eye, target, up) = match &self.camera {
@@ -120,24 +164,6 @@ impl RenderRequest {
             (self.width, self.height),
         )
     }
-
-    /// The environment as the modes read it: a sphere map in another preset than GL's is
-    /// resampled into the GL sphere map texgen addresses ([`gl_sphere_for`]); anything else is
-    /// returned as it is.  `what` names the map in errors.
-    pub fn environment(
-        &self,
-        mapping: Mapping,
-        image: Option<Image>,
-        what: &str,
-    ) -> Result<(Mapping, Option<Image>)> {
-        let Some(img) = image else {
-            return Ok((mapping, None));
-        };
-        Ok(match gl_sphere_for(self.mode(), mapping, &img, what)? {
-            Some(gl) => (Mapping::parse("sphere", None)?, Some(gl)),
-            None => (mapping, Some(img)),
-        })
-    }
 }
 
 #[cfg(test)]
@@ -150,11 +176,11 @@ mod tests {
         assert_eq!(r.mode(), Mode::PerPixel);
         assert_eq!(r.options().unwrap().aa, 1);
         let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let spec = RenderRequest {
+        let spec = CameraRequest {
             camera: Some("lookat:0,0,5,0,0,0,0,1,0".into()),
             ..Default::default()
         };
-        let given = RenderRequest {
+        let given = CameraRequest {
             eye: Some([0.0, 0.0, 5.0]),
             target: Some([0.0; 3]),
             up: Some([0.0, 1.0, 0.0]),
@@ -164,7 +190,7 @@ mod tests {
             spec.camera(&tri).unwrap().modelview,
             given.camera(&tri).unwrap().modelview
         );
-        let both = RenderRequest {
+        let both = CameraRequest {
             eye: Some([0.0, 0.0, 5.0]),
             ..spec.clone()
         };
