@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Callable
 
 import os
 
@@ -47,17 +47,9 @@ class Scene:
         default black); environment: an environment map image instead, read as `src`,
         `src_preset`, `src_look`, `src_up` say (as set_environment; environment_mapping and
         environment_preset are accepted for src and src_preset)."""
-        scene = cls(_ext.Scene.load(os.fspath(path)))
-        scene._configure(
-            background,
-            environment,
-            dict(src=src, src_preset=src_preset, src_look=src_look, src_up=src_up),
-            shading,
-            max_depth,
-            indirect_samples,
-            seed,
-        )
-        return scene
+        # The core's scene request (spheremap::jobs::scene::SceneRequest) checks every field.
+        request = _fields(locals(), drop=("cls", "path", "environment"))
+        return cls(_ext.Scene.from_request(request=dict(request, scene=os.fspath(path)), environment=environment))
 
     @classmethod
     @_source_aliases
@@ -67,37 +59,9 @@ class Scene:
         ball of radius 1 at the origin, `reflectance` 0.75 by default, to photograph inside an
         environment). Other keyword arguments as load."""
         _name("scene", name, "name")
-        scene = cls(_ext.Scene.builtin(name, reflectance=reflectance))
-        if kwargs:
-            source: dict[str, Any] = dict(src="latlong", src_preset=None, src_look=None, src_up=None)
-            args: dict[str, Any] = dict(
-                background=None, environment=None, shading="full", max_depth=8, indirect_samples=1, seed=0
-            )
-            unknown = set(kwargs) - set(args) - set(source)
-            if unknown:
-                raise TypeError(f"builtin() got unexpected keyword arguments {sorted(unknown)}")
-            for k, v in kwargs.items():
-                (source if k in source else args)[k] = v
-            scene._configure(source=source, **args)
-        return scene
-
-    def _configure(
-        self,
-        background,
-        environment,
-        source,
-        shading,
-        max_depth,
-        indirect_samples,
-        seed,
-    ):
-        if background is not None and environment is not None:
-            raise ValueError("environment: give background or environment, not both")
-        if background is not None:
-            self.set_background(background)
-        if environment is not None:
-            self.set_environment(environment, **source)
-        self._inner.set_options(shading=shading, max_depth=max_depth, indirect_samples=indirect_samples, seed=seed)
+        environment = kwargs.pop("environment", None)
+        request = _fields(dict(kwargs, scene=f"builtin:{name}", reflectance=reflectance))
+        return cls(_ext.Scene.from_request(request=request, environment=environment))
 
     @property
     def triangle_count(self) -> int:

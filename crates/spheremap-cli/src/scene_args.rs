@@ -3,16 +3,11 @@
 //! through a camera).
 
 use crate::job::{vec3, JobFlags};
-use anyhow::bail;
-use spheremap::frame::view::Mat3;
-use spheremap::images::codec::{check_nonfinite, ReadOptions};
-use spheremap::images::envmap::read_env;
-use spheremap::images::Image;
-use spheremap::mappings::mapping::Mapping;
+use spheremap::images::codec::NonFinite;
+use spheremap::jobs::scene::{SceneEnv, SceneRequest};
 use spheremap::resample::EnvMap;
 use spheremap::trace::generate::{EnvSource, RaySource};
-use spheremap::trace::scene::{self, Environment, Light, Scene, Shading};
-use std::path::Path;
+use spheremap::trace::scene::{Scene, Shading};
 
 #[derive(clap::Args, Debug)]
 pub struct SceneArgs {
@@ -42,10 +37,10 @@ pub struct SceneArgs {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<Shading>())]
     shading: Shading,
     /// Mirror bounces followed at most.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = SceneRequest::default().max_depth)]
     max_depth: u32,
     /// Cosine rays per diffuse hit for environment and emitter light (0 = none).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = SceneRequest::default().indirect_samples)]
     indirect_samples: u32,
 }
 
@@ -53,7 +48,7 @@ pub struct SceneArgs {
 pub struct World {
     pub scene: Option<Scene>,
     /// The environment map, its mapping and the rotation from world directions to its frame.
-    pub env: Option<(Image, Mapping, Mat3)>,
+    pub env: Option<SceneEnv>,
 }
 
 impl World {
@@ -61,15 +56,15 @@ impl World {
     pub fn source(&self) -> Box<dyn RaySource + '_> {
         match (&self.scene, &self.env) {
             (Some(s), _) => Box::new(SceneRef(s)),
-            (None, Some((img, mapping, rotation))) => {
+            (None, Some(e)) => {
                 let map = EnvMap {
-                    mapping: *mapping,
-                    width: img.width,
-                    height: img.height,
-                    channels: img.channels,
-                    data: &img.data,
+                    mapping: e.mapping,
+                    width: e.image.width,
+                    height: e.image.height,
+                    channels: e.image.channels,
+                    data: &e.image.data,
                 };
-                Box::new(EnvSource::new(&map, *rotation))
+                Box::new(EnvSource::new(&map, e.rotation))
             }
             _ => unreachable!("checked on load"),
         }
@@ -92,71 +87,44 @@ impl RaySource for SceneRef<'_> {
     }
 }
 
-/// Loads --scene (a file or builtin:NAME).
-fn load_scene(name: &str) -> anyhow::Result<Scene> {
-    Ok(match name.strip_prefix("builtin:") {
-        Some(b) => scene::Builtin::parse_as(b, "--scene")?.scene(0.75)?,
-        None => Scene::load(Path::new(name))?,
-    })
-}
-
 impl SceneArgs {
+    /// The core's scene request for these flags.
+    pub fn request(&self, nonfinite: NonFinite, seed: u64) -> SceneRequest {
+        let sixes = |v: &[f32]| -> Vec<[f32; 6]> {
+            v.chunks_exact(6)
+                .map(|l| std::array::from_fn(|i| l[i]))
+                .collect()
+        };
+        SceneRequest {
+            scene: self.scene.clone(),
+            source: self.source.source(),
+            nonfinite,
+            background: vec3(&self.background),
+            point_lights: sixes(&self.point_light),
+            suns: sixes(&self.sun),
+            shading: self.shading,
+            max_depth: self.max_depth,
+            indirect_samples: self.indirect_samples,
+            seed,
+            ..Default::default()
+        }
+    }
+
     /// Loads the scene and/or the environment map; refuses outputs that would overwrite them.
     pub fn load(&self, job: &JobFlags, seed: u64, outputs: &[String]) -> anyhow::Result<World> {
-        let shading = self.shading;
-        if self.scene.is_none() && self.env.is_none() {
-            bail!("give --scene FILE (or builtin:demo) and/or --env MAP to fire rays into");
-        }
+        let request = self.request(job.nonfinite()?, seed);
         let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
         job.refuse_overwrite(&inputs, outputs)?;
-        let env: Option<(Image, Mapping, Mat3)> = match &self.env {
-            Some(e) => {
-                let (m, l, rotation) = self.source.read_as(e, "latlong")?;
-                let mut img = read_env(e, m, l, &ReadOptions::default())?;
-                check_nonfinite(&mut img, job.nonfinite()?, e)?;
-                EnvMap::new(m, &img, e)?;
-                Some((img, m, rotation))
-            }
+        let env = match &self.env {
+            Some(e) => Some(request.read_env(e).map_err(crate::flag_error)?),
             None => None,
         };
-        let scene = match &self.scene {
-            Some(s) => {
-                let mut sc = load_scene(s)?;
-                sc.environment = match &env {
-                    Some((img, m, rotation)) => Environment::Map {
-                        image: img.clone(),
-                        mapping: *m,
-                        rotation: *rotation,
-                    },
-                    None => Environment::Constant(match vec3(&self.background) {
-                        Some(c) => c,
-                        None if s == "builtin:demo" => match &sc.environment {
-                            Environment::Constant(c) => *c,
-                            _ => [0.0; 3],
-                        },
-                        None => [0.0; 3],
-                    }),
-                };
-                for l in self.point_light.chunks_exact(6) {
-                    sc.lights.push(Light::Point {
-                        position: [l[0], l[1], l[2]],
-                        intensity: [l[3], l[4], l[5]],
-                    });
-                }
-                for l in self.sun.chunks_exact(6) {
-                    sc.lights.push(Light::Directional {
-                        direction: [l[0], l[1], l[2]],
-                        irradiance: [l[3], l[4], l[5]],
-                    });
-                }
-                sc.options.shading = shading;
-                sc.options.max_depth = self.max_depth;
-                sc.options.indirect_samples = self.indirect_samples;
-                sc.options.seed = seed;
-                Some(sc)
-            }
-            None => None,
-        };
+        let scene = request.build(env.as_ref()).map_err(|e| {
+            crate::flag_error(
+                e.renamed("suns", "sun")
+                    .renamed("point_lights", "point_light"),
+            )
+        })?;
         Ok(World { scene, env })
     }
 }

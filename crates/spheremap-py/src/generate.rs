@@ -1,15 +1,16 @@
 //! PyO3 glue for the ray-traced generator: the `Scene` class and `generate` with a scene or a
 //! Python callable as `fire_ray`.  No maths here.
 
-use super::args::{image_out, nonnegative, rows_f32, vec3, FArr};
+use super::args::{image_out, rows_f32, vec3, FArr};
 use super::{run_cancellable, to_py};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use spheremap::resample::{self as rs, Progress};
+use spheremap::jobs::scene::SceneRequest;
+use spheremap::resample::Progress;
 use spheremap::trace::generate::RaySource;
-use spheremap::trace::scene::{self, Environment, Light, Shading};
+use spheremap::trace::scene::{self, Environment, Light};
 use std::sync::Mutex;
 
 /// A ray-traced scene (see the README): callable as `fire_ray(origins, directions)`.
@@ -27,23 +28,29 @@ impl Scene {
 
 #[pymethods]
 impl Scene {
-    /// Loads an OBJ (+MTL) or glTF 2.0 file.
+    /// The scene a `SceneRequest` (as a dict of its fields) names, lit as it says, with
+    /// `environment` (an array in the request's `src` mapping; a cube map as faces, their stack
+    /// or one image in a layout) as what rays leaving it see.
     #[staticmethod]
-    fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Scene> {
-        let inner = py.detach(|| scene::Scene::load(&path));
+    #[pyo3(signature = (request, environment=None))]
+    fn from_request(
+        py: Python<'_>,
+        request: &Bound<'_, PyAny>,
+        environment: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Scene> {
+        let req: SceneRequest = super::request_of(request)?;
+        let env = environment
+            .filter(|e| !e.is_none())
+            .map(|e| {
+                let img = super::source_arg(e, &req.source, req.nonfinite, "environment")?;
+                req.env_of(img, "environment").map_err(to_py)
+            })
+            .transpose()?;
+        let scene = py.detach(|| req.build(env.as_ref()));
         crate::emit_warnings(py)?;
-        let inner = inner.map_err(to_py)?;
-        Ok(Scene { inner })
-    }
-
-    /// A built-in scene: "demo", "octants" or "mirror-ball" (of `reflectance`).
-    #[staticmethod]
-    #[pyo3(signature = (name, reflectance = 0.75))]
-    fn builtin(name: &str, reflectance: f32) -> PyResult<Scene> {
-        let inner = scene::Builtin::parse(name)
-            .map_err(to_py)?
-            .scene(reflectance)
-            .map_err(to_py)?;
+        let inner = scene.map_err(to_py)?.ok_or_else(|| {
+            PyValueError::new_err("scene: a Scene needs a scene file or a built-in scene")
+        })?;
         Ok(Scene { inner })
     }
 
@@ -76,14 +83,13 @@ impl Scene {
         image: &Bound<'_, PyAny>,
         request: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let req: spheremap::jobs::source::EnvRequest = super::request_of(request)?;
-        let r = req.resolve(None, "environment").map_err(to_py)?;
+        let req: SceneRequest = super::request_of(request)?;
         let img = super::source_arg(image, &req.source, req.nonfinite, "environment")?;
-        rs::EnvMap::new(r.mapping, &img, "environment").map_err(to_py)?;
+        let e = req.env_of(img, "environment").map_err(to_py)?;
         self.inner.environment = Environment::Map {
-            image: img,
-            mapping: r.mapping,
-            rotation: r.world_to_env,
+            image: e.image,
+            mapping: e.mapping,
+            rotation: e.rotation,
         };
         Ok(())
     }
@@ -113,29 +119,6 @@ impl Scene {
             direction: d,
             irradiance: vec3(irradiance, "irradiance")?,
         });
-        Ok(())
-    }
-
-    /// The tracer's options; each integer is non-negative.
-    #[pyo3(signature = (shading="full", max_depth=None, indirect_samples=None, seed=None))]
-    fn set_options(
-        &mut self,
-        shading: &str,
-        max_depth: Option<&Bound<'_, PyAny>>,
-        indirect_samples: Option<&Bound<'_, PyAny>>,
-        seed: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<()> {
-        let o = &mut self.inner.options;
-        o.shading = Shading::parse(shading).map_err(to_py)?;
-        if let Some(v) = max_depth {
-            o.max_depth = nonnegative(v, "max_depth")? as u32;
-        }
-        if let Some(v) = indirect_samples {
-            o.indirect_samples = nonnegative(v, "indirect_samples")? as u32;
-        }
-        if let Some(v) = seed {
-            o.seed = nonnegative(v, "seed")?;
-        }
         Ok(())
     }
 

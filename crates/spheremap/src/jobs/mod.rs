@@ -2,7 +2,7 @@
 //! reads, spelled once ([`source`]), conversions ([`convert`]), MatCap bakes ([`bake_matcap`]),
 //! prefiltered chains ([`prefilter`]), irradiance ([`irradiance`]) and the DFG table ([`dfg`])
 //! over the maths of [`crate::lighting`], environment maps from photos ([`photo`]), GL-exact
-//! renders of meshes ([`render`]), analytics and figures ([`analyze`], [`chart`]) and shader
+//! renders of meshes ([`render`]), what rays see ([`scene`]), analytics and figures ([`analyze`], [`chart`]) and shader
 //! snippets ([`shader`]); every request's defaults by operation ([`defaults`]), a request read from its fields with errors
 //! that name them ([`fields`]) and the run the
 //! bake and the prefilter share ([`env_job`]).
@@ -20,5 +20,7 @@ pub mod irradiance;
 pub mod photo;
 pub mod prefilter;
 pub mod render;
+#[cfg(feature = "scene")]
+pub mod scene;
 pub mod shader;
 pub mod source;

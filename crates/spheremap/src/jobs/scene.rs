@@ -1,0 +1,256 @@
+//! What rays see, as one request: [`SceneRequest`] holds the scene (a file or a built-in one),
+//! the environment's fields (the map itself is read from a file or handed over as an image),
+//! the background, lights and shading options that `spheremap generate` and `preview`, and
+//! Python's `Scene.load` and `Scene.builtin`, take — and builds the ray tracer's scene with the
+//! core's rules in one place.
+
+use crate::base::error::{Error, Result};
+use crate::frame::view::Mat3;
+use crate::images::codec::{check_nonfinite, NonFinite, ReadOptions};
+use crate::images::envmap::{read_env, read_note};
+use crate::images::Image;
+use crate::jobs::source::Source;
+use crate::mappings::mapping::Mapping;
+use crate::resample::EnvMap;
+use crate::trace::scene::{Builtin, Environment, Light, Scene, Shading};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The prefix of a built-in scene's name where a scene file may be named.
+pub const BUILTIN_PREFIX: &str = "builtin:";
+
+/// A scene and what lights it.  `Default` gives every documented default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SceneRequest {
+    /// A scene file (OBJ + MTL, glTF/GLB) or a built-in scene, `builtin:NAME`; `None`: none
+    /// (rays look the environment up directly).
+    pub scene: Option<String>,
+    /// The built-in mirror ball's reflectance, in [0, 1].
+    pub reflectance: f32,
+    /// The environment map's mapping, preset, cube layout and view (`src`, …; default its
+    /// note, else lat-long).
+    #[serde(flatten)]
+    pub source: Source,
+    /// NaN/Inf in the environment map.
+    pub nonfinite: NonFinite,
+    /// A constant environment colour (linear RGB) where there is no map; default black, the
+    /// demo scene its own sky.
+    pub background: Option<[f32; 3]>,
+    /// Point lights: position, then intensity.
+    pub point_lights: Vec<[f32; 6]>,
+    /// Directional lights: the direction the light travels, then its irradiance.
+    pub suns: Vec<[f32; 6]>,
+    pub shading: Shading,
+    /// Mirror bounces followed at most.
+    pub max_depth: u32,
+    /// Cosine rays per diffuse hit for environment and emitter light (0 = none).
+    pub indirect_samples: u32,
+    /// Seed of the scene's random rays.
+    pub seed: u64,
+}
+
+impl Default for SceneRequest {
+    fn default() -> Self {
+        let options = crate::trace::scene::ShadeOptions::default();
+        SceneRequest {
+            scene: None,
+            reflectance: 0.75,
+            source: Source::default(),
+            nonfinite: NonFinite::default(),
+            background: None,
+            point_lights: Vec::new(),
+            suns: Vec::new(),
+            shading: options.shading,
+            max_depth: options.max_depth,
+            indirect_samples: options.indirect_samples,
+            seed: options.seed,
+        }
+    }
+}
+
+/// An environment map read for a scene: its texels, mapping and the rotation from world
+/// directions to its frame.
+#[derive(Clone, Debug)]
+pub struct SceneEnv {
+    pub image: Image,
+    pub mapping: Mapping,
+    pub rotation: Mat3,
+}
+
+impl SceneRequest {
+    /// Reads the environment map at `path` by the source fields (its note's defaults, else
+    /// lat-long) and the NaN/Inf rule.
+    pub fn read_env(&self, path: &str) -> Result<SceneEnv> {
+        let note = read_note(path)?;
+        let r = self.source.resolve(note.as_ref(), path, Some("latlong"))?;
+        let mut image = read_env(path, r.mapping, r.layout, &ReadOptions::default())?;
+        check_nonfinite(&mut image, self.nonfinite, path)?;
+        self.env_of(image, path)
+    }
+
+    /// An environment map given as its texels (a cube map as its face stack) read by the
+    /// source fields (default lat-long); `name` names it in errors.
+    pub fn env_of(&self, mut image: Image, name: &str) -> Result<SceneEnv> {
+        let r = self.source.resolve(None, name, Some("latlong"))?;
+        check_nonfinite(&mut image, self.nonfinite, name)?;
+        EnvMap::new(r.mapping, &image, name)?;
+        Ok(SceneEnv {
+            image,
+            mapping: r.mapping,
+            rotation: r.world_to_src,
+        })
+    }
+
+    /// The scene `scene` names (`None` without one), lit by `env` (else the background) and
+    /// the lights, with the shading options.
+    pub fn build(&self, env: Option<&SceneEnv>) -> Result<Option<Scene>> {
+        let Some(name) = &self.scene else {
+            if env.is_none() {
+                return Err(Error::param(
+                    "scene",
+                    "give a scene (a file or builtin:demo) and/or an environment map to fire \
+                     rays into",
+                ));
+            }
+            return Ok(None);
+        };
+        let mut scene = match name.strip_prefix(BUILTIN_PREFIX) {
+            Some(b) => Builtin::parse_as(b, "scene")?.scene(self.reflectance)?,
+            None => Scene::load(Path::new(name))?,
+        };
+        self.light(&mut scene, env)?;
+        Ok(Some(scene))
+    }
+
+    /// Lights `scene` as the request says: its environment (`env`, else the background, else
+    /// its own — a built-in scene's sky — or black), lights and shading options.
+    pub fn light(&self, scene: &mut Scene, env: Option<&SceneEnv>) -> Result<()> {
+        let finite = |v: &[f32], field: &str| {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(Error::param(
+                    field,
+                    format!("expected finite numbers, got {v:?}"),
+                ))
+            }
+        };
+        scene.environment = match (env, self.background) {
+            (Some(_), Some(_)) => {
+                return Err(Error::param(
+                    "background",
+                    "give a background colour or an environment map, not both",
+                ))
+            }
+            (Some(e), None) => Environment::Map {
+                image: e.image.clone(),
+                mapping: e.mapping,
+                rotation: e.rotation,
+            },
+            (None, Some(c)) => {
+                finite(&c, "background")?;
+                Environment::Constant(c)
+            }
+            (None, None) => match &scene.environment {
+                Environment::Constant(c) if self.scene.as_deref() == Some("builtin:demo") => {
+                    Environment::Constant(*c)
+                }
+                _ => Environment::Constant([0.0; 3]),
+            },
+        };
+        for l in &self.point_lights {
+            finite(l, "point_lights")?;
+            scene.lights.push(Light::Point {
+                position: [l[0], l[1], l[2]],
+                intensity: [l[3], l[4], l[5]],
+            });
+        }
+        for l in &self.suns {
+            finite(l, "suns")?;
+            if l[..3] == [0.0; 3] {
+                return Err(Error::param("suns", "a direction must not be zero"));
+            }
+            scene.lights.push(Light::Directional {
+                direction: [l[0], l[1], l[2]],
+                irradiance: [l[3], l[4], l[5]],
+            });
+        }
+        scene.options.shading = self.shading;
+        scene.options.max_depth = self.max_depth;
+        scene.options.indirect_samples = self.indirect_samples;
+        scene.options.seed = self.seed;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(scene: &str) -> SceneRequest {
+        SceneRequest {
+            scene: Some(scene.into()),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_built_in_scene_keeps_its_sky_unless_told_and_takes_the_lights_and_options() {
+        let demo = request("builtin:demo").build(None).unwrap().unwrap();
+        let own = match crate::trace::scene::Builtin::Demo
+            .scene(0.75)
+            .unwrap()
+            .environment
+        {
+            Environment::Constant(c) => c,
+            _ => unreachable!("the demo's sky is a colour"),
+        };
+        assert!(matches!(demo.environment, Environment::Constant(c) if c == own));
+        let r = SceneRequest {
+            background: Some([0.5, 0.25, 1.0]),
+            point_lights: vec![[0.0, 2.0, 0.0, 1.0, 1.0, 1.0]],
+            suns: vec![[0.0, -1.0, 0.0, 3.0, 3.0, 3.0]],
+            max_depth: 2,
+            seed: 7,
+            ..request("builtin:octants")
+        };
+        let s = r.build(None).unwrap().unwrap();
+        assert!(matches!(
+            s.environment,
+            Environment::Constant([0.5, 0.25, 1.0])
+        ));
+        assert_eq!(s.lights.len(), 2);
+        assert_eq!((s.options.max_depth, s.options.seed), (2, 7));
+    }
+
+    #[test]
+    fn mistakes_are_refused_naming_the_field() {
+        let e = |r: SceneRequest, env: Option<&SceneEnv>| match r.build(env) {
+            Ok(_) => panic!("taken"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e(SceneRequest::default(), None).starts_with("scene: give a scene"));
+        assert!(e(request("builtin:nope"), None).starts_with("scene: unknown built-in scene"));
+        let bad = SceneRequest {
+            reflectance: 2.0,
+            ..request("builtin:mirror-ball")
+        };
+        assert!(e(bad, None).starts_with("reflectance: "));
+        let sun = SceneRequest {
+            suns: vec![[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]],
+            ..request("builtin:octants")
+        };
+        assert!(e(sun, None).starts_with("suns: "));
+        let env = SceneRequest::default()
+            .env_of(Image::new(8, 4, 3), "sky")
+            .unwrap();
+        let both = SceneRequest {
+            background: Some([1.0; 3]),
+            ..request("builtin:octants")
+        };
+        assert!(e(both, Some(&env)).starts_with("background: "));
+        // An environment alone is a ray source: no scene is built.
+        assert!(SceneRequest::default().build(Some(&env)).unwrap().is_none());
+    }
+}
