@@ -18,6 +18,7 @@ CASES = [
     (sm.dfg_lut, "dfg", {}),
     (sm.render, "render", {}),
     (sm.analyze, "analyze", {}),
+    (sm.info, "info", {}),
     (sm.generate, "generate", {"mapping": "to"}),
     (sm.from_mirror_ball, "from-photo", {}),
     (sm.from_fisheye, "from-fisheye", {}),

@@ -47,7 +47,7 @@ def info(path: str | os.PathLike[str], *, linear: bool = False) -> dict[str, Any
     cannot read.
     """
 
-    return _ext.info(path=os.fspath(path), linear=bool(linear))
+    return _ext.info(path=os.fspath(path), request=_fields(locals(), drop=("path",)))
 
 
 def write_image(

@@ -58,15 +58,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .renamed("height", "view_size");
             crate::flag_error(e)
         })?;
-    if a.job.json {
-        let mut json = serde_json::to_value(&summary)?;
-        json["output"] = a.output.clone().into();
-        crate::out(&format!("{json}\n"));
-    } else if !a.job.quiet {
-        for l in summary.lines() {
-            eprintln!("{l}");
-        }
-        eprintln!("-> {}", a.output);
-    }
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&summary, a.job.json, words);
     Ok(())
 }

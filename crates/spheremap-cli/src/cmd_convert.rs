@@ -100,35 +100,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let (Some(n), false) = (&report.notice, a.job.quiet) {
         eprintln!("note: {n}");
     }
-    let r = &report;
-    if a.job.json {
-        crate::out(&format!("{}\n", serde_json::to_string(r)?));
-    } else if !a.job.quiet && r.copied {
-        eprintln!(
-            "{} ({} {}) -> {} ({}x{}): the same mapping, size and view: texels copied, {:.3} s",
-            r.input,
-            r.from,
-            r.from_preset,
-            r.output.join(", "),
-            r.width,
-            r.height,
-            r.seconds
-        );
-    } else if !a.job.quiet {
-        eprintln!(
-            "{} ({} {}) -> {} ({} {}, {}x{}): {:.1} lookups/texel, power {:+.3} %, {:.3} s",
-            r.input,
-            r.from,
-            r.from_preset,
-            r.output.join(", "),
-            r.to,
-            r.preset,
-            r.width,
-            r.height,
-            r.lookups as f64 / (r.width * r.height) as f64,
-            100.0 * r.light.worst_signed_power_error(),
-            r.seconds
-        );
-    }
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }

@@ -81,22 +81,8 @@ pub fn run_bake(a: BakeArgs) -> anyhow::Result<()> {
     if let Some(n) = notice.filter(|_| !a.job.quiet) {
         eprintln!("note: {n}");
     }
-    if a.job.json {
-        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
-    } else if !a.job.quiet {
-        eprintln!(
-            "{} -> {} ({} roughness {}, {}x{}): {} integrals ({:?}), {:.3} s",
-            report.input,
-            report.output.join(", "),
-            report.material,
-            report.roughness,
-            report.size,
-            report.size,
-            report.integrals,
-            report.method,
-            report.seconds
-        );
-    }
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }
 
@@ -165,23 +151,7 @@ pub fn run_irradiance(a: IrradianceArgs) -> anyhow::Result<()> {
     if let (Some(n), false) = (&notice, a.quiet) {
         eprintln!("note: {n}");
     }
-    if a.json {
-        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
-    } else if !a.quiet {
-        eprintln!(
-            "{}: SH9 radiance coefficients (three.js SphericalHarmonics3):",
-            report.input
-        );
-        for (i, c) in report.coefficients.iter().enumerate() {
-            eprintln!("  {i}: {:12.6} {:12.6} {:12.6}", c[0], c[1], c[2]);
-        }
-        if let Some(w) = report.window {
-            eprintln!("  window: {w:.3} bands");
-        }
-        for o in &report.output {
-            eprintln!("  wrote {o}");
-        }
-    }
+    crate::print_report(&report, a.json, crate::Words::Stderr { quiet: a.quiet });
     Ok(())
 }
 
@@ -202,20 +172,8 @@ pub fn run_dfg(a: DfgArgs) -> anyhow::Result<()> {
     let report = request
         .run_files(&a.output, &a.job.write_options(true))
         .map_err(crate::flag_error)?;
-    if a.job.json {
-        crate::out(&format!(
-            "{}
-",
-            serde_json::to_string(&report)?
-        ));
-    } else if !a.job.quiet {
-        eprintln!(
-            "-> {} ({n}x{n} split-sum DFG: A, B, A+B), {:.3} s",
-            report.output,
-            report.seconds,
-            n = report.size,
-        );
-    }
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }
 
@@ -314,35 +272,7 @@ pub fn run_prefilter(a: PrefilterArgs) -> anyhow::Result<()> {
     if let Some(n) = notice.filter(|_| !a.job.quiet) {
         eprintln!("note: {n}");
     }
-    if a.job.json {
-        crate::out(&format!("{}\n", serde_json::to_string(&report)?));
-    } else if !a.job.quiet {
-        eprintln!(
-            "{} -> {} ({} {}, {} level{}), {:.3} s",
-            report.input,
-            report.output.join(", "),
-            report.mapping,
-            if report.irradiance {
-                "irradiance"
-            } else {
-                "GGX radiance"
-            },
-            report.levels.len(),
-            if report.levels.len() == 1 { "" } else { "s" },
-            report.seconds
-        );
-        for l in &report.levels {
-            eprintln!(
-                "  level {}: {}x{} roughness {} ({:?}, {} integrals, {:.3} s)",
-                l.level,
-                l.width,
-                l.height,
-                l.roughness.map_or("-".to_string(), |r| format!("{r:.4}")),
-                l.method,
-                l.integrals,
-                l.seconds
-            );
-        }
-    }
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }

@@ -3,7 +3,7 @@
 
 use crate::job::JobFlags;
 use spheremap::images::codec::WriteOptions;
-use spheremap::jobs::photo::{BallRequest, Fill, FisheyeRequest, PhotoRunReport, Reflectance};
+use spheremap::jobs::photo::{BallRequest, FisheyeRequest, PhotoRunReport, Reflectance};
 use spheremap::mappings::fisheye::LensName;
 use spheremap::resample::Progress;
 use spheremap::trace::generate::MapRequest;
@@ -75,7 +75,10 @@ impl MapOut {
             go(&wopts, self.job.force, Some(p))
         })
         .map_err(crate::flag_error)?;
-        summary(self, &report);
+        let words = crate::Words::Stderr {
+            quiet: self.job.quiet,
+        };
+        crate::print_report(&report, self.job.json, words);
         Ok(())
     }
 }
@@ -197,60 +200,4 @@ pub fn run_fisheye(a: FisheyeArgs) -> anyhow::Result<()> {
         let mask = a.out.mask.as_deref();
         request.run_files(&a.image, &a.out.output, mask, w, force, p)
     })
-}
-
-/// The report: `--json`, or a few lines on stderr.
-fn summary(out: &MapOut, r: &PhotoRunReport) {
-    if out.job.json {
-        crate::out_json(r);
-        return;
-    }
-    if out.job.quiet {
-        return;
-    }
-    let s = &r.summary;
-    for (i, (shot, m)) in s.shots.iter().zip(&r.models).enumerate() {
-        let fit = match shot.fit_rms {
-            Some(rms) => format!(
-                "found, fit residual {rms:.3} px over {} edge points",
-                shot.fit_points
-            ),
-            None => "given".into(),
-        };
-        let dist = shot.distance_radii.map_or(String::new(), |d| {
-            format!(
-                "; ball {d:.2} radii away, unseen cone behind it {:.2}°",
-                shot.blind_cone_deg
-            )
-        });
-        let [cx, cy, rad] = shot.circle;
-        eprintln!(
-            "{}: {m}; ball at ({cx:.2}, {cy:.2}) r {rad:.2} px ({fit}){dist}",
-            r.inputs[i]
-        );
-    }
-    if let (Some(a), Some(g)) = (s.rotation_deg, s.gain) {
-        let res = s.alignment_rms.map_or("not aligned".into(), |v| {
-            format!("residual {v:.3} (log luminance)")
-        });
-        eprintln!("second shot: rotated {a:.2}° from the first, gain {g:.3}, {res}");
-    }
-    if s.shots.is_empty() {
-        for m in &r.models {
-            eprintln!("{}: {m}", r.inputs[0]);
-        }
-    }
-    let unseen = if s.seen_fraction < 1.0 && r.fill == Fill::None {
-        " (unseen texels are 0; --fill smooth fills them)"
-    } else {
-        ""
-    };
-    eprintln!(
-        "-> {} ({} {}): {:.1} % of the map seen{unseen}, {:.3} s",
-        r.output.join(", "),
-        r.to,
-        r.preset,
-        100.0 * s.seen_fraction,
-        r.seconds
-    );
 }

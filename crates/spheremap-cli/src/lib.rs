@@ -140,6 +140,32 @@ pub(crate) fn out_json<T: serde::Serialize>(report: &T) {
     }
 }
 
+/// Where a command's report goes without `--json`.
+#[derive(Clone, Copy, PartialEq)]
+pub(crate) enum Words {
+    /// On stdout: the report is what the command is for (`info`).
+    Stdout,
+    /// On stderr, unless quiet: the report accompanies the files the command wrote.
+    Stderr { quiet: bool },
+}
+
+/// The end of every command that reports: its core report as one line of JSON on stdout with
+/// `json`, else in words ([`spheremap::jobs::Report::lines`]).
+pub(crate) fn print_report<R: spheremap::jobs::Report>(report: &R, json: bool, words: Words) {
+    if json {
+        return out_json(report);
+    }
+    match words {
+        Words::Stdout => out(&report
+            .lines()
+            .iter()
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()),
+        Words::Stderr { quiet: false } => report.lines().iter().for_each(|l| eprintln!("{l}")),
+        Words::Stderr { quiet: true } => {}
+    }
+}
+
 /// Runs the CLI on `args` (the first item is the program name) and returns the exit code.
 pub fn main_with_args<I, T>(args: I) -> i32
 where

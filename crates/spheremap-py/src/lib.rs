@@ -953,22 +953,17 @@ fn read_image<'py>(
     image_out(py, img.map_err(to_py)?, false)
 }
 
-/// Describes an image file: what `spheremap info --json` prints, as a dict.
+/// Describes an image file: what `spheremap info --json` prints, as a dict; `request` is an
+/// `InfoRequest`'s fields.
 #[pyfunction]
-#[pyo3(signature = (path, linear))]
+#[pyo3(signature = (path, request))]
 fn info<'py>(
     py: Python<'py>,
     path: std::path::PathBuf,
-    linear: bool,
+    request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::images::codec::ReadOptions;
-    let opts = ReadOptions {
-        linear,
-        ..Default::default()
-    };
-    let report = py
-        .detach(|| spheremap::images::info::info(&path, &opts))
-        .map_err(to_py)?;
+    let req: spheremap::jobs::info::InfoRequest = request_of(request)?;
+    let report = py.detach(|| req.run_files(&path)).map_err(to_py)?;
     Ok(pythonize::pythonize(py, &report)?)
 }
 

@@ -195,6 +195,9 @@ pub struct AnalyzeSummary {
     pub resolution_deg: Stats,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mesh: Option<MeshSummary>,
+    /// The figure written (`run_files`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
 }
 
 /// A mesh's per-vertex error, summed up.
@@ -233,6 +236,7 @@ impl MappingMaps {
             anisotropy: stats(&self.anisotropy),
             resolution_deg: stats(&self.resolution_deg),
             mesh: None,
+            output: None,
         }
     }
 }
@@ -624,9 +628,9 @@ impl AnalyzeRequest {
     }
 }
 
-impl AnalyzeSummary {
-    /// The report in words, a line for the mapping and one for the mesh.
-    pub fn lines(&self) -> Vec<String> {
+impl crate::jobs::Report for AnalyzeSummary {
+    /// A line for the mapping and one for the mesh.
+    fn lines(&self) -> Vec<String> {
         let (sa, an, re) = (self.solid_angle_sr, self.anisotropy, self.resolution_deg);
         let mut lines = vec![format!(
             "{} {}x{}: texel solid angle {}..{} sr (max/min {:.3}), anisotropy up to {:.3}, \
@@ -655,6 +659,9 @@ impl AnalyzeSummary {
                 m.triangles_after_adaptive,
                 m.unfixable
             ));
+        }
+        if let Some(o) = &self.output {
+            lines.push(format!("-> {o}"));
         }
         lines
     }
@@ -716,6 +723,7 @@ mod tests {
     }
 
     use crate::jobs::render::tests::uv_sphere;
+    use crate::jobs::Report;
 
     #[test]
     fn the_request_checks_its_fields_and_reports_the_canvas_and_the_mesh() {

@@ -202,3 +202,21 @@ impl EnvJob for MatcapRequest {
         ))
     }
 }
+
+impl crate::jobs::Report for MatcapReport {
+    fn lines(&self) -> Vec<String> {
+        let r = self;
+        vec![format!(
+            "{} -> {} ({} roughness {}, {}x{}): {} integrals ({:?}), {:.3} s",
+            r.input,
+            r.output.join(", "),
+            r.material,
+            r.roughness,
+            r.size,
+            r.size,
+            r.integrals,
+            r.method,
+            r.seconds
+        )]
+    }
+}

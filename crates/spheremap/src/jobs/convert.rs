@@ -446,3 +446,37 @@ impl ConvertJob {
         })
     }
 }
+
+impl crate::jobs::Report for ConvertReport {
+    fn lines(&self) -> Vec<String> {
+        let r = self;
+        vec![if r.copied {
+            format!(
+                "{} ({} {}) -> {} ({}x{}): the same mapping, size and view: texels copied, \
+                 {:.3} s",
+                r.input,
+                r.from,
+                r.from_preset,
+                r.output.join(", "),
+                r.width,
+                r.height,
+                r.seconds
+            )
+        } else {
+            format!(
+                "{} ({} {}) -> {} ({} {}, {}x{}): {:.1} lookups/texel, power {:+.3} %, {:.3} s",
+                r.input,
+                r.from,
+                r.from_preset,
+                r.output.join(", "),
+                r.to,
+                r.preset,
+                r.width,
+                r.height,
+                r.lookups as f64 / (r.width * r.height) as f64,
+                100.0 * r.light.worst_signed_power_error(),
+                r.seconds
+            )
+        }]
+    }
+}

@@ -51,3 +51,14 @@ impl DfgRequest {
         })
     }
 }
+
+impl crate::jobs::Report for DfgReport {
+    fn lines(&self) -> Vec<String> {
+        vec![format!(
+            "-> {} ({n}x{n} split-sum DFG: A, B, A+B), {:.3} s",
+            self.output,
+            self.seconds,
+            n = self.size,
+        )]
+    }
+}

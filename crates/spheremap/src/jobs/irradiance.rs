@@ -221,3 +221,23 @@ fn report_file(report: &IrradianceReport, name: &str) -> Result<String> {
 fn write_text(name: &str, text: &str) -> Result<()> {
     crate::base::files::write_text(Path::new(name), text)
 }
+
+impl crate::jobs::Report for crate::lighting::sh::IrradianceReport {
+    fn lines(&self) -> Vec<String> {
+        let r = self;
+        let mut o = vec![format!(
+            "{}: SH9 radiance coefficients (three.js SphericalHarmonics3):",
+            r.input
+        )];
+        for (i, c) in r.coefficients.iter().enumerate() {
+            o.push(format!("  {i}: {:12.6} {:12.6} {:12.6}", c[0], c[1], c[2]));
+        }
+        if let Some(w) = r.window {
+            o.push(format!("  window: {w:.3} bands"));
+        }
+        for f in &r.output {
+            o.push(format!("  wrote {f}"));
+        }
+        o
+    }
+}

@@ -2,7 +2,7 @@
 //! reads, spelled once ([`source`]), conversions ([`convert`]), MatCap bakes ([`bake_matcap`]),
 //! prefiltered chains ([`prefilter`]), irradiance ([`irradiance`]) and the DFG table ([`dfg`])
 //! over the maths of [`crate::lighting`], environment maps from photos ([`photo`]), GL-exact
-//! renders of meshes ([`render`]), what rays see ([`scene`]), analytics and figures ([`analyze`], [`chart`]) and shader
+//! renders of meshes ([`render`]), what rays see ([`scene`]), a file's description ([`info`]), analytics and figures ([`analyze`], [`chart`]) and shader
 //! snippets ([`shader`]); every request's defaults by operation ([`defaults`]), a request read from its fields with errors
 //! that name them ([`fields`]) and the run the
 //! bake and the prefilter share ([`env_job`]).
@@ -15,6 +15,7 @@ pub mod defaults;
 pub mod dfg;
 pub mod env_job;
 pub mod fields;
+pub mod info;
 pub mod irradiance;
 #[cfg(feature = "photo")]
 pub mod photo;
@@ -24,3 +25,10 @@ pub mod render;
 pub mod scene;
 pub mod shader;
 pub mod source;
+
+/// A report of an operation: JSON by its serde fields (`--json`, Python's dicts) and, for the
+/// CLI's output without `--json`, in words.
+pub trait Report: serde::Serialize {
+    /// The report in words, a line each.
+    fn lines(&self) -> Vec<String>;
+}

@@ -359,3 +359,36 @@ impl EnvJob for PrefilterRequest {
         ))
     }
 }
+
+impl crate::jobs::Report for PrefilterReport {
+    fn lines(&self) -> Vec<String> {
+        let r = self;
+        let mut o = vec![format!(
+            "{} -> {} ({} {}, {} level{}), {:.3} s",
+            r.input,
+            r.output.join(", "),
+            r.mapping,
+            if r.irradiance {
+                "irradiance"
+            } else {
+                "GGX radiance"
+            },
+            r.levels.len(),
+            if r.levels.len() == 1 { "" } else { "s" },
+            r.seconds
+        )];
+        for l in &r.levels {
+            o.push(format!(
+                "  level {}: {}x{} roughness {} ({:?}, {} integrals, {:.3} s)",
+                l.level,
+                l.width,
+                l.height,
+                l.roughness.map_or("-".to_string(), |r| format!("{r:.4}")),
+                l.method,
+                l.integrals,
+                l.seconds
+            ));
+        }
+        o
+    }
+}

@@ -923,3 +923,59 @@ mod align {
         Ok((m, rms, mean.exp()))
     }
 }
+
+impl crate::jobs::Report for PhotoRunReport {
+    /// A line per photo (its model, the ball found or given, its distance and unseen cone),
+    /// the second shot's rotation, gain and alignment, and the map written.
+    fn lines(&self) -> Vec<String> {
+        let (r, s) = (self, &self.summary);
+        let mut o = Vec::new();
+        for (i, (shot, m)) in s.shots.iter().zip(&r.models).enumerate() {
+            let fit = match shot.fit_rms {
+                Some(rms) => format!(
+                    "found, fit residual {rms:.3} px over {} edge points",
+                    shot.fit_points
+                ),
+                None => "given".into(),
+            };
+            let dist = shot.distance_radii.map_or(String::new(), |d| {
+                format!(
+                    "; ball {d:.2} radii away, unseen cone behind it {:.2}°",
+                    shot.blind_cone_deg
+                )
+            });
+            let [cx, cy, rad] = shot.circle;
+            o.push(format!(
+                "{}: {m}; ball at ({cx:.2}, {cy:.2}) r {rad:.2} px ({fit}){dist}",
+                r.inputs[i]
+            ));
+        }
+        if let (Some(a), Some(g)) = (s.rotation_deg, s.gain) {
+            let res = s.alignment_rms.map_or("not aligned".into(), |v| {
+                format!("residual {v:.3} (log luminance)")
+            });
+            o.push(format!(
+                "second shot: rotated {a:.2}° from the first, gain {g:.3}, {res}"
+            ));
+        }
+        if s.shots.is_empty() {
+            for m in &r.models {
+                o.push(format!("{}: {m}", r.inputs[0]));
+            }
+        }
+        let unseen = if s.seen_fraction < 1.0 && r.fill == Fill::None {
+            " (unseen texels are 0; --fill smooth fills them)"
+        } else {
+            ""
+        };
+        o.push(format!(
+            "-> {} ({} {}): {:.1} % of the map seen{unseen}, {:.3} s",
+            r.output.join(", "),
+            r.to,
+            r.preset,
+            100.0 * s.seen_fraction,
+            r.seconds
+        ));
+        o
+    }
+}
