@@ -1,8 +1,7 @@
-use anyhow::{bail, Context};
-use spheremap::base::{files, parse};
-use spheremap::mappings::texgen::{sphere_texgen, ModelviewState, TexgenOptions};
-use spheremap::mesh;
-use spheremap::mesh::write::write_obj_with_uv;
+//! `spheremap texgen`: its flags as the core's `jobs::texgen::TexgenRequest`, run and reported.
+
+use anyhow::bail;
+use spheremap::jobs::texgen::TexgenRequest;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -31,70 +30,23 @@ pub struct Args {
     /// Allow the output to replace an input file.
     #[arg(long)]
     force: bool,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    if !matches!(ext.as_str(), "csv" | "npy" | "obj") {
-        bail!(
-            "{}: unknown output extension; use .csv, .npy or .obj",
-            a.output.display()
-        );
-    }
     let (spec, mesh_path) = modelview_args(&a.modelview, a.mesh.as_deref())?;
-    if !a.force && same_file(&mesh_path, &a.output) {
-        bail!(
-            "{}: the output would overwrite the input mesh (use --force to allow)",
-            a.output.display()
-        );
-    }
-    let spec = modelview_spec(&spec)?;
-    let m = parse::parse_matrix4(&spec, a.column_major, "--modelview")?;
-    let mv = ModelviewState::new(m)?;
-    let opts = TexgenOptions {
+    let request = TexgenRequest {
+        modelview: spec,
+        column_major: a.column_major,
         normalize: a.normalize,
         singular: a.singular,
     };
-    let mesh = mesh::load_mesh(&mesh_path)?;
-    let pos: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
-    let nrm: Vec<f32> = mesh.normals.iter().flatten().copied().collect();
-    let mut st = vec![0.0f32; 2 * mesh.positions.len()];
-    sphere_texgen(&pos, 3, &nrm, &mv, opts, &mut st)?;
-    match ext.as_str() {
-        "csv" => files::write_csv(&a.output, &["s", "t"], &st)?,
-        "npy" => files::write_npy_f32(&a.output, &[mesh.positions.len(), 2], &st)?,
-        _ => write_obj_with_uv(&a.output, &mesh, &st, None)?,
-    }
-    let nan = st
-        .chunks_exact(2)
-        .filter(|p| p[0].is_nan() || p[1].is_nan())
-        .count();
-    eprintln!(
-        "spheremap texgen: {} vertices ({} normals), {} singular (NaN{}), modelview {}-> {}",
-        mesh.positions.len(),
-        if mesh.normals_from_file {
-            "file"
-        } else {
-            "computed, angle-weighted"
-        },
-        nan,
-        if ext == "obj" && nan > 0 {
-            "; written as 0.5 0.5 in the OBJ"
-        } else {
-            ""
-        },
-        if mv.singular {
-            "singular (identity inverse used, as GL) "
-        } else {
-            ""
-        },
-        a.output.display()
-    );
+    let report = request
+        .run_files(&mesh_path, &a.output, a.force)
+        .map_err(crate::flag_error)?;
+    crate::print_report(&report, a.json, crate::Words::Stderr { quiet: false });
     Ok(())
 }
 
@@ -129,21 +81,4 @@ fn modelview_args(values: &[String], mesh: Option<&Path>) -> anyhow::Result<(Str
         bail!("--modelview: expected 16 numbers (a 4x4 matrix), got {taken}");
     }
     Ok((spec, mesh))
-}
-
-/// The spec itself, or the contents of the file it names.
-fn modelview_spec(arg: &str) -> anyhow::Result<String> {
-    let p = Path::new(arg);
-    if !arg.starts_with("lookat:") && p.is_file() {
-        return std::fs::read_to_string(p)
-            .with_context(|| format!("{}: cannot read the modelview file", p.display()));
-    }
-    Ok(arg.to_string())
-}
-
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => false,
-    }
 }

@@ -4,7 +4,7 @@
 use crate::jobs::{analyze, bake_matcap, convert, dfg, irradiance, prefilter, render};
 
 /// The defaults of the request of `op` (`convert`, `bake-matcap`, `prefilter`, `irradiance`,
-/// `dfg`, `render`, `analyze`, `info`, `generate`, `preview`, `from-photo`, `from-fisheye`) as JSON: what its `Default` holds.  The CLI's flags take their
+/// `dfg`, `render`, `analyze`, `info`, `texgen`, `generate`, `preview`, `from-photo`, `from-fisheye`) as JSON: what its `Default` holds.  The CLI's flags take their
 /// defaults from the requests; Python's signatures are checked against these.
 pub fn of(op: &str) -> Option<serde_json::Value> {
     fn json<T: serde::Serialize>(t: T) -> Option<serde_json::Value> {
@@ -19,6 +19,7 @@ pub fn of(op: &str) -> Option<serde_json::Value> {
         "render" => json(render::RenderRequest::default()),
         "analyze" => json(analyze::AnalyzeRequest::default()),
         "info" => json(super::info::InfoRequest::default()),
+        "texgen" => json(super::texgen::TexgenRequest::default()),
         "generate" => json(crate::trace::generate::MapRequest::default()),
         "preview" => json(crate::trace::camera::PreviewRequest::default()),
         #[cfg(feature = "photo")]

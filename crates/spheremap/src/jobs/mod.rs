@@ -2,7 +2,7 @@
 //! reads, spelled once ([`source`]), conversions ([`convert`]), MatCap bakes ([`bake_matcap`]),
 //! prefiltered chains ([`prefilter`]), irradiance ([`irradiance`]) and the DFG table ([`dfg`])
 //! over the maths of [`crate::lighting`], environment maps from photos ([`photo`]), GL-exact
-//! renders of meshes ([`render`]), what rays see ([`scene`]), a file's description ([`info`]), analytics and figures ([`analyze`], [`chart`]) and shader
+//! renders of meshes ([`render`]), what rays see ([`scene`]), a file's description ([`info`]), GL's sphere-map texgen of a mesh ([`texgen`]), analytics and figures ([`analyze`], [`chart`]) and shader
 //! snippets ([`shader`]); every request's defaults by operation ([`defaults`]), a request read from its fields with errors
 //! that name them ([`fields`]) and the run the
 //! bake and the prefilter share ([`env_job`]).
@@ -25,6 +25,7 @@ pub mod render;
 pub mod scene;
 pub mod shader;
 pub mod source;
+pub mod texgen;
 
 /// A report of an operation: JSON by its serde fields (`--json`, Python's dicts) and, for the
 /// CLI's output without `--json`, in words.
