@@ -130,46 +130,32 @@ fn summary(
 ) -> anyhow::Result<()> {
     let rays_per_texel = r.rays as f64 / r.texels.max(1) as f64;
     let (w, h) = (out.width, out.height);
-    if a.job.json {
-        let losses = a.job.losses(out, &written[0], false);
-        let v = spheremap::trace::generate::GenerateSummary {
-            scene: a.world.scene.clone(),
-            env: a.world.env.clone(),
-            output: written.to_vec(),
-            to: dst.name(),
-            preset: dst.preset_name(),
-            size: a.size,
-            width: w,
-            height: h,
-            samples: a.sampling.samples,
-            filter: a.sampling.filter.name(),
-            outside: a.sampling.outside.name(),
-            triangles: scene.map(|s| s.triangle_count()),
-            degenerate_triangles: scene.map(|s| s.degenerate_count()),
-            lights: scene.map(|s| s.lights.len()),
-            rays: r.rays,
-            texels_traced: r.texels,
-            rays_per_texel,
-            max_texel_samples: r.max_texel_samples,
-            seconds,
-            rays_per_second: r.rays as f64 / seconds.max(1e-9),
-            clipped: losses.clipped,
-            clamped_half: losses.beyond_half,
-        };
-        crate::out(&format!("{}\n", serde_json::to_string(&v)?));
-    } else if !a.job.quiet {
-        if let Some(n) = scene.map(|s| s.degenerate_count()).filter(|&n| n > 0) {
-            eprintln!("note: {n} degenerate (zero-area) triangles in the scene are ignored");
-        }
-        eprintln!(
-            "{} -> {} ({} {}, {w}x{h}): {} rays ({rays_per_texel:.1}/texel), {seconds:.3} s, {:.2} Mrays/s",
-            a.world.scene.as_deref().or(a.world.env.as_deref()).unwrap_or(""),
-            written.join(", "),
-            dst.name(),
-            dst.preset_name(),
-            r.rays,
-            r.rays as f64 / seconds.max(1e-9) / 1e6
-        );
-    }
+    let losses = a.job.losses(out, &written[0], false);
+    let report = spheremap::trace::generate::GenerateSummary {
+        scene: a.world.scene.clone(),
+        env: a.world.env.clone(),
+        output: written.to_vec(),
+        to: dst.name(),
+        preset: dst.preset_name(),
+        size: a.size,
+        width: w,
+        height: h,
+        samples: a.sampling.samples,
+        filter: a.sampling.filter.name(),
+        outside: a.sampling.outside.name(),
+        triangles: scene.map(|s| s.triangle_count()),
+        degenerate_triangles: scene.map(|s| s.degenerate_count()),
+        lights: scene.map(|s| s.lights.len()),
+        rays: r.rays,
+        texels_traced: r.texels,
+        rays_per_texel,
+        max_texel_samples: r.max_texel_samples,
+        seconds,
+        rays_per_second: r.rays as f64 / seconds.max(1e-9),
+        clipped: losses.clipped,
+        clamped_half: losses.beyond_half,
+    };
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }

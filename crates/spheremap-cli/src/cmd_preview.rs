@@ -70,14 +70,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     })?;
     let seconds = t0.elapsed().as_secs_f64();
     write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;
-    if a.job.json {
-        let losses = a.job.losses(&img, &a.output, false).into();
-        crate::out_json(&cam.report(&a.output, a.samples, seconds, losses));
-    } else if !a.job.quiet {
-        eprintln!(
-            "-> {} ({w}x{h}, {} rays/pixel): {seconds:.3} s",
-            a.output, a.samples
-        );
-    }
+    let losses = a.job.losses(&img, &a.output, false).into();
+    let report = cam.report(&a.output, a.samples, seconds, losses);
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }

@@ -132,37 +132,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let linear_out = Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
     let out = finish(img, &a, &opts, op, linear_out);
     write_image(Path::new(&a.output), &out, &a.job.write_options(false))?;
-    if a.job.json {
-        let losses = a.job.losses(&out, &a.output, false);
-        let v = RenderSummary {
-            output: a.output.clone(),
-            mode: a.mode.to_string(),
-            width: cam.width,
-            height: cam.height,
-            triangles_drawn: stats.triangles,
-            covered_pixels: stats.covered_pixels,
-            modelview: cam.modelview,
-            projection: cam.projection,
-            seconds,
-            clipped: losses.clipped,
-            clamped_half: losses.beyond_half,
-            error_deg: error_stats,
-        };
-        crate::out(&format!("{}\n", serde_json::to_string(&v)?));
-    } else if !a.job.quiet {
-        let extra = error_stats.map_or(String::new(), |e| {
-            let (mean, p95, max) = (e.mean, e.p95.unwrap_or(0.0), e.max.unwrap_or(0.0));
-            format!(
-                "; per-vertex vs per-pixel lookup angle: mean {mean:.3}°, 95 % {p95:.3}°, max {max:.3}° \
-                 (PNG colour scale 0..{}°)",
-                a.error_max
-            )
-        });
-        eprintln!(
-            "-> {} ({}x{}, {}, {} triangles, {} pixels covered){extra}: {seconds:.3} s",
-            a.output, cam.width, cam.height, a.mode, stats.triangles, stats.covered_pixels
-        );
-    }
+    let losses = a.job.losses(&out, &a.output, false);
+    let report = RenderSummary {
+        output: a.output.clone(),
+        mode: a.mode.to_string(),
+        width: cam.width,
+        height: cam.height,
+        triangles_drawn: stats.triangles,
+        covered_pixels: stats.covered_pixels,
+        modelview: cam.modelview,
+        projection: cam.projection,
+        seconds,
+        clipped: losses.clipped,
+        clamped_half: losses.beyond_half,
+        error_deg: error_stats,
+        error_scale_deg: error_stats.map(|_| a.error_max as f64),
+    };
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }
 
@@ -224,28 +211,16 @@ fn turntable(
         w
     };
     let seconds = t0.elapsed().as_secs_f64();
-    if a.job.json {
-        crate::out_json(&render::TurntableReport {
-            output: written.clone(),
-            frames: n,
-            mode: a.mode,
-            width: cam.width,
-            height: cam.height,
-            seconds,
-        });
-    } else if !a.job.quiet {
-        eprintln!(
-            "-> {} ({n} frames, {}x{}, {}): {seconds:.3} s",
-            if gif {
-                a.output.clone()
-            } else {
-                format!("{} ... {}", written[0], written[written.len() - 1])
-            },
-            cam.width,
-            cam.height,
-            a.mode
-        );
-    }
+    let report = render::TurntableReport {
+        output: written,
+        frames: n,
+        mode: a.mode,
+        width: cam.width,
+        height: cam.height,
+        seconds,
+    };
+    let words = crate::Words::Stderr { quiet: a.job.quiet };
+    crate::print_report(&report, a.job.json, words);
     Ok(())
 }
 

@@ -178,19 +178,25 @@ pub(crate) fn env_arg_with(
     Ok(img)
 }
 
+/// An integer argument (not a bool) of at least `min`, else an error saying what it expected.
+fn integer(ob: &Bound<'_, PyAny>, name: &str, min: u64, what: &str) -> PyResult<u64> {
+    match ob.extract::<u64>() {
+        Ok(v) if v >= min && !ob.is_instance_of::<pyo3::types::PyBool>() => Ok(v),
+        _ => {
+            let repr = ob.repr().map(|r| r.to_string()).unwrap_or_default();
+            Err(value_error(name, format!("expected {what}, got {repr}")))
+        }
+    }
+}
+
 /// A positive integer argument (not a bool).
 pub(crate) fn positive(ob: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
-    let bad = || {
-        let repr = ob.repr().map(|r| r.to_string()).unwrap_or_default();
-        value_error(name, format!("expected a positive integer, got {repr}"))
-    };
-    if ob.is_instance_of::<pyo3::types::PyBool>() {
-        return Err(bad());
-    }
-    match ob.extract::<i64>() {
-        Ok(v) if v >= 1 => Ok(v as usize),
-        _ => Err(bad()),
-    }
+    integer(ob, name, 1, "a positive integer").map(|v| v as usize)
+}
+
+/// A non-negative integer argument (not a bool).
+pub(crate) fn nonnegative(ob: &Bound<'_, PyAny>, name: &str) -> PyResult<u64> {
+    integer(ob, name, 0, "a non-negative integer")
 }
 
 /// An image as a float32 array: (H, W, C), or with `faces` a cube map's (6F, F, C) stack as
@@ -207,18 +213,6 @@ pub(crate) fn image_out<'py>(
     } else {
         a.reshape([img.height, img.width, img.channels])?.into_any()
     })
-}
-
-/// A non-negative integer argument (not a bool).
-pub(crate) fn nonnegative(ob: &Bound<'_, PyAny>, name: &str) -> PyResult<u64> {
-    let bad = || {
-        let repr = ob.repr().map(|r| r.to_string()).unwrap_or_default();
-        value_error(name, format!("expected a non-negative integer, got {repr}"))
-    };
-    if ob.is_instance_of::<pyo3::types::PyBool>() {
-        return Err(bad());
-    }
-    ob.extract::<u64>().map_err(|_| bad())
 }
 
 /// Three finite numbers (a point, a direction, an RGB colour).

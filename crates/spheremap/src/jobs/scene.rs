@@ -184,6 +184,41 @@ impl SceneRequest {
     }
 }
 
+impl crate::jobs::Report for crate::trace::generate::GenerateSummary {
+    /// A note on zero-area triangles, and the map made.
+    fn lines(&self) -> Vec<String> {
+        let mut o = Vec::new();
+        if let Some(n) = self.degenerate_triangles.filter(|&n| n > 0) {
+            o.push(format!(
+                "note: {n} degenerate (zero-area) triangles in the scene are ignored"
+            ));
+        }
+        o.push(format!(
+            "{} -> {} ({} {}, {}x{}): {} rays ({:.1}/texel), {:.3} s, {:.2} Mrays/s",
+            self.scene.as_deref().or(self.env.as_deref()).unwrap_or(""),
+            self.output.join(", "),
+            self.to,
+            self.preset,
+            self.width,
+            self.height,
+            self.rays,
+            self.rays_per_texel,
+            self.seconds,
+            self.rays_per_second / 1e6
+        ));
+        o
+    }
+}
+
+impl crate::jobs::Report for crate::trace::camera::PreviewReport {
+    fn lines(&self) -> Vec<String> {
+        vec![format!(
+            "-> {} ({}x{}, {} rays/pixel): {:.3} s",
+            self.output, self.width, self.height, self.samples, self.seconds
+        )]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

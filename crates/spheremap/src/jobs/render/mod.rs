@@ -475,9 +475,11 @@ pub struct RenderSummary {
     /// Values the output format clipped, and values beyond the half range.
     pub clipped: u64,
     pub clamped_half: u64,
-    /// The error mode's statistics.
+    /// The error mode's statistics, and the angle the heat map's colour scale ends at.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error_deg: Option<PixelError>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_scale_deg: Option<f64>,
 }
 
 /// The report of `spheremap render --turntable --json`: the frames written (one GIF, or one
@@ -498,6 +500,43 @@ pub(crate) struct Vertices {
     pub normal: Vec<[f64; 3]>,
     pub st: Vec<[f32; 2]>,
     pub clip: Vec<[f64; 4]>,
+}
+
+impl crate::jobs::Report for RenderSummary {
+    fn lines(&self) -> Vec<String> {
+        let extra = self.error_deg.as_ref().map_or(String::new(), |e| {
+            let (mean, p95, max) = (e.mean, e.p95.unwrap_or(0.0), e.max.unwrap_or(0.0));
+            format!(
+                "; per-vertex vs per-pixel lookup angle: mean {mean:.3}°, 95 % {p95:.3}°, max \
+                 {max:.3}° (PNG colour scale 0..{}°)",
+                self.error_scale_deg.unwrap_or(0.0)
+            )
+        });
+        vec![format!(
+            "-> {} ({}x{}, {}, {} triangles, {} pixels covered){extra}: {:.3} s",
+            self.output,
+            self.width,
+            self.height,
+            self.mode,
+            self.triangles_drawn,
+            self.covered_pixels,
+            self.seconds
+        )]
+    }
+}
+
+impl crate::jobs::Report for TurntableReport {
+    fn lines(&self) -> Vec<String> {
+        let files = match self.output.as_slice() {
+            [one] => one.clone(),
+            [first, .., last] => format!("{first} ... {last}"),
+            [] => String::new(),
+        };
+        vec![format!(
+            "-> {files} ({} frames, {}x{}, {}): {:.3} s",
+            self.frames, self.width, self.height, self.mode, self.seconds
+        )]
+    }
 }
 
 #[cfg(test)]
