@@ -1,20 +1,9 @@
-//! `spheremap render`: a thin layer over `spheremap::jobs::render`.
+//! `spheremap render`: its flags as the core's `jobs::render::RenderRequest` and `RenderFiles`,
+//! run and reported.
 
 use crate::camera_args::CameraArgs;
 use crate::job::JobFlags;
-use anyhow::{bail, Context};
-use spheremap::images::codec::{check_nonfinite, write_image, ReadOptions};
-use spheremap::images::envmap::read_env;
-use spheremap::images::format::Format;
-use spheremap::images::tonemap::{tone_map, ToneMap};
-use spheremap::images::Image;
-use spheremap::jobs::render::{
-    self, heat_colour, Env, EnvInput, GlCamera, Mode, PixelError, RenderOptions, RenderRequest,
-    RenderSummary,
-};
-use spheremap::mesh::load_mesh;
-use std::path::Path;
-use std::time::Instant;
+use spheremap::jobs::render::{RenderFiles, RenderRequest};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -52,21 +41,21 @@ pub struct Args {
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::jobs::render::Wrap>())]
     wrap: spheremap::jobs::render::Wrap,
     /// Exposure in stops for PNG/JPEG outputs (EXR/HDR/PFM stay linear and untouched).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RenderFiles::default().exposure, allow_negative_numbers = true)]
     exposure: f32,
     /// Tone-mapping operator for PNG/JPEG outputs: clamp (default), reinhard, aces.
     #[arg(long, default_value_t, value_parser = crate::names::typed::<spheremap::images::tonemap::ToneMap>())]
     tonemap: spheremap::images::tonemap::ToneMap,
     /// Error mode: the angle (degrees) shown as the hottest colour in PNG/JPEG outputs
     /// (EXR holds the degrees themselves).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = RenderFiles::default().error_max)]
     error_max: f32,
     /// A turntable: N frames with the eye orbiting the target about --up (a full turn); -o is
     /// an animated GIF (.gif) or a pattern with {frame} for numbered images.
     #[arg(long)]
     turntable: Option<u32>,
     /// Milliseconds per frame of the animated GIF.
-    #[arg(long, default_value_t = 80)]
+    #[arg(long, default_value_t = RenderFiles::default().frame_ms)]
     frame_ms: u32,
     /// Read LDR textures as linear values (no sRGB decoding).
     #[arg(long)]
@@ -88,152 +77,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         wrap: a.wrap,
         view: a.camera.request((a.size[0], a.size[1])),
     };
-    let mode = request.mode();
-    let wrap = request.wrap;
-    let op = a.tonemap;
-    if !(a.error_max > 0.0 && a.error_max.is_finite()) {
-        bail!("error-max: must be a positive number of degrees");
-    }
+    let files = RenderFiles {
+        source: a.source.source(),
+        nonfinite: a.job.nonfinite,
+        linear: a.linear,
+        exposure: a.exposure,
+        tonemap: a.tonemap,
+        error_max: a.error_max,
+        turntable: a.turntable,
+        frame_ms: a.frame_ms,
+    };
     let inputs: Vec<&String> = std::iter::once(&a.mesh).chain(&a.env).collect();
     a.job.refuse_overwrite(&inputs, &[&a.output])?;
-    let mesh = load_mesh(Path::new(&a.mesh))?;
-    let cam = request
-        .camera(&mesh.positions)
-        .with_context(|| a.mesh.clone())?;
-    let (mapping, layout) = a
-        .source
-        .mapping(a.env.as_deref().unwrap_or(""), "sphere", "render")?;
-    let env_img: Option<Image> = match (&a.env, mode) {
-        (None, Mode::Normals | Mode::Error) => None,
-        (None, _) => bail!("--env: mode {} needs an environment map", a.mode),
-        (Some(e), _) => {
-            let ropts = ReadOptions {
-                linear: a.linear,
-                ..Default::default()
-            };
-            let mut img = read_env(e, mapping, layout, &ropts)?;
-            check_nonfinite(&mut img, a.job.nonfinite()?, e)?;
-            Some(img)
-        }
-    };
-    let what = a.env.as_deref().unwrap_or("env");
-    let (mapping, env_img) = request.environment(mapping, env_img, what)?;
-    let input = EnvInput::new(mapping, env_img.as_ref(), wrap, what)?;
-    input.check(mode).map_err(crate::flag_error)?;
-    let env = input.env();
-    let opts = request.options()?;
-    if let Some(n) = a.turntable {
-        return turntable(&a, n, &mesh, &cam, env, &opts, op);
-    }
-    let t0 = Instant::now();
-    let (img, stats) = render::render(&mesh, &cam, env, &opts)?;
-    let seconds = t0.elapsed().as_secs_f64();
-    let error_stats = (mode == Mode::Error).then(|| PixelError::of(&img));
-    let linear_out = Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
-    let out = finish(img, &a, &opts, op, linear_out);
-    write_image(Path::new(&a.output), &out, &a.job.write_options(false))?;
-    let losses = a.job.losses(&out, &a.output, false);
-    let report = RenderSummary {
-        output: a.output.clone(),
-        mode: a.mode.to_string(),
-        width: cam.width,
-        height: cam.height,
-        triangles_drawn: stats.triangles,
-        covered_pixels: stats.covered_pixels,
-        modelview: cam.modelview,
-        projection: cam.projection,
-        seconds,
-        clipped: losses.clipped,
-        clamped_half: losses.beyond_half,
-        error_deg: error_stats,
-        error_scale_deg: error_stats.map(|_| a.error_max as f64),
-    };
+    let report = request
+        .run_files(
+            &a.mesh,
+            a.env.as_deref(),
+            &files,
+            &a.output,
+            &a.job.write_options(false),
+        )
+        .map_err(|e| crate::flag_error(e.renamed("output", "-o")))?;
     let words = crate::Words::Stderr { quiet: a.job.quiet };
     crate::print_report(&report, a.job.json, words);
     Ok(())
-}
-
-/// Display-ready: the error heat map or the tone-mapped colours, unless the output is linear.
-fn finish(img: Image, a: &Args, opts: &RenderOptions, op: ToneMap, linear_out: bool) -> Image {
-    if linear_out {
-        img
-    } else if opts.mode == Mode::Error {
-        heat_image(&img, a.error_max, opts.background)
-    } else {
-        let mut i = img;
-        tone_map(&mut i, a.exposure, op);
-        i
-    }
-}
-
-fn turntable(
-    a: &Args,
-    n: u32,
-    mesh: &spheremap::mesh::Mesh,
-    cam: &GlCamera,
-    env: Env,
-    opts: &RenderOptions,
-    op: ToneMap,
-) -> anyhow::Result<()> {
-    spheremap::base::limits::check_range(
-        "turntable",
-        n,
-        1,
-        spheremap::base::limits::TURNTABLE_FRAMES,
-    )?;
-    let gif = a.output.to_ascii_lowercase().ends_with(".gif");
-    if !gif && !a.output.contains("{frame}") {
-        bail!(
-            "{}: with --turntable, -o is a .gif or a pattern with {{frame}}",
-            a.output
-        );
-    }
-    let linear_out =
-        !gif && Format::from_extension(Path::new(&a.output)).is_some_and(|f| !f.is_ldr());
-    let t0 = Instant::now();
-    let mut frames = Vec::with_capacity(n as usize);
-    for k in 0..n {
-        let c = cam.orbited(360.0 * k as f64 / n as f64)?;
-        let (img, _) = render::render(mesh, &c, env, opts)?;
-        frames.push(finish(img, a, opts, op, linear_out));
-    }
-    let written = if gif {
-        spheremap::images::codec::write_gif(Path::new(&a.output), &frames, a.frame_ms)?;
-        vec![a.output.clone()]
-    } else {
-        let digits = (n - 1).to_string().len().max(3);
-        let mut w = vec![];
-        for (k, f) in frames.iter().enumerate() {
-            let p = a.output.replace("{frame}", &format!("{k:0digits$}"));
-            write_image(Path::new(&p), f, &a.job.write_options(false))?;
-            w.push(p);
-        }
-        w
-    };
-    let seconds = t0.elapsed().as_secs_f64();
-    let report = render::TurntableReport {
-        output: written,
-        frames: n,
-        mode: a.mode,
-        width: cam.width,
-        height: cam.height,
-        seconds,
-    };
-    let words = crate::Words::Stderr { quiet: a.job.quiet };
-    crate::print_report(&report, a.job.json, words);
-    Ok(())
-}
-
-/// Mean, 95th percentile and maximum of the angle over the covered pixels.
-/// (degrees, coverage) → heat colours (0 → dark, `max` and above → pale yellow) over the
-/// background by coverage.
-fn heat_image(img: &Image, max: f32, bg: [f32; 3]) -> Image {
-    let mut out = Image::new(img.width, img.height, 3);
-    for (o, p) in out.data.chunks_exact_mut(3).zip(img.data.chunks_exact(2)) {
-        let h = heat_colour(p[0] / max);
-        for k in 0..3 {
-            o[k] = p[1] * h[k] + (1.0 - p[1]) * bg[k];
-        }
-    }
-    out
 }

@@ -53,50 +53,6 @@ impl SourceArgs {
         }
     }
 
-    /// How to read the map at `path` (`""`: none): its mapping and cube layout, given, else
-    /// what the file records, else `default`; and the rotation from world directions to its
-    /// frame (its view, given or recorded).
-    pub fn read_as(
-        &self,
-        path: &str,
-        default: &str,
-    ) -> anyhow::Result<(
-        spheremap::Mapping,
-        Option<spheremap::images::cube_layout::Layout>,
-        spheremap::frame::view::Mat3,
-    )> {
-        let note = match path {
-            "" => None,
-            p => spheremap::images::envmap::read_note(p)?,
-        };
-        let r = self
-            .source()
-            .resolve(note.as_ref(), path, Some(default))
-            .map_err(crate::flag_error)?;
-        Ok((r.mapping, r.layout, r.world_to_src))
-    }
-
-    /// [`SourceArgs::read_as`] for `command`, which reads the map in the world's frame: a
-    /// view given is refused, a view recorded is not applied.
-    pub fn mapping(
-        &self,
-        path: &str,
-        default: &str,
-        command: &str,
-    ) -> anyhow::Result<(
-        spheremap::Mapping,
-        Option<spheremap::images::cube_layout::Layout>,
-    )> {
-        if self.from_look.is_some() || self.from_up.is_some() {
-            anyhow::bail!(
-                "--from-look: {command} reads the map in the world's frame; turn it first \
-                 (spheremap convert IN OUT --from-look X Y Z)"
-            );
-        }
-        let (m, l, _) = self.read_as(path, default)?;
-        Ok((m, l))
-    }
-
     /// The flag that sets a field of `Source` (`src_preset` → `--from-preset`); `None` for
     /// other names.
     pub fn flag(field: &str) -> Option<String> {

@@ -6,7 +6,7 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUnty
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use spheremap::jobs::render::{EnvInput, RenderRequest};
+use spheremap::jobs::render::RenderRequest;
 use spheremap::mesh::Mesh;
 
 type MeshArrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>);
@@ -125,54 +125,39 @@ pub fn render<'py>(
     linear: bool,
     request: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use spheremap::images::codec::{check_nonfinite, NonFinite, ReadOptions};
-    use spheremap::images::envmap::{read_env, read_note};
     let request = render_request(request)?;
-    let mode = request.mode();
-    let wrap = request.wrap;
     let mesh = mesh_arg(py, mesh)?;
-    let cam = request.camera(&mesh.positions).map_err(to_py)?;
-    let source = spheremap::jobs::source::Source {
-        src,
-        src_preset,
-        src_layout,
+    let files = spheremap::jobs::render::RenderFiles {
+        source: spheremap::jobs::source::Source {
+            src,
+            src_preset,
+            src_layout,
+            ..Default::default()
+        },
+        linear,
         ..Default::default()
     };
     let path = env.and_then(|e| e.extract::<std::path::PathBuf>().ok());
-    let (mapping, img) = match (env, path) {
+    let (env, what) = match (env, path) {
         (Some(_), Some(path)) => {
             let path = path.to_string_lossy().into_owned();
-            let note = read_note(&path).map_err(to_py)?;
-            let r = source
-                .resolve(note.as_ref(), &path, Some("sphere"))
-                .map_err(to_py)?;
-            let opts = ReadOptions {
-                linear,
-                ..Default::default()
-            };
-            let img = py.detach(|| {
-                let mut img = read_env(&path, r.mapping, r.layout, &opts)?;
-                check_nonfinite(&mut img, NonFinite::Error, &path)?;
-                Ok::<_, spheremap::Error>(img)
-            });
-            (r.mapping, Some(img.map_err(to_py)?))
+            let read = py.detach(|| files.read_env(&path)).map_err(to_py)?;
+            (Some(read), path)
         }
         (e, _) => {
-            let r = source.resolve(None, "env", Some("sphere")).map_err(to_py)?;
+            let r = files
+                .source
+                .resolve(None, "env", Some("sphere"))
+                .map_err(to_py)?;
             let cube = r.mapping.name() == "cube";
             let img = e
                 .map(|e| env_arg(e, cube, r.layout.map(|l| l.name()), "env"))
                 .transpose()?;
-            (r.mapping, img)
+            (img.map(|i| (r.mapping, i)), "env".to_string())
         }
     };
-    let (mapping, img) = request.environment(mapping, img, "env").map_err(to_py)?;
-    let input = EnvInput::new(mapping, img.as_ref(), wrap, "env").map_err(to_py)?;
-    input.check(mode).map_err(to_py)?;
-    let env = input.env();
-    let opts = request.options().map_err(to_py)?;
-    let (out, _) = py
-        .detach(|| spheremap::jobs::render::render(&mesh, &cam, env, &opts))
+    let (out, _, _) = py
+        .detach(|| request.run_image(&mesh, env, &what))
         .map_err(to_py)?;
     image_out(py, out, false)
 }

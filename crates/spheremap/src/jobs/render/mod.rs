@@ -44,11 +44,13 @@
 //!   mean angle over the pixel's covered samples (0 where none) and the covered fraction.
 
 mod draw;
+mod files;
 mod raster;
 mod request;
 mod shade;
 
 pub use draw::{render, triangle_ids};
+pub use files::{heat_image, RenderFiles, RenderReport};
 pub use request::{CameraRequest, RenderRequest};
 pub use shade::{heat_colour, Texture, Wrap};
 
