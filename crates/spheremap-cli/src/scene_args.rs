@@ -4,10 +4,16 @@
 
 use crate::job::{vec3, JobFlags};
 use spheremap::images::codec::NonFinite;
-use spheremap::jobs::scene::{SceneEnv, SceneRequest};
-use spheremap::resample::EnvMap;
-use spheremap::trace::generate::{EnvSource, RaySource};
-use spheremap::trace::scene::{Scene, Shading};
+use spheremap::jobs::scene::{SceneRequest, World};
+use spheremap::trace::scene::Shading;
+
+/// A scene request's error as the flags name it (`--sun`, `--point-light`, `--scene`, …).
+pub fn flag_error(e: spheremap::Error) -> anyhow::Error {
+    crate::flag_error(
+        e.renamed("suns", "sun")
+            .renamed("point_lights", "point_light"),
+    )
+}
 
 #[derive(clap::Args, Debug)]
 pub struct SceneArgs {
@@ -44,49 +50,6 @@ pub struct SceneArgs {
     indirect_samples: u32,
 }
 
-/// What the rays see, loaded.
-pub struct World {
-    pub scene: Option<Scene>,
-    /// The environment map, its mapping and the rotation from world directions to its frame.
-    pub env: Option<SceneEnv>,
-}
-
-impl World {
-    /// The ray source: the scene if there is one, else the environment map.
-    pub fn source(&self) -> Box<dyn RaySource + '_> {
-        match (&self.scene, &self.env) {
-            (Some(s), _) => Box::new(SceneRef(s)),
-            (None, Some(e)) => {
-                let map = EnvMap {
-                    mapping: e.mapping,
-                    width: e.image.width,
-                    height: e.image.height,
-                    channels: e.image.channels,
-                    data: &e.image.data,
-                };
-                Box::new(EnvSource::new(&map, e.rotation))
-            }
-            _ => unreachable!("checked on load"),
-        }
-    }
-}
-
-struct SceneRef<'a>(&'a Scene);
-
-impl RaySource for SceneRef<'_> {
-    fn channels(&self) -> usize {
-        self.0.channels()
-    }
-    fn trace(
-        &self,
-        origins: &[[f32; 3]],
-        directions: &[[f32; 3]],
-        out: &mut [f32],
-    ) -> spheremap::Result<()> {
-        self.0.trace(origins, directions, out)
-    }
-}
-
 impl SceneArgs {
     /// The core's scene request for these flags.
     pub fn request(&self, nonfinite: NonFinite, seed: u64) -> SceneRequest {
@@ -110,21 +73,17 @@ impl SceneArgs {
         }
     }
 
+    /// Refuses (unless --force) outputs that would overwrite the scene or the map.
+    pub fn refuse_overwrite(&self, job: &JobFlags, outputs: &[String]) -> anyhow::Result<()> {
+        let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
+        job.refuse_overwrite(&inputs, outputs)
+    }
+
     /// Loads the scene and/or the environment map; refuses outputs that would overwrite them.
     pub fn load(&self, job: &JobFlags, seed: u64, outputs: &[String]) -> anyhow::Result<World> {
-        let request = self.request(job.nonfinite()?, seed);
-        let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
-        job.refuse_overwrite(&inputs, outputs)?;
-        let env = match &self.env {
-            Some(e) => Some(request.read_env(e).map_err(crate::flag_error)?),
-            None => None,
-        };
-        let scene = request.build(env.as_ref()).map_err(|e| {
-            crate::flag_error(
-                e.renamed("suns", "sun")
-                    .renamed("point_lights", "point_light"),
-            )
-        })?;
-        Ok(World { scene, env })
+        self.refuse_overwrite(job, outputs)?;
+        self.request(job.nonfinite()?, seed)
+            .load(self.env.as_deref())
+            .map_err(flag_error)
     }
 }

@@ -6,12 +6,16 @@
 
 use crate::base::error::{Error, Result};
 use crate::frame::view::Mat3;
-use crate::images::codec::{check_nonfinite, NonFinite, ReadOptions};
-use crate::images::envmap::{read_env, read_note};
+use crate::images::codec::{check_nonfinite, Losses, NonFinite, ReadOptions, WriteOptions};
+use crate::images::envmap::{read_env, read_note, write_env, EnvFiles};
+use crate::images::format::Format;
 use crate::images::Image;
 use crate::jobs::source::Source;
 use crate::mappings::mapping::Mapping;
-use crate::resample::EnvMap;
+use crate::resample::{EnvMap, Progress, IDENTITY};
+use crate::trace::generate::{
+    generate, EnvSource, GenerateOptions, GenerateSummary, MapRequest, RaySource,
+};
 use crate::trace::scene::{Builtin, Environment, Light, Scene, Shading};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -184,7 +188,127 @@ impl SceneRequest {
     }
 }
 
-impl crate::jobs::Report for crate::trace::generate::GenerateSummary {
+/// What rays see, loaded: the scene, and the environment map (what rays leaving the scene see,
+/// or without a scene what they look up directly).
+pub struct World {
+    pub scene: Option<Scene>,
+    pub env: Option<SceneEnv>,
+}
+
+/// A loaded scene as a ray source.
+struct SceneRef<'a>(&'a Scene);
+
+impl RaySource for SceneRef<'_> {
+    fn channels(&self) -> usize {
+        self.0.channels()
+    }
+    fn trace(&self, origins: &[[f32; 3]], directions: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
+        self.0.trace(origins, directions, out)
+    }
+}
+
+impl World {
+    /// The ray source: the scene if there is one, else the environment map.
+    pub fn source(&self) -> Box<dyn RaySource + '_> {
+        match (&self.scene, &self.env) {
+            (Some(s), _) => Box::new(SceneRef(s)),
+            (None, Some(e)) => {
+                let map = EnvMap {
+                    mapping: e.mapping,
+                    width: e.image.width,
+                    height: e.image.height,
+                    channels: e.image.channels,
+                    data: &e.image.data,
+                };
+                Box::new(EnvSource::new(&map, e.rotation))
+            }
+            _ => unreachable!("SceneRequest::build refuses a world without either"),
+        }
+    }
+}
+
+impl SceneRequest {
+    /// Loads what rays see: the scene and the environment map at `env`.
+    pub fn load(&self, env: Option<&str>) -> Result<World> {
+        let env = env.map(|e| self.read_env(e)).transpose()?;
+        let scene = self.build(env.as_ref())?;
+        Ok(World { scene, env })
+    }
+
+    /// `spheremap generate` on files: the map `map` asks for, made by firing rays from its
+    /// position into this scene (and/or the environment map at `env`), written to `output`;
+    /// with `faces`, also the six cube faces at that position (in the world's frame, as six
+    /// cameras there would take them) into that folder as `{face}.exr`, at that size (default
+    /// the map's).  The report.
+    pub fn generate_files(
+        &self,
+        map: &MapRequest,
+        env: Option<&str>,
+        output: &str,
+        faces: Option<(&Path, Option<usize>)>,
+        write: &WriteOptions,
+        progress: Option<&Progress>,
+    ) -> Result<GenerateSummary> {
+        let m = map.resolve()?;
+        EnvFiles::parse(output).check_output(m.mapping)?;
+        let world = self.load(env)?;
+        let source = world.source();
+        let t0 = std::time::Instant::now();
+        let (out, r) = generate(
+            m.mapping,
+            m.width,
+            m.height,
+            source.as_ref(),
+            &m.options,
+            progress,
+        )?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let mut written = write_env(output, m.mapping, &out, m.layout, &m.view, write)?;
+        if let Some((dir, size)) = faces {
+            let cube = Mapping::parse("cube", None)?;
+            let f = size.unwrap_or(map.size);
+            crate::base::limits::check_map_size("faces_size", f)?;
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+            let opts = GenerateOptions {
+                rotation: IDENTITY,
+                ..m.options
+            };
+            let (faces, _) = generate(cube, f, 6 * f, source.as_ref(), &opts, progress)?;
+            let pattern = dir.join("{face}.exr").display().to_string();
+            written.extend(write_env(&pattern, cube, &faces, None, &IDENTITY, write)?);
+        }
+        let losses = Format::from_extension(Path::new(&written[0]))
+            .map(|f| Losses::of(&out, f, write))
+            .unwrap_or_default();
+        let scene = world.scene.as_ref();
+        Ok(GenerateSummary {
+            scene: self.scene.clone(),
+            env: env.map(String::from),
+            output: written,
+            to: m.mapping.name(),
+            preset: m.mapping.preset_name(),
+            size: map.size,
+            width: out.width,
+            height: out.height,
+            samples: map.samples,
+            filter: map.filter.name(),
+            outside: map.outside.name(),
+            triangles: scene.map(|s| s.triangle_count()),
+            degenerate_triangles: scene.map(|s| s.degenerate_count()),
+            lights: scene.map(|s| s.lights.len()),
+            rays: r.rays,
+            texels_traced: r.texels,
+            rays_per_texel: r.rays as f64 / r.texels.max(1) as f64,
+            max_texel_samples: r.max_texel_samples,
+            seconds,
+            rays_per_second: r.rays as f64 / seconds.max(1e-9),
+            clipped: losses.clipped,
+            clamped_half: losses.beyond_half,
+        })
+    }
+}
+
+impl crate::jobs::Report for GenerateSummary {
     /// A note on zero-area triangles, and the map made.
     fn lines(&self) -> Vec<String> {
         let mut o = Vec::new();
@@ -257,6 +381,35 @@ mod tests {
         ));
         assert_eq!(s.lights.len(), 2);
         assert_eq!((s.options.max_depth, s.options.seed), (2, 7));
+    }
+
+    #[test]
+    fn a_map_and_its_cube_faces_are_generated_written_and_reported() {
+        use crate::jobs::Report;
+        let dir = std::env::temp_dir().join(format!("spheremap-generate-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("octants.exr");
+        let map = MapRequest {
+            size: 8,
+            samples: 1,
+            ..Default::default()
+        };
+        let r = request("builtin:octants")
+            .generate_files(
+                &map,
+                None,
+                out.to_str().unwrap(),
+                Some((&dir.join("faces"), Some(4))),
+                &WriteOptions::default(),
+                None,
+            )
+            .unwrap();
+        assert_eq!((r.width, r.height, r.output.len()), (8, 8, 7));
+        // One ray per texel whose centre is on the disc (52 of an 8×8 sphere map).
+        assert_eq!((r.rays, r.texels_traced), (52, 52));
+        assert!(dir.join("faces").join("px.exr").is_file() && out.is_file());
+        assert!(r.lines().last().unwrap().starts_with("builtin:octants -> "));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
