@@ -1,13 +1,11 @@
 //! `spheremap preview`: a photo of a scene (or an environment map) through a perspective or
 //! fisheye camera, ray traced — to look at a scene before making maps from it, or to make
-//! test photos of a mirror ball (its flags as `spheremap::trace::camera::PreviewRequest`).
+//! test photos of a mirror ball (its flags as `spheremap::trace::camera::PreviewRequest` and
+//! `jobs::scene::SceneRequest`, run by `SceneRequest::preview_files`).
 
 use crate::job::vec3;
-use spheremap::images::codec::write_image;
 use spheremap::mappings::fisheye::LensName;
-use spheremap::trace::camera::{self, PreviewRequest};
-use std::path::Path;
-use std::time::Instant;
+use spheremap::trace::camera::PreviewRequest;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -59,19 +57,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         seed: a.seed,
         max_memory: Some(a.job.max_memory()?),
     };
-    let cam = request.camera().map_err(crate::flag_error)?;
-    let world = a
-        .world
-        .load(&a.job, a.seed, std::slice::from_ref(&a.output))?;
-    let source = world.source();
-    let t0 = Instant::now();
-    let img = crate::progress::run(a.job.show_progress(), "rendering", |p| {
-        camera::render(&cam, source.as_ref(), a.samples, a.seed, false, Some(p))
-    })?;
-    let seconds = t0.elapsed().as_secs_f64();
-    write_image(Path::new(&a.output), &img, &a.job.write_options(false))?;
-    let losses = a.job.losses(&img, &a.output, false).into();
-    let report = cam.report(&a.output, a.samples, seconds, losses);
+    request.camera().map_err(crate::flag_error)?;
+    a.world
+        .refuse_overwrite(&a.job, std::slice::from_ref(&a.output))?;
+    let scene = a.world.request(a.job.nonfinite()?, a.seed);
+    let wopts = a.job.write_options(false);
+    let report = crate::progress::run(a.job.show_progress(), "rendering", |p| {
+        scene.preview_files(&request, a.world.env.as_deref(), &a.output, &wopts, Some(p))
+    })
+    .map_err(crate::scene_args::flag_error)?;
     let words = crate::Words::Stderr { quiet: a.job.quiet };
     crate::print_report(&report, a.job.json, words);
     Ok(())

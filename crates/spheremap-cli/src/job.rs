@@ -2,7 +2,6 @@
 //! limits, NaN policy, overwrite, progress and summary.
 
 use spheremap::images::codec::{NonFinite, WriteOptions};
-use std::path::Path;
 
 #[derive(clap::Args, Debug)]
 pub struct JobFlags {
@@ -91,18 +90,6 @@ impl JobFlags {
     /// The `--encode` value.
     pub fn encoding(&self) -> spheremap::images::compress::Encoding {
         self.encode
-    }
-
-    /// What writing `img` to `path` loses ([`spheremap::images::codec::Losses`]).
-    pub fn losses(
-        &self,
-        img: &spheremap::images::Image,
-        path: &str,
-        linear: bool,
-    ) -> spheremap::images::codec::Losses {
-        spheremap::images::format::Format::from_extension(Path::new(path))
-            .map(|f| spheremap::images::codec::Losses::of(img, f, &self.write_options(linear)))
-            .unwrap_or_default()
     }
 
     /// `--max-memory` (absent: the core's default).

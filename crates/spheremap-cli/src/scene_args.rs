@@ -1,10 +1,10 @@
 //! The flags that describe what rays see — a scene file or built-in scene, an environment
 //! map, lights, shading — shared by `generate` (a map from a point) and `preview` (a photo
-//! through a camera).
+//! through a camera): they fill the core's `jobs::scene::SceneRequest`.
 
 use crate::job::{vec3, JobFlags};
 use spheremap::images::codec::NonFinite;
-use spheremap::jobs::scene::{SceneRequest, World};
+use spheremap::jobs::scene::SceneRequest;
 use spheremap::trace::scene::Shading;
 
 /// A scene request's error as the flags name it (`--sun`, `--point-light`, `--scene`, …).
@@ -77,13 +77,5 @@ impl SceneArgs {
     pub fn refuse_overwrite(&self, job: &JobFlags, outputs: &[String]) -> anyhow::Result<()> {
         let inputs: Vec<&String> = self.scene.iter().chain(&self.env).collect();
         job.refuse_overwrite(&inputs, outputs)
-    }
-
-    /// Loads the scene and/or the environment map; refuses outputs that would overwrite them.
-    pub fn load(&self, job: &JobFlags, seed: u64, outputs: &[String]) -> anyhow::Result<World> {
-        self.refuse_overwrite(job, outputs)?;
-        self.request(job.nonfinite()?, seed)
-            .load(self.env.as_deref())
-            .map_err(flag_error)
     }
 }

@@ -308,6 +308,38 @@ impl SceneRequest {
     }
 }
 
+impl SceneRequest {
+    /// `spheremap preview` on files: what the camera of `preview` sees of this scene (and/or
+    /// the environment map at `env`), written to `output`; the report.
+    pub fn preview_files(
+        &self,
+        preview: &crate::trace::camera::PreviewRequest,
+        env: Option<&str>,
+        output: &str,
+        write: &WriteOptions,
+        progress: Option<&Progress>,
+    ) -> Result<crate::trace::camera::PreviewReport> {
+        let cam = preview.camera()?;
+        let world = self.load(env)?;
+        let source = world.source();
+        let t0 = std::time::Instant::now();
+        let img = crate::trace::camera::render(
+            &cam,
+            source.as_ref(),
+            preview.samples,
+            preview.seed,
+            false,
+            progress,
+        )?;
+        let seconds = t0.elapsed().as_secs_f64();
+        crate::images::codec::write_image(Path::new(output), &img, write)?;
+        let losses = Format::from_extension(Path::new(output))
+            .map(|f| Losses::of(&img, f, write))
+            .unwrap_or_default();
+        Ok(cam.report(output, preview.samples, seconds, losses.into()))
+    }
+}
+
 impl crate::jobs::Report for GenerateSummary {
     /// A note on zero-area triangles, and the map made.
     fn lines(&self) -> Vec<String> {
@@ -409,6 +441,26 @@ mod tests {
         assert_eq!((r.rays, r.texels_traced), (52, 52));
         assert!(dir.join("faces").join("px.exr").is_file() && out.is_file());
         assert!(r.lines().last().unwrap().starts_with("builtin:octants -> "));
+        let photo = dir.join("look.exr");
+        let preview = crate::trace::camera::PreviewRequest {
+            eye: Some([0.0; 3]),
+            target: Some([0.0, 0.0, -1.0]),
+            width: 8,
+            height: 6,
+            samples: 1,
+            ..Default::default()
+        };
+        let p = request("builtin:octants")
+            .preview_files(
+                &preview,
+                None,
+                photo.to_str().unwrap(),
+                &WriteOptions::default(),
+                None,
+            )
+            .unwrap();
+        assert_eq!((p.width, p.height, p.samples), (8, 6, 1));
+        assert!(photo.is_file() && p.lines()[0].starts_with(&format!("-> {}", photo.display())));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
